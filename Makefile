@@ -1,0 +1,21 @@
+# fenics-coulomb: the README's two commands. Each runs inside the project's environment (container/run),
+# which builds the trixie rootfs on first use and reuses it afterwards.
+RUN := container/run
+NP ?= 2
+PYTEST_ARGS ?=
+
+.PHONY: demo test test-serial test-mpi lint env
+
+demo:
+	$(RUN) mpirun -n $(NP) python3 demos/cuboid.py
+
+test: test-serial test-mpi
+
+test-serial:
+	$(RUN) python3 -m pytest -q tests $(PYTEST_ARGS)
+
+test-mpi:
+	$(RUN) mpirun -n $(NP) python3 -m mpi4py -m pytest -q -p no:cacheprovider tests $(PYTEST_ARGS)
+
+env:
+	$(RUN) python3 -c "import dolfinx, petsc4py; print('DOLFINx', dolfinx.__version__)"

@@ -1,0 +1,102 @@
+"""Physics checks of a computed contact state, independent of the solver's internals.
+
+Everything is recomputed from the physical displacement ũ, the stiffness A and the load l̃: the contact
+force on the body at a contact node is fⁱ = (A ũ − l̃)ⁱ (normal part λ = f₃, tangential part t = f₁₂),
+the gap is ũ₃ + α. The residuals are relative, so that thresholds do not depend on units:
+
+* ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃|;
+* ``penetration``: max(−gap, 0) / max α  (gap ≥ 0);
+* ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
+* ``complementarity``: max |gap·λ| / (max α · max λ)  (gap·λ = 0);
+* ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
+* ``slip_direction``: on nodes sliding by more than 1e-6 of the largest slip, max ‖t + F λ s/‖s‖‖ / max λ
+  (the friction force opposes the slip s = ũ₁₂);
+* ``reaction_balance``: ‖Σ contact forces + Σ clamped reactions + applied resultant‖ / ‖applied resultant‖,
+  with the reactions from the residual assembled with UFL without boundary conditions.
+"""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+import ufl
+
+import dolfinx.fem
+import dolfinx.fem.petsc
+
+from fenics_coulomb.model import ContactModel
+
+
+def _gmax(comm: MPI.Comm, values: npt.NDArray[np.float64], initial: float = 0.0) -> float:
+    local = float(np.max(values, initial=initial)) if values.size else initial
+    return float(comm.allreduce(local, op=MPI.MAX))
+
+
+def contact_forces(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """fⁱ = (A ũ − l̃)ⁱ on the owned contact nodes, shape (m, 3); also returns the full residual."""
+    return residual(model, displacement)[model.contact.local_dofs]
+
+
+def residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """A ũ − l̃ on the owned DOFs."""
+    x, y = model.A.createVecs()
+    x.array[:] = displacement
+    model.A.mult(x, y)
+    y.axpy(-1.0, model.load)
+    out = y.getArray(readonly=True).copy()
+    x.destroy()
+    y.destroy()
+    return out
+
+
+def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]) -> dict[str, float]:
+    """Relative residuals of equilibrium, Signorini, Coulomb and global balance (see module docstring)."""
+    comm = model.V.mesh.comm
+    cmap = model.contact
+    F = model.friction
+    r = residual(model, displacement)
+    f = r[cmap.local_dofs]
+    lam = f[:, 2]
+    t = f[:, :2]
+    gap = displacement[cmap.local_dofs[:, 2]] + cmap.gap
+    slip = displacement[cmap.local_dofs[:, :2]]
+
+    free = np.ones(r.size, dtype=bool)
+    free[cmap.local_dofs.ravel()] = False
+    free[model.dirichlet_rows] = False
+    load_scale = _gmax(comm, np.abs(model.load.getArray(readonly=True)))
+    lam_scale = _gmax(comm, lam)
+    gap_scale = _gmax(comm, cmap.gap)
+    tiny = np.finfo(float).tiny
+    out: dict[str, float] = {}
+    out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale, tiny)
+    out["penetration"] = _gmax(comm, -gap) / max(gap_scale, tiny)
+    out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, tiny)
+    out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * lam_scale, tiny)
+    tnorm = np.hypot(t[:, 0], t[:, 1])
+    out["cone"] = _gmax(comm, tnorm - F * lam) / max(lam_scale, tiny)
+    snorm = np.hypot(slip[:, 0], slip[:, 1])
+    smax = _gmax(comm, snorm)
+    sliding = snorm > 1e-6 * smax if smax > 0 else np.zeros_like(snorm, dtype=bool)
+    mismatch = t[sliding] + F * lam[sliding, None] * slip[sliding] / snorm[sliding, None]
+    out["slip_direction"] = _gmax(comm, np.hypot(mismatch[:, 0], mismatch[:, 1])) / max(lam_scale, tiny)
+
+    # Global balance with the clamped reactions from an assembly without boundary conditions.
+    uh = dolfinx.fem.Function(model.V)
+    uh.x.petsc_vec.array[:] = displacement
+    uh.x.scatter_forward()
+    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    full = b.getArray(readonly=True).reshape(-1, 3)
+    b.destroy()
+    clamped_blocks = np.unique(model.dirichlet_rows // 3)
+    local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
+    total = np.asarray(comm.allreduce(local, op=MPI.SUM))
+    applied = model.total_load()
+    out["reaction_balance"] = float(np.linalg.norm(total + applied) / max(np.linalg.norm(applied), tiny))
+    out["contact_resultant"] = [float(c) for c in comm.allreduce(f.sum(axis=0), op=MPI.SUM)]  # type: ignore[assignment]
+    return out

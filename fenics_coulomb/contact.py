@@ -1,0 +1,93 @@
+"""The contact-node extractor: contact facets' DOFs as per-node 3-blocks (u1, u2 tangential, u3 normal).
+
+The rigid obstacle is the half-space x3 <= 0 with outer normal e3, so for a node the normal component is
+u3 and the tangential components are (u1, u2); the initial gap of a node is its height x3. A contact node
+is a vertex of the contact boundary that is not clamped; every node is owned by exactly one rank, which
+holds its block of three DOFs in its owned part of the PETSc vectors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+
+import dolfinx.fem
+import dolfinx.mesh
+
+
+def boundary_blocks(
+    V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags, tags: list[int]
+) -> npt.NDArray[np.int32]:
+    """Local DOF-block indices (owned and ghost) on the facets carrying any of ``tags``."""
+    fdim = V.mesh.topology.dim - 1
+    facets = np.hstack([facet_tags.find(t) for t in tags]).astype(np.int32) if tags else np.zeros(0, np.int32)
+    return np.unique(dolfinx.fem.locate_dofs_topological(V, fdim, facets))
+
+
+@dataclass
+class ContactMap:
+    """Owned contact nodes of a vector P1 space.
+
+    Attributes:
+        blocks: Local (owned) DOF-block index of each contact node, ascending, shape (m,).
+        local_dofs: Local DOF indices (owned numbering) of the node blocks, shape (m, 3).
+        global_dofs: Global DOF (PETSc row) indices, shape (m, 3).
+        coordinates: Reference coordinates of the nodes, shape (m, 3).
+        gap: Initial gap α of each node (its height above the obstacle plane x3 = 0), shape (m,).
+        num_global: Number of contact nodes on all ranks (p).
+    """
+
+    blocks: npt.NDArray[np.int32]
+    local_dofs: npt.NDArray[np.int32]
+    global_dofs: npt.NDArray[np.int64]
+    coordinates: npt.NDArray[np.float64]
+    gap: npt.NDArray[np.float64]
+    num_global: int
+
+    @property
+    def size(self) -> int:
+        """Number of contact nodes owned by this rank."""
+        return int(self.blocks.size)
+
+    @classmethod
+    def create(
+        cls,
+        V: dolfinx.fem.FunctionSpace,
+        facet_tags: dolfinx.mesh.MeshTags,
+        contact_tags: list[int],
+        dirichlet_tags: list[int],
+    ) -> ContactMap:
+        """Extract the contact nodes of ``V`` on the facets with ``contact_tags``, minus clamped nodes.
+
+        Args:
+            V: Vector P1 function space (block size 3).
+            facet_tags: Boundary markers of the mesh.
+            contact_tags: Tags of the contact boundary.
+            dirichlet_tags: Tags of the clamped boundary (their nodes are not contact nodes).
+        """
+        bs = V.dofmap.index_map_bs
+        if bs != 3:
+            raise ValueError(f"contact needs a 3D vector space (block size 3), got block size {bs}")
+        imap = V.dofmap.index_map
+        candidates = boundary_blocks(V, facet_tags, contact_tags)
+        clamped = boundary_blocks(V, facet_tags, dirichlet_tags)
+        blocks = np.setdiff1d(candidates, clamped)
+        blocks = blocks[blocks < imap.size_local].astype(np.int32)
+        offsets = np.arange(3, dtype=np.int32)
+        local_dofs = (bs * blocks[:, None] + offsets).astype(np.int32)
+        global_blocks = blocks.astype(np.int64) + imap.local_range[0]
+        global_dofs = bs * global_blocks[:, None] + offsets.astype(np.int64)
+        coordinates = V.tabulate_dof_coordinates()[blocks]
+        num_global = V.mesh.comm.allreduce(int(blocks.size), op=MPI.SUM)
+        return cls(
+            blocks=blocks,
+            local_dofs=local_dofs,
+            global_dofs=global_dofs,
+            coordinates=np.ascontiguousarray(coordinates),
+            gap=np.ascontiguousarray(coordinates[:, 2]),
+            num_global=num_global,
+        )

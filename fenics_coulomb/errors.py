@@ -1,0 +1,43 @@
+"""Errors of fenics-coulomb and the collective check that raises them on every rank."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from mpi4py import MPI
+
+
+class InputError(ValueError):
+    """A bad input value (exit status 2 on the command line)."""
+
+
+class SolverError(RuntimeError):
+    """A solve that did not converge (exit status 3 on the command line).
+
+    Attributes:
+        reason: Short machine-readable cause ("max_iterations", "line_search", "ksp_breakdown",
+            "non_finite").
+        result: The partial result (last iterate and history) when one is available.
+    """
+
+    def __init__(self, message: str, reason: str, result: Any = None) -> None:
+        super().__init__(message)
+        self.reason = reason
+        self.result = result
+
+
+def check_all(comm: MPI.Comm, ok: bool, message: str, error: type[Exception] = InputError) -> None:
+    """Raise ``error`` on every rank if the check failed on any rank.
+
+    Every rank must call this (it is collective). The message of the lowest failing rank is raised.
+
+    Args:
+        comm: Communicator of the ranks that take part.
+        ok: Local result of the check.
+        message: Local message used when ``ok`` is False.
+        error: Exception type to raise.
+    """
+    failures = comm.allgather(None if ok else message)
+    for msg in failures:
+        if msg is not None:
+            raise error(msg)

@@ -1,0 +1,507 @@
+r"""The SCD semismooth* Newton method for the contact GE 0 ∈ A u − l + Q(u) (Sections 4, 5, 7).
+
+One iteration k, from the iterate u = u⁽ᵏ⁾ with residual r = A u − l:
+
+1. Approximation step (6.17): d̂ = (γI + Q)⁻¹(γ u − r), node-wise by the closed-form resolvent on the
+   contact blocks and d̂ = u − r/γ on the other DOFs. With e := u − d̂ the residual of Section 7 is
+   ŷ = (γ e, e), ‖ŷ‖ = √(1 + γ²)·‖e‖, and zⁱ = γ eⁱ − rⁱ ∈ Q̃(d̂ⁱ).
+2. Newton step, either
+   (4a) with rge(Y*, X*) ∈ S*Q(d̂, z) (blocks W*ⁱ, U*ⁱ on contact nodes, I and 0 elsewhere), system (5.4)
+            (Y*ᵀ A + X*ᵀ) Δu = −(Y*ᵀ ŷ₁ + X*ᵀ ŷ₂),
+   (4b) with rge(X, Y) ∈ SQ(d̂, z) (blocks Xⁱ, Yⁱ; I and 0 elsewhere)
+            (A X + Y) p = A ŷ₂ − ŷ₁,   Δu = X p − ŷ₂,
+        solved as the transposed system of Xᵀ A + Yᵀ, which has the row structure of (5.4).
+   Both matrices equal A outside the contact rows, so the Newton matrix is a copy of A whose contact
+   rows are overwritten in place every iteration (same sparsity, no new allocation).
+3. Non-monotone line search (Section 7): α is the first of 1, 1/2, 1/4, 1/8, 1/32, 1/128, 0.1/128,
+   0.01/128, … with ‖ŷ(u + αΔu)‖ ≤ (1 − 0.1α + 0.1/(k + 1))‖ŷ(u)‖.
+
+Stop when ‖ŷ‖ ≤ rtol·‖ŷ⁽⁰⁾‖.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.derivatives import s_blocks, sstar_blocks
+from fenics_coulomb.errors import InputError, SolverError
+from fenics_coulomb.model import ContactModel, rigid_body_modes
+from fenics_coulomb.resolvent import (
+    OPEN,
+    SLIP,
+    STICK,
+    classify,
+    contact_states,
+    resolvent,
+)
+
+logger = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+PRECONDITIONERS = ("ilu", "gamg", "hypre", "lu", "jacobi", "none")
+VARIANTS = ("4a", "4b")
+
+
+@dataclass
+class SolverSettings:
+    """Settings of the SCD semismooth* Newton solver.
+
+    Attributes:
+        variant: Newton step "4a" (S*Q, system (5.4)) or "4b" (SQ).
+        tol: Relative unpreconditioned GMRES residual that ends each linear solve (paper: 0.1).
+        rtol: Stop when ‖ŷ‖ <= rtol·‖ŷ⁽⁰⁾‖ (paper: 1e-12).
+        max_iterations: Newton iterations before giving up.
+        pc: Preconditioner: ilu (block-Jacobi/ILU in parallel), gamg, hypre, lu, jacobi, none.
+        power_iterations: Power-method iterations on A for γ (paper: 5).
+        gamma: Fixed γ instead of the power-method estimate.
+        gmres_restart: GMRES restart length.
+        ksp_max_it: Maximal Krylov iterations per Newton step.
+        line_search_steps: Number of step lengths tried before the line search fails.
+        prefix: PETSc options prefix of the Newton matrix and its KSP.
+    """
+
+    variant: str = "4a"
+    tol: float = 0.1
+    rtol: float = 1e-12
+    max_iterations: int = 100
+    pc: str = "ilu"
+    power_iterations: int = 5
+    gamma: float | None = None
+    gmres_restart: int = 100
+    ksp_max_it: int = 2000
+    line_search_steps: int = 20
+    prefix: str = "coulomb_"
+
+    def validate(self) -> None:
+        """Raise InputError naming the first bad value."""
+        if self.variant not in VARIANTS:
+            raise InputError(f"variant {self.variant!r}: choose one of {list(VARIANTS)}")
+        if not (math.isfinite(self.tol) and 0.0 < self.tol < 1.0):
+            raise InputError(f"tol = {self.tol!r}: the linear-solve tolerance must lie in (0, 1)")
+        if not (math.isfinite(self.rtol) and 0.0 < self.rtol < 1.0):
+            raise InputError(f"rtol = {self.rtol!r}: the residual reduction must lie in (0, 1)")
+        if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
+            raise InputError(f"max_iterations = {self.max_iterations!r}: must be an integer >= 1")
+        if self.pc not in PRECONDITIONERS:
+            raise InputError(f"preconditioner {self.pc!r}: choose one of {list(PRECONDITIONERS)}")
+        if self.variant == "4b" and self.pc == "hypre":
+            raise InputError("preconditioner 'hypre' cannot apply its transpose, which variant 4b needs")
+        if int(self.power_iterations) != self.power_iterations or self.power_iterations < 1:
+            raise InputError(f"power_iterations = {self.power_iterations!r}: must be an integer >= 1")
+        if self.gamma is not None and not (math.isfinite(self.gamma) and self.gamma > 0.0):
+            raise InputError(f"gamma = {self.gamma!r}: must be finite and > 0")
+        if self.gmres_restart < 1 or self.ksp_max_it < 1 or self.line_search_steps < 1:
+            raise InputError("gmres_restart, ksp_max_it and line_search_steps must be >= 1")
+
+
+@dataclass
+class IterationRecord:
+    """One Newton iteration: residual after it, step length, Krylov iterations, contact states."""
+
+    iteration: int
+    residual: float
+    step_length: float
+    krylov_iterations: int
+    open: int
+    stick: int
+    slip: int
+
+
+@dataclass
+class SolveResult:
+    """Outcome of :meth:`SCDNewtonSolver.solve` (arrays are this rank's owned entries).
+
+    Attributes:
+        u: Shifted displacement u = ũ + d (owned DOFs).
+        displacement: Physical displacement ũ (owned DOFs).
+        converged: Whether ‖ŷ‖ <= rtol·‖ŷ⁽⁰⁾‖ was reached.
+        reason: "converged" or the cause of failure.
+        iterations: Newton iterations taken.
+        krylov_iterations: Total Krylov iterations.
+        residual_history: ‖ŷ⁽ᵏ⁾‖, k = 0, 1, ...
+        records: Per-iteration records (k >= 1).
+        sets: Set of (6.9) per owned contact node at the final iterate.
+        states: OPEN/STICK/SLIP per owned contact node.
+        normal_force: Normal contact force λ = −ϑ >= 0 per owned contact node.
+        tangential_force: Tangential contact force on the body, −g ∈ R² (opposite to slip).
+        gap: Final gap u3 per owned contact node (from the approximation step, d̂3 >= 0).
+        gamma: γ used in the approximation step.
+        timings: Wall time per phase in seconds (this rank).
+    """
+
+    u: Array
+    displacement: Array
+    converged: bool
+    reason: str
+    iterations: int
+    krylov_iterations: int
+    residual_history: list[float]
+    records: list[IterationRecord]
+    sets: npt.NDArray[np.int8]
+    states: npt.NDArray[np.int8]
+    normal_force: Array
+    tangential_force: Array
+    gap: Array
+    gamma: float
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
+        """Global number of open / stick / slip contact nodes."""
+        local = np.array([np.sum(self.states == s) for s in (OPEN, STICK, SLIP)], dtype=np.int64)
+        total = comm.allreduce(local, op=MPI.SUM)
+        return {"open": int(total[0]), "stick": int(total[1]), "slip": int(total[2])}
+
+
+def line_search_steps(count: int) -> Iterator[float]:
+    """The step lengths of Section 7: 1, 1/2, 1/4, 1/8, 1/32, 1/128, 0.1/128, 0.01/128, ..."""
+    head = (1.0, 0.5, 0.25, 0.125, 1.0 / 32.0, 1.0 / 128.0)
+    for i in range(count):
+        yield head[i] if i < len(head) else (1.0 / 128.0) * 0.1 ** (i - len(head) + 1)
+
+
+def power_iteration(A: PETSc.Mat, iterations: int) -> float:
+    """Estimate the largest eigenvalue of the SPD matrix A by the power method.
+
+    The start vector depends only on the global index (x_j = 1.5 + sin(j)), so the estimate is the
+    same for any number of ranks.
+    """
+    x, y = A.createVecs()
+    lo, hi = x.getOwnershipRange()
+    x.array[:] = 1.5 + np.sin(np.arange(lo, hi, dtype=np.float64))
+    x.scale(1.0 / x.norm())
+    estimate = 0.0
+    for _ in range(iterations):
+        A.mult(x, y)
+        estimate = y.norm()
+        y.scale(1.0 / estimate)
+        x, y = y, x
+    x.destroy()
+    y.destroy()
+    return float(estimate)
+
+
+class ContactRows:
+    """Contact rows of A as per-node 3-row blocks, for in-place updates of the Newton matrix.
+
+    The three rows of a node share one column pattern (DOLFINx assembles blocked, bs = 3), so the new
+    rows Bⁱ Aⁱ + Cⁱ (Bⁱ, Cⁱ ∈ R^{3×3}, Aⁱ the node's 3 rows, Cⁱ acting on the node's own columns) are a
+    batched 3×3 product over the stored entries, computed with NumPy without a loop over nodes.
+    """
+
+    def __init__(self, A: PETSc.Mat, global_dofs: npt.NDArray[np.int64]) -> None:
+        comm = A.getComm()
+        rows = np.ascontiguousarray(global_dofs.ravel(), dtype=PETSc.IntType)
+        self.rows = rows
+        c0, c1 = A.getOwnershipRangeColumn()
+        isrow = PETSc.IS().createGeneral(rows, comm=comm)
+        iscol = PETSc.IS().createStride(c1 - c0, first=c0, step=1, comm=comm)
+        sub = A.createSubMatrix(isrow, iscol)
+        indptr, indices, data = sub.getValuesCSR()
+        sub.destroy()
+        isrow.destroy()
+        iscol.destroy()
+        self.indptr = np.asarray(indptr, dtype=PETSc.IntType)
+        self.indices = np.asarray(indices, dtype=PETSc.IntType)
+        m = global_dofs.shape[0]
+        self.num_nodes = m
+        lengths = np.diff(self.indptr).reshape(m, 3) if m else np.zeros((0, 3), dtype=PETSc.IntType)
+        if not np.all(lengths == lengths[:, :1]):
+            raise RuntimeError("contact rows of a node do not share their sparsity pattern")
+        nnz = lengths[:, 0].astype(np.int64)
+        self.node_of_entry = np.repeat(np.arange(m), nnz)
+        first = np.cumsum(nnz) - nnz
+        position = np.arange(int(nnz.sum())) - np.repeat(first, nnz)
+        starts = self.indptr[:-1].reshape(m, 3) if m else np.zeros((0, 3), dtype=PETSc.IntType)
+        # positions of row b of each node's block in the CSR arrays: shape (3, entries)
+        self.positions = np.stack([np.repeat(starts[:, b], nnz) + position for b in range(3)])
+        cols = self.indices[self.positions]
+        if not np.all(cols == cols[:1]):
+            raise RuntimeError("contact rows of a node do not share their column order")
+        self.values = np.ascontiguousarray(np.asarray(data)[self.positions])  # (3, entries)
+        # where each node's own three columns sit among its entries
+        own = cols[0] // 3 == global_dofs[self.node_of_entry, 0] // 3
+        entry = np.flatnonzero(own)
+        comp = cols[0][entry] % 3
+        diag = np.full((m, 3), -1, dtype=np.int64)
+        diag[self.node_of_entry[entry], comp] = entry
+        if np.any(diag < 0):
+            raise RuntimeError("a contact row misses its diagonal block")
+        self.diagonal_entries = diag.ravel()
+        self._out = np.empty(len(self.indices), dtype=PETSc.ScalarType)
+
+    def combine(self, left: Array, right: Array) -> Array:
+        """CSR values of the rows Bⁱ Aⁱ + Cⁱ for left = (Bⁱ), right = (Cⁱ), shapes (m, 3, 3)."""
+        new = np.einsum("eab,be->ae", left[self.node_of_entry], self.values)
+        # right[i, a, c] goes to row a, column (node i, component c)
+        new[:, self.diagonal_entries] += np.moveaxis(right, 2, 1).reshape(-1, 3).T
+        out = self._out
+        for b in range(3):
+            out[self.positions[b]] = new[b]
+        return out
+
+    def update(self, M: PETSc.Mat, left: Array, right: Array) -> None:
+        """Overwrite the contact rows of M by Bⁱ Aⁱ + Cⁱ and assemble M (collective)."""
+        values = self.combine(left, right)
+        M.setValuesIJV(self.indptr, self.indices, values, rowmap=self.rows,
+                       addv=PETSc.InsertMode.INSERT_VALUES)
+        M.assemble()
+
+
+class SCDNewtonSolver:
+    """SCD semismooth* Newton solver for a :class:`ContactModel`; owns the Newton matrix and its KSP.
+
+    The Newton matrix (options prefix ``coulomb_``) starts as a copy of A; its KSP (GMRES, right
+    preconditioned, stopped on the unpreconditioned relative residual ``tol``) can be tuned from the
+    command line with ``-coulomb_ksp_*`` and ``-coulomb_pc_*`` options. Call :meth:`destroy` when done.
+    """
+
+    def __init__(self, model: ContactModel, settings: SolverSettings | None = None) -> None:
+        settings = settings or SolverSettings()
+        settings.validate()
+        self.model = model
+        self.settings = settings
+        self.comm = model.body.mesh.comm
+        A = model.A
+        self.timings: dict[str, float] = {}
+
+        t0 = time.perf_counter()
+        self.gamma = (
+            float(settings.gamma) if settings.gamma is not None
+            else power_iteration(A, settings.power_iterations)
+        )
+        self.timings["gamma"] = time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        self.M = A.duplicate(copy=True)
+        self.M.setOptionsPrefix(settings.prefix)
+        self.rows = ContactRows(A, model.contact.global_dofs)
+        self.cdofs = model.contact.local_dofs
+        self._nullspace: PETSc.NullSpace | None = None
+        self.ksp = self._create_ksp()
+        # work vectors
+        self._u, self._r = A.createVecs()
+        self._b, self._du = A.createVecs()
+        self._Adu, self._w = A.createVecs()
+        self.timings["setup"] = time.perf_counter() - t0
+
+    def _create_ksp(self) -> PETSc.KSP:
+        s = self.settings
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOptionsPrefix(s.prefix)
+        ksp.setOperators(self.M)
+        ksp.setType(PETSc.KSP.Type.GMRES)
+        ksp.setGMRESRestart(s.gmres_restart)
+        ksp.setPCSide(PETSc.PC.Side.RIGHT)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        ksp.setTolerances(rtol=s.tol, atol=0.0, max_it=s.ksp_max_it)
+        pc = ksp.getPC()
+        parallel = self.comm.size > 1
+        if s.pc == "ilu":
+            pc.setType("bjacobi" if parallel else "ilu")
+        elif s.pc == "lu":
+            pc.setType("lu")
+            if parallel:
+                pc.setFactorSolverType("mumps")
+        elif s.pc == "gamg":
+            pc.setType("gamg")
+            self._nullspace = rigid_body_modes(self.model.V)
+            self.M.setNearNullSpace(self._nullspace)
+        elif s.pc == "hypre":
+            pc.setType("hypre")
+            pc.setHYPREType("boomeramg")
+        else:
+            pc.setType(s.pc)
+        ksp.setFromOptions()
+        return ksp
+
+    # -- the approximation step -------------------------------------------------------------------
+    def _approximate(self, u: Array, r: Array) -> tuple[Array, Array, Array]:
+        """Return (e, v, z): e = u − d̂ on all owned DOFs, (v, z) = (d̂ⁱ, zⁱ) on contact nodes."""
+        gamma = self.gamma
+        e = r / gamma
+        uc = u[self.cdofs]
+        v, z = resolvent(gamma * uc - r[self.cdofs], gamma, self.model.friction)
+        e[self.cdofs] = uc - v
+        return e, v, z
+
+    def _norm(self, e: Array) -> float:
+        """‖ŷ‖ = √(1 + γ²)·‖e‖ over all ranks."""
+        local = float(np.dot(e, e))
+        return math.sqrt((1.0 + self.gamma**2) * self.comm.allreduce(local, op=MPI.SUM))
+
+    def _counts(self, states: npt.NDArray[np.int8]) -> tuple[int, int, int]:
+        local = np.array([np.sum(states == s) for s in (OPEN, STICK, SLIP)], dtype=np.int64)
+        total = self.comm.allreduce(local, op=MPI.SUM)
+        return int(total[0]), int(total[1]), int(total[2])
+
+    # -- the Newton step ---------------------------------------------------------------------------
+    def _newton_direction(self, e: Array, v: Array, z: Array, sets: npt.NDArray[np.int8]) -> tuple[Array, int]:
+        """Solve for Δu by variant 4a or 4b; return (Δu on owned DOFs, Krylov iterations)."""
+        F = self.model.friction
+        gamma = self.gamma
+        cd = self.cdofs
+        t0 = time.perf_counter()
+        if self.settings.variant == "4a":
+            W, U = sstar_blocks(v, z, sets, F)
+            left, right = np.swapaxes(W, 1, 2), np.swapaxes(U, 1, 2)
+            self.rows.update(self.M, left, right)
+            b = -gamma * e
+            b[cd] = -(np.einsum("iab,ib->ia", left, gamma * e[cd]) + np.einsum("iab,ib->ia", right, e[cd]))
+            self._b.array[:] = b
+        else:
+            X, Y = s_blocks(v, z, sets, F)
+            left, right = np.swapaxes(X, 1, 2), np.swapaxes(Y, 1, 2)
+            self.rows.update(self.M, left, right)
+            self._w.array[:] = e
+            self.model.A.mult(self._w, self._b)  # b = A ŷ₂ − ŷ₁ with ŷ₂ = e, ŷ₁ = γ e
+            self._b.axpy(-gamma, self._w)
+        self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
+
+        t0 = time.perf_counter()
+        self._du.set(0.0)
+        if self.settings.variant == "4a":
+            self.ksp.solve(self._b, self._du)
+        else:
+            self.ksp.solveTranspose(self._b, self._du)
+        self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
+        its = int(self.ksp.getIterationNumber())
+        reason = int(self.ksp.getConvergedReason())
+        du = self._du.getArray(readonly=True).copy()
+        if self.settings.variant == "4b":
+            p = du
+            du = p - e
+            du[cd] = np.einsum("iba,ib->ia", left, p[cd]) - e[cd]  # Xⁱ p = (leftⁱ)ᵀ p
+        finite = self.comm.allreduce(bool(np.all(np.isfinite(du))), op=MPI.LAND)
+        if reason < 0 and reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT or not finite:
+            raise SolverError(
+                f"the linear solver broke down (KSP reason {reason}, finite direction: {finite})",
+                "ksp_breakdown",
+            )
+        if reason == PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT and self.comm.rank == 0:
+            logger.warning("KSP reached %d iterations without tol=%g; using the inexact direction",
+                           its, self.settings.tol)
+        return du, its
+
+    # -- the driver --------------------------------------------------------------------------------
+    def solve(self, initial_displacement: Array | None = None) -> SolveResult:
+        """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0).
+
+        Raises:
+            SolverError: when the method does not converge; ``error.result`` holds the last iterate.
+        """
+        s = self.settings
+        model = self.model
+        A = model.A
+        t_start = time.perf_counter()
+        shift = model.shift.getArray(readonly=True)
+        u = np.array(shift, dtype=np.float64)
+        if initial_displacement is not None:
+            u += np.asarray(initial_displacement, dtype=np.float64)
+        self._u.array[:] = u
+        A.mult(self._u, self._r)
+        self._r.axpy(-1.0, model.rhs)
+        r = self._r.getArray(readonly=True).copy()
+
+        e, v, z = self._approximate(u, r)
+        res = self._norm(e)
+        res0 = res
+        history = [res]
+        records: list[IterationRecord] = []
+        krylov_total = 0
+        reason = "max_iterations"
+        converged = False
+        k = 0
+        if self.comm.rank == 0:
+            logger.info("SCD semismooth* Newton (%s, tol=%g, pc=%s, gamma=%.4g): |y0| = %.3e",
+                        s.variant, s.tol, s.pc, self.gamma, res0)
+
+        def result(conv: bool, why: str) -> SolveResult:
+            sets = classify(v, z, model.friction)
+            self.timings["total"] = time.perf_counter() - t_start
+            return SolveResult(
+                u=u.copy(),
+                displacement=u - shift,
+                converged=conv,
+                reason=why,
+                iterations=k,
+                krylov_iterations=krylov_total,
+                residual_history=list(history),
+                records=list(records),
+                sets=sets,
+                states=contact_states(sets, model.friction),
+                normal_force=-z[:, 2].copy(),
+                tangential_force=-z[:, :2].copy(),
+                gap=v[:, 2].copy(),
+                gamma=self.gamma,
+                timings=dict(self.timings),
+            )
+
+        try:
+            if not math.isfinite(res0):
+                raise SolverError(f"the initial residual is not finite ({res0})", "non_finite")
+            while True:
+                if res <= s.rtol * res0:
+                    converged, reason = True, "converged"
+                    break
+                if k >= s.max_iterations:
+                    raise SolverError(
+                        f"no convergence after {k} Newton iterations: |y|/|y0| = {res / res0:.3e} "
+                        f"> rtol = {s.rtol:g}", "max_iterations")
+                sets = classify(v, z, model.friction)
+                du, its = self._newton_direction(e, v, z, sets)
+                krylov_total += its
+
+                t0 = time.perf_counter()
+                self._du.array[:] = du
+                A.mult(self._du, self._Adu)
+                Adu = self._Adu.getArray(readonly=True)
+                bound = 1.0 + 0.1 / (k + 1)
+                accepted = None
+                for alpha in line_search_steps(s.line_search_steps):
+                    ut = u + alpha * du
+                    rt = r + alpha * Adu
+                    et, vt, zt = self._approximate(ut, rt)
+                    rest = self._norm(et)
+                    if rest <= (bound - 0.1 * alpha) * res:
+                        accepted = (alpha, ut, rt, et, vt, zt, rest)
+                        break
+                self.timings["line_search"] = self.timings.get("line_search", 0.0) + time.perf_counter() - t0
+                if accepted is None:
+                    raise SolverError(
+                        f"the line search found no acceptable step in iteration {k + 1} "
+                        f"(|y|/|y0| = {res / res0:.3e})", "line_search")
+                alpha, u, r, e, v, z, res = accepted
+                if not math.isfinite(res):
+                    raise SolverError(f"non-finite residual in iteration {k + 1}", "non_finite")
+                k += 1
+                history.append(res)
+                n_open, n_stick, n_slip = self._counts(contact_states(classify(v, z, model.friction),
+                                                                      model.friction))
+                records.append(IterationRecord(k, res, alpha, its, n_open, n_stick, n_slip))
+                if self.comm.rank == 0:
+                    logger.info("it %3d  |y|/|y0| = %.3e  step %.4g  krylov %4d  open/stick/slip %d/%d/%d",
+                                k, res / res0, alpha, its, n_open, n_stick, n_slip)
+        except SolverError as err:
+            err.result = result(False, err.reason)
+            if self.comm.rank == 0:
+                logger.error("%s", err)
+            raise
+        return result(converged, reason)
+
+    def destroy(self) -> None:
+        """Destroy the PETSc objects (collective)."""
+        for obj in (self.ksp, self.M, self._u, self._r, self._b, self._du, self._Adu, self._w):
+            obj.destroy()
+        if self._nullspace is not None:
+            self._nullspace.destroy()

@@ -1,0 +1,134 @@
+"""Output of a contact solve: XDMF fields for ParaView and a JSON summary.
+
+Fields written to ``solution.xdmf`` (point data on the mesh vertices; units with E in GPa and lengths in
+the mesh's unit L):
+
+``displacement``
+    Physical displacement ũ (L), vector.
+``contact_state``
+    0 open, 1 stick, 2 slip on contact nodes; −1 on all other nodes.
+``contact_pressure``
+    Normal contact force λ = −ϑ ≥ 0 per contact node (the paper's normal nodal force, GPa·L²); 0 elsewhere.
+``tangential_force``
+    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², vector with zero
+    normal component); it opposes the slip on sliding nodes. 0 elsewhere.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import platform
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.io
+
+from fenics_coulomb.model import ContactModel
+from fenics_coulomb.newton import SolveResult
+
+logger = logging.getLogger(__name__)
+
+
+def block_to_scalar_dofs(V: dolfinx.fem.FunctionSpace, S: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
+    """Map DOF blocks of the vector space V to DOFs of the scalar space S on the same P1 element."""
+    blocks = V.dofmap.list.ravel()
+    scalars = S.dofmap.list.ravel()
+    num = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+    mapping = np.full(num, -1, dtype=np.int32)
+    mapping[blocks] = scalars
+    return mapping
+
+
+def contact_functions(
+    model: ContactModel, result: SolveResult
+) -> tuple[dolfinx.fem.Function, dolfinx.fem.Function, dolfinx.fem.Function, dolfinx.fem.Function]:
+    """Return the output Functions (displacement, contact_state, contact_pressure, tangential_force)."""
+    V = model.V
+    msh = V.mesh
+    S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
+    cmap = model.contact
+    to_scalar = block_to_scalar_dofs(V, S)
+
+    u = dolfinx.fem.Function(V, name="displacement")
+    u.x.petsc_vec.array[:] = result.displacement
+    u.x.scatter_forward()
+
+    state = dolfinx.fem.Function(S, name="contact_state")
+    state.x.array[:] = -1.0
+    state.x.array[to_scalar[cmap.blocks]] = result.states
+    pressure = dolfinx.fem.Function(S, name="contact_pressure")
+    pressure.x.array[:] = 0.0
+    pressure.x.array[to_scalar[cmap.blocks]] = result.normal_force
+    tangential = dolfinx.fem.Function(V, name="tangential_force")
+    tangential.x.array[:] = 0.0
+    tangential.x.array[cmap.local_dofs[:, :2].ravel()] = result.tangential_force.ravel()
+    # Owned contact nodes were set on their owner: make the ghosts agree.
+    for f in (state, pressure, tangential):
+        f.x.scatter_forward()
+    return u, state, pressure, tangential
+
+
+def write_xdmf(path: Path, model: ContactModel, result: SolveResult) -> None:
+    """Write the mesh and the output fields to an XDMF/HDF5 pair (collective)."""
+    msh = model.V.mesh
+    functions = contact_functions(model, result)
+    with dolfinx.io.XDMFFile(msh.comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(msh)
+        for f in functions:
+            xdmf.write_function(f, 0.0)
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of the numerical stack."""
+    import ufl
+
+    major, minor, sub = PETSc.Sys.getVersion()
+    return {
+        "dolfinx": dolfinx.__version__,
+        "ufl": ufl.__version__,
+        "petsc": f"{major}.{minor}.{sub}",
+        "numpy": np.__version__,
+        "python": platform.python_version(),
+        "mpi": MPI.Get_library_version().splitlines()[0].strip(),
+    }
+
+
+def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Global summary of a solve (collective; identical on all ranks)."""
+    comm = model.V.mesh.comm
+    timings = {key: comm.allreduce(value, op=MPI.MAX) for key, value in result.timings.items()}
+    data: dict[str, Any] = {
+        "n": model.n,
+        "p": model.p,
+        "converged": result.converged,
+        "reason": result.reason,
+        "newton_iterations": result.iterations,
+        "krylov_iterations": result.krylov_iterations,
+        "residual_history": result.residual_history,
+        "step_lengths": [rec.step_length for rec in result.records],
+        "krylov_history": [rec.krylov_iterations for rec in result.records],
+        "wall_time_s": timings.get("total", 0.0),
+        "state_counts": result.state_counts(comm),
+        "gamma": result.gamma,
+        "timings_s": timings,
+        "ranks": comm.size,
+        "versions": software_versions(),
+    }
+    if extra:
+        data.update(extra)
+    return data
+
+
+def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
+    """Write the summary as JSON on rank 0."""
+    if comm.rank == 0:
+        path.write_text(json.dumps(data, indent=2) + "\n")

@@ -1,0 +1,100 @@
+r"""The contact mapping Q̃ of the paper's (6.5), its resolvent and the partition (6.9) of its graph.
+
+Per contact node, with unknowns v = (v12, v3) (tangential, normal) in the shifted variable u = ũ + d,
+
+    Q̃(v) = { (−F·ϑ·∂‖v12‖, ϑ) | ϑ ∈ N_{R+}(v3) },
+
+i.e. ϑ ≤ 0, v3 ≥ 0, ϑ·v3 = 0; λ = −ϑ is the normal contact force and g = −F·ϑ·∂‖v12‖ ∈ Q̃ the
+tangential part (the friction force on the body is −g). All functions act on arrays of m nodes,
+shape (m, 3), without Python loops.
+
+Resolvent (proof of Proposition 6.4): v = (γI + Q̃)⁻¹(w) is
+
+    v3 = max(w3, 0)/γ,   ϑ = min(w3, 0),   τ = −F·ϑ,
+    v12 = 0 if ‖w12‖ ≤ τ,  else (1 − τ/‖w12‖)·w12/γ,
+
+and z := w − γ v ∈ Q̃(v) (z12 = g, z3 = ϑ).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
+
+# The sets of (6.9) (Table 1 of the paper), by their mechanical meaning.
+SET_L = 0  #: no contact: v3 > 0, ϑ = 0
+SET_M1 = 1  #: sliding: v3 = 0, ϑ < 0, v12 ≠ 0
+SET_M2 = 2  #: grazing while moving: v3 = 0, ϑ = 0, v12 ≠ 0
+SET_M3P = 3  #: sticking strictly inside the cone: v3 = 0, ϑ < 0, v12 = 0, ‖g‖ < −F·ϑ
+SET_M3M = 4  #: sticking on the cone boundary: v3 = 0, ϑ < 0, v12 = 0, ‖g‖ = −F·ϑ
+SET_M4 = 5  #: grazing at rest: v = 0, (g, ϑ) = 0
+SET_NAMES = ("L", "M1", "M2", "M3+", "M3-", "M4")
+
+# Contact states reported to users (and in the XDMF field contact_state).
+OPEN, STICK, SLIP = 0, 1, 2
+STATE_NAMES = ("open", "stick", "slip")
+
+
+def resolvent(w: Array, gamma: float, friction: float) -> tuple[Array, Array]:
+    """Evaluate v = (γI + Q̃)⁻¹(w) node-wise and the matching z = w − γv ∈ Q̃(v).
+
+    Args:
+        w: Arguments, shape (m, 3).
+        gamma: γ > 0.
+        friction: Coulomb coefficient F >= 0.
+
+    Returns:
+        (v, z), both of shape (m, 3).
+    """
+    w = np.asarray(w, dtype=np.float64)
+    v = np.zeros_like(w)
+    theta = np.minimum(w[:, 2], 0.0)
+    v[:, 2] = np.maximum(w[:, 2], 0.0) / gamma
+    tau = -friction * theta
+    norm12 = np.hypot(w[:, 0], w[:, 1])
+    slide = norm12 > tau
+    scale = np.zeros_like(norm12)
+    scale[slide] = (1.0 - tau[slide] / norm12[slide]) / gamma
+    v[:, :2] = scale[:, None] * w[:, :2]
+    z = w - gamma * v
+    # ϑ is exactly min(w3, 0): keep it free of the round-off of w3 − γ·(w3/γ).
+    z[:, 2] = theta
+    return v, z
+
+
+def classify(v: Array, z: Array, friction: float) -> npt.NDArray[np.int8]:
+    """Return the set of (6.9) each graph point (v, z) ∈ gph Q̃ belongs to (SET_* codes).
+
+    The points come from :func:`resolvent`, whose zeros are exact, so the tests are exact comparisons.
+    """
+    v = np.asarray(v)
+    z = np.asarray(z)
+    theta = z[:, 2]
+    slip_norm = np.hypot(v[:, 0], v[:, 1])
+    g_norm = np.hypot(z[:, 0], z[:, 1])
+    sets = np.full(v.shape[0], SET_L, dtype=np.int8)
+    touching = v[:, 2] <= 0.0
+    pressed = touching & (theta < 0.0)
+    free = touching & ~(theta < 0.0)
+    sets[free & (slip_norm > 0.0)] = SET_M2
+    sets[free & ~(slip_norm > 0.0)] = SET_M4
+    sets[pressed & (slip_norm > 0.0)] = SET_M1
+    at_rest = pressed & ~(slip_norm > 0.0)
+    inside = g_norm < -friction * theta
+    sets[at_rest & inside] = SET_M3P
+    sets[at_rest & ~inside] = SET_M3M
+    return sets
+
+
+def contact_states(sets: npt.NDArray[np.int8], friction: float) -> npt.NDArray[np.int8]:
+    """Map the sets of (6.9) to user-facing states: OPEN (L, M2, M4), STICK (M3±), SLIP (M1).
+
+    Without friction there is no sticking: a pressed node at rest (M3−, the only M3 set when F = 0)
+    is reported as SLIP (frictionless contact).
+    """
+    states = np.full(sets.shape, OPEN, dtype=np.int8)
+    states[sets == SET_M1] = SLIP
+    states[(sets == SET_M3P) | (sets == SET_M3M)] = SLIP if friction == 0.0 else STICK
+    return states

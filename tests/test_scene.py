@@ -1,0 +1,88 @@
+"""The discrete model's sizes and geometry (Section 7): p and n for lev 0..8, gap, shift, load."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.scene import GAP_PROFILES, cells_per_direction, create_cuboid, expected_sizes
+
+
+@pytest.mark.parametrize("lev", range(9))
+def test_sizes(lev, model_factory):
+    """p = n_x1·(n_x2+1) contact nodes and n = 3·n_x1·(n_x2+1)·(n_x3+1) unknowns (global counts)."""
+    n1, n2, n3 = cells_per_direction(lev)
+    assert (n1, n2, n3) == (int(np.ceil(4 * 2 ** (lev / 2) - 1e-9)), int(np.ceil(2 * 2 ** (lev / 2) - 1e-9)),
+                            int(np.ceil(2 * 2 ** (lev / 2) - 1e-9)))
+    model = model_factory(lev, "d1", "L1")
+    assert model.p == n1 * (n2 + 1)
+    assert model.n == 3 * n1 * (n2 + 1) * (n3 + 1)
+    assert (model.p, model.n) == expected_sizes(lev)
+    # every contact node is owned by exactly one rank
+    comm = MPI.COMM_WORLD
+    owned = np.concatenate(comm.allgather(model.contact.global_dofs[:, 0]))
+    assert owned.size == np.unique(owned).size == model.p
+
+
+def test_known_sizes():
+    """Two levels worked by hand: lev 0 is 4x2x2 cells, lev 1 is 6x3x3 (⌈5.66⌉ = 6, ⌈2.83⌉ = 3)."""
+    assert cells_per_direction(0) == (4, 2, 2)
+    assert cells_per_direction(1) == (6, 3, 3)
+    assert expected_sizes(0) == (12, 108)
+    assert expected_sizes(2) == (40, 600)
+
+
+@pytest.mark.parametrize("gap", sorted(GAP_PROFILES))
+def test_bottom_follows_gap(gap, model_factory):
+    """Contact nodes sit at height d(x1, x2); the shift d holds α in the normal component only."""
+    model = model_factory(2, gap, "L1")
+    c = model.contact
+    d = GAP_PROFILES[gap](c.coordinates[:, 0], c.coordinates[:, 1])
+    assert np.allclose(c.gap, d, rtol=0, atol=1e-14)
+    assert np.all(c.coordinates[:, 0] > 0.0)  # the clamped face x1 = 0 has no contact nodes
+    shift = model.shift.getArray(readonly=True)
+    assert np.allclose(shift[c.local_dofs[:, 2]], d)
+    mask = np.ones(shift.size, bool)
+    mask[c.local_dofs[:, 2]] = False
+    assert np.all(shift[mask] == 0.0)
+    # uniform spacing between d and 1: top nodes at x3 = 1
+    x = model.V.mesh.geometry.x
+    assert np.isclose(x[:, 2].max(initial=1.0), 1.0)
+
+
+def test_shifted_load(model_factory):
+    """l = l̃ + A d, so that A u − l = A ũ − l̃ for u = ũ + d (the paper prints l̃ − A d)."""
+    model = model_factory(1, "d3", "L2")
+    A = model.A
+    rng = np.random.default_rng(1 + MPI.COMM_WORLD.rank)
+    ut, r1 = A.createVecs()
+    ut.array[:] = rng.standard_normal(ut.getLocalSize())
+    ut.array[model.dirichlet_rows] = 0.0
+    A.mult(ut, r1)
+    r1.axpy(-1.0, model.load)  # A ũ − l̃
+    u, r2 = A.createVecs()
+    ut.copy(u)
+    u.axpy(1.0, model.shift)
+    A.mult(u, r2)
+    r2.axpy(-1.0, model.rhs)  # A u − l
+    assert np.allclose(r1.array, r2.array, rtol=0, atol=1e-12 * r1.norm())
+    for v in (ut, r1, u, r2):
+        v.destroy()
+
+
+def test_total_load(model_factory):
+    """The applied resultant of L2 is P_T·|top| + P_R·|right|; on Ω(d2) the right face x1 = 2 spans
+    d2(2, x2) = 0.0025 < x3 < 1, so |right| = 0.9975 and |top| = 2."""
+    model = model_factory(1, "d2", "L2")
+    assert np.allclose(model.total_load(), [-0.17 * 0.9975, -0.1 * 0.9975, -1.0 * 2.0], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    "lev, gap, match", [(-1, "d1", "lev"), (1, "d9", "d9"), (1, lambda x1, x2: -0.1 + 0 * x1, "outside")]
+)
+def test_bad_scene(lev, gap, match):
+    with pytest.raises(InputError, match=match):
+        create_cuboid(MPI.COMM_WORLD, lev, gap)
