@@ -4,7 +4,7 @@ RUN := container/run
 NP ?= 2
 PYTEST_ARGS ?=
 
-.PHONY: demo test test-serial test-mpi lint env
+.PHONY: demo test test-serial test-mpi env
 
 demo:
 	$(RUN) mpirun -n $(NP) python3 demos/cuboid.py
@@ -12,10 +12,10 @@ demo:
 test: test-serial test-mpi
 
 test-serial:
-	$(RUN) python3 -m pytest -q tests $(PYTEST_ARGS)
+	$(RUN) python3 -m pytest -q --color=no tests $(PYTEST_ARGS)
 
 test-mpi:
-	$(RUN) mpirun -n $(NP) python3 -m mpi4py -m pytest -q -p no:cacheprovider tests $(PYTEST_ARGS)
+	$(RUN) mpirun -n $(NP) python3 -m mpi4py -m pytest -q --color=no -p no:cacheprovider tests $(PYTEST_ARGS)
 
 env:
 	$(RUN) python3 -c "import dolfinx, petsc4py; print('DOLFINx', dolfinx.__version__)"

@@ -16,7 +16,8 @@ One iteration k, from the iterate u = u⁽ᵏ⁾ with residual r = A u − l:
 3. Non-monotone line search (Section 7): α is the first of 1, 1/2, 1/4, 1/8, 1/32, 1/128, 0.1/128,
    0.01/128, … with ‖ŷ(u + αΔu)‖ ≤ (1 − 0.1α + 0.1/(k + 1))‖ŷ(u)‖.
 
-Stop when ‖ŷ‖ ≤ rtol·‖ŷ⁽⁰⁾‖.
+Stop when ‖ŷ‖ ≤ rtol·‖ŷ⁽⁰⁾‖, or when ‖ŷ‖ reaches the round-off level of the displacements (a start
+that already solves the problem, e.g. zero load from ũ = 0, stops at once).
 """
 
 from __future__ import annotations
@@ -416,6 +417,10 @@ class SCDNewtonSolver:
         e, v, z = self._approximate(u, r)
         res = self._norm(e)
         res0 = res
+        # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖: u − d̂ cannot be resolved below the rounding error of
+        # the displacements involved (start, shift d, and the load's displacement scale ‖l̃‖/γ).
+        scale = self._norm(u) + self._norm(model.load.getArray(readonly=True)) / self.gamma
+        floor = 100.0 * np.finfo(np.float64).eps * scale
         history = [res]
         records: list[IterationRecord] = []
         krylov_total = 0
@@ -451,7 +456,7 @@ class SCDNewtonSolver:
             if not math.isfinite(res0):
                 raise SolverError(f"the initial residual is not finite ({res0})", "non_finite")
             while True:
-                if res <= s.rtol * res0:
+                if res <= max(s.rtol * res0, floor):
                     converged, reason = True, "converged"
                     break
                 if k >= s.max_iterations:

@@ -1,0 +1,259 @@
+"""The SCD semismooth* Newton solver on solved scenes: physics, variants, ranks, an independent solver."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import h5py
+import numpy as np
+import pytest
+
+from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model import ContactModel, Material
+from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings
+from fenics_coulomb.resolvent import SLIP, STICK
+from fenics_coulomb.scene import create_cuboid
+
+from conftest import make_model, paper_tractions
+
+TIGHT = dict(rtol=1e-12)
+
+
+def solve(model, start="zero", **kwargs):
+    solver = SCDNewtonSolver(model, SolverSettings(**{**TIGHT, **kwargs}))
+    try:
+        init = -model.shift.getArray(readonly=True).copy() if start == "zero" else None
+        return solver.solve(init)
+    finally:
+        solver.destroy()
+
+
+def gather_by_coordinates(model, values):
+    """(coordinates, values) of all owned blocks on all ranks, sorted by coordinates."""
+    comm = model.V.mesh.comm
+    n = model.V.dofmap.index_map.size_local
+    x = model.V.tabulate_dof_coordinates()[:n]
+    vals = np.asarray(values).reshape(n, 3)
+    x = np.concatenate(comm.allgather(x))
+    vals = np.concatenate(comm.allgather(vals))
+    return sort_by_coordinates(x, vals)
+
+
+def sort_by_coordinates(x, vals):
+    """Sort nodes by their coordinates, rounded so that round-off does not change the order."""
+    key = np.round(x, 9)
+    order = np.lexsort((key[:, 2], key[:, 1], key[:, 0]))
+    return x[order], vals[order]
+
+
+PHYSICS_TOL = {
+    "equilibrium": 1e-9, "penetration": 1e-9, "negative_pressure": 1e-9, "complementarity": 1e-9,
+    "cone": 1e-9, "slip_direction": 1e-6, "reaction_balance": 1e-9,
+}
+
+
+@pytest.mark.parametrize("variant", ["4a", "4b"])
+@pytest.mark.parametrize("load", ["L1", "L2"])
+@pytest.mark.parametrize("gap", ["d1", "d2", "d3"])
+def test_physics(gap, load, variant, model_factory):
+    """Equilibrium, Signorini, Coulomb and global balance hold at the computed solution."""
+    model = model_factory(2, gap, load)
+    result = solve(model, variant=variant)
+    assert result.converged
+    checks = physics_residuals(model, result.displacement)
+    for key, tol in PHYSICS_TOL.items():
+        assert checks[key] < tol, (key, checks[key])
+    counts = result.state_counts(MPI.COMM_WORLD)
+    assert counts["slip"] > 0 and counts["stick"] > 0 and counts["open"] > 0
+    assert sum(counts.values()) == model.p
+    # the reported forces agree with A ũ − l̃ and obey the cone; sliding forces oppose the slip
+    lam = result.normal_force
+    assert np.all(lam >= 0.0)
+    t = result.tangential_force
+    assert np.all(np.hypot(t[:, 0], t[:, 1]) <= model.friction * lam * (1 + 1e-12) + 1e-15)
+    slip = result.states == SLIP
+    s = result.displacement[model.contact.local_dofs[slip, :2]]
+    cos = np.einsum("ij,ij->i", t[slip], s) / (np.linalg.norm(t[slip], axis=1) * np.linalg.norm(s, axis=1))
+    assert np.all(cos < -1 + 1e-6)
+    stick = result.states == STICK
+    assert np.allclose(result.displacement[model.contact.local_dofs[stick, 2]], -model.contact.gap[stick])
+
+
+def test_variants_agree(model_factory):
+    """Newton steps 4a (S*Q) and 4b (SQ) reach the same solution (1e-8 relative)."""
+    model = model_factory(3, "d3", "L2")
+    ua = solve(model, variant="4a").displacement
+    ub = solve(model, variant="4b").displacement
+    comm = MPI.COMM_WORLD
+    diff = np.sqrt(comm.allreduce(np.sum((ua - ub) ** 2)))
+    norm = np.sqrt(comm.allreduce(np.sum(ua**2)))
+    assert diff <= 1e-8 * norm
+
+
+def test_exact_newton_iterates_coincide(model_factory):
+    """With exact linear solves, 4a and 4b give the same iterates (x̂ − C_Lᵀŷ for L and L*), hence the same
+    residual history; the final iterations converge superlinearly."""
+    model = model_factory(2, "d3", "L2")
+    ra = solve(model, variant="4a", pc="lu", tol=1e-13)
+    rb = solve(model, variant="4b", pc="lu", tol=1e-13)
+    assert ra.iterations == rb.iterations
+    ha, hb = np.array(ra.residual_history), np.array(rb.residual_history)
+    assert np.allclose(ha[ha > 1e-9 * ha[0]], hb[ha > 1e-9 * ha[0]], rtol=1e-6)
+    rates = ha[-3:] / ha[-4:-1]
+    assert rates[-1] < 1e-2 and rates[-1] < rates[0]
+
+
+def test_serial_equals_parallel(model_factory):
+    """The solution on COMM_WORLD equals the one computed on one rank (1e-8 relative).
+
+    Under ``mpirun -n 2`` every rank also solves on COMM_SELF; in a serial session the parallel run is a
+    subprocess of the command line under ``mpirun -n 2``.
+    """
+    comm = MPI.COMM_WORLD
+    lev, gap, load = 2, "d3", "L2"
+    model = model_factory(lev, gap, load)
+    result = solve(model)
+    x, u = gather_by_coordinates(model, result.displacement)
+    if comm.size > 1:
+        single = make_model(lev, gap, load, comm=MPI.COMM_SELF)
+        ref = solve(single)
+        xs, us = gather_by_coordinates(single, ref.displacement)
+        single.destroy()
+    else:
+        mpirun = shutil.which("mpirun")
+        assert mpirun is not None
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as out:
+            cmd = [mpirun, "-n", "2", sys.executable, "-m", "fenics_coulomb", "--lev", str(lev), "--gap", gap,
+                   "--load", load, "--out", out, "--quiet"]
+            env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_"))}
+            subprocess.run(cmd, check=True, env=env, capture_output=True, timeout=300)
+            summary = json.loads(open(f"{out}/summary.json").read())
+            assert summary["converged"] and summary["ranks"] == 2
+            with h5py.File(f"{out}/solution.h5", "r") as h5:
+                xs = h5["Mesh/mesh/geometry"][:]
+                us = h5["Function/displacement/0"][:]
+        xs, us = sort_by_coordinates(xs, us)
+    assert np.allclose(x, xs, atol=1e-12)
+    assert np.linalg.norm(u - us) <= 1e-8 * np.linalg.norm(u)
+
+
+def tresca_fixed_point(A, load, cdofs, gap, F, tol=1e-13):
+    """Independent reference: Coulomb contact as the fixed point λ ↦ λ(Tresca(F·λ)) [Haslinger et al.].
+
+    Each Tresca problem min ½ũᵀAũ − l̃ᵀũ + Σ sᵢ‖ũ₁₂ⁱ‖ s.t. ũ₃ⁱ ≥ −αᵢ is solved by FISTA with restarts
+    (dense, tiny problem); λᵢ is the normal component of A ũ − l̃ at node i.
+    """
+    L = np.linalg.eigvalsh(A).max()
+    u = np.zeros(A.shape[0])
+    lam = np.zeros(len(gap))
+
+    def prox(y, s):
+        x = y.copy()
+        x[cdofs[:, 2]] = np.maximum(y[cdofs[:, 2]], -gap)
+        t = y[cdofs[:, :2]]
+        nt = np.linalg.norm(t, axis=1)
+        factor = np.where(nt > s / L, 1 - s / (L * np.maximum(nt, 1e-300)), 0.0)
+        x[cdofs[:, :2]] = factor[:, None] * t
+        return x
+
+    for _outer in range(500):
+        s = F * lam
+        y = u.copy()
+        tk = 1.0
+        for _ in range(200000):
+            u_new = prox(y - (A @ y - load) / L, s)
+            if np.linalg.norm(u_new - u) <= tol * max(np.linalg.norm(u_new), 1e-300):
+                u = u_new
+                break
+            t_new = 0.5 * (1 + np.sqrt(1 + 4 * tk * tk))
+            if (u_new - u) @ (y - u_new) > 0:  # adaptive restart
+                t_new, y = 1.0, u_new.copy()
+            else:
+                y = u_new + (tk - 1) / t_new * (u_new - u)
+            u, tk = u_new, t_new
+        lam_new = np.maximum((A @ u - load)[cdofs[:, 2]], 0.0)
+        if np.linalg.norm(lam_new - lam) <= 1e-11 * np.linalg.norm(lam_new):
+            return u
+        lam = lam_new
+    raise AssertionError("the Tresca fixed point did not converge")
+
+
+def test_matches_independent_solver():
+    """A tiny scene (lev 0, 108 unknowns) against the Tresca fixed-point/FISTA solver on dense matrices."""
+    model = make_model(0, "d3", "L2", comm=MPI.COMM_SELF)
+    try:
+        result = solve(model, pc="lu", tol=1e-13)
+        assert result.converged
+        A = model.A.convert("dense").getDenseArray().copy()
+        load = model.load.getArray(readonly=True).copy()
+        ref = tresca_fixed_point(A, load, model.contact.local_dofs, model.contact.gap, model.friction)
+        assert np.linalg.norm(result.displacement - ref) <= 1e-7 * np.linalg.norm(ref)
+    finally:
+        model.destroy()
+
+
+@pytest.mark.parametrize("case", ["far_obstacle", "pulled_away"])
+def test_no_contact_is_one_linear_solve(case):
+    """If the body cannot reach the obstacle, one Newton step from ũ = 0 solves A ũ = l̃ exactly."""
+    comm = MPI.COMM_WORLD
+    if case == "far_obstacle":
+        body = create_cuboid(comm, 2, lambda x1, x2: 0.3 + 0.0 * x1)
+        tractions = paper_tractions("L1", scale=0.1)  # bends the cantilever by about 0.03 < 0.3
+    else:
+        body = create_cuboid(comm, 2, "d3")
+        tractions = paper_tractions("L2", scale=-1.0)  # the top is pulled up
+    model = ContactModel(body, Material(), 0.23, tractions)
+    try:
+        result = solve(model, start="undeformed", pc="lu", tol=1e-14)
+        assert result.converged and result.iterations == 1
+        assert result.state_counts(comm) == {"open": model.p, "stick": 0, "slip": 0}
+        ksp = PETSc.KSP().create(comm)
+        ksp.setOptionsPrefix("test_linear_")
+        ksp.setOperators(model.A)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        if comm.size > 1:
+            ksp.getPC().setFactorSolverType("mumps")
+        x = model.A.createVecRight()
+        ksp.solve(model.load, x)
+        ref = x.getArray(readonly=True)
+        diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref) ** 2)))
+        assert diff <= 1e-10 * x.norm()
+        ksp.destroy()
+        x.destroy()
+    finally:
+        model.destroy()
+
+
+def test_zero_load_is_immediate(model_factory):
+    """Zero load from ũ = 0: the residual is zero at the start (ũ = 0 is the solution)."""
+    model = model_factory(1, "d3", "L2", scale=0.0)
+    result = solve(model, start="undeformed")
+    assert result.converged and result.iterations == 0
+    assert np.all(result.displacement == 0.0)
+
+
+@pytest.mark.parametrize("lev", [2, 3, 4, 5, 6])
+@pytest.mark.parametrize("load", ["L1", "L2"])
+@pytest.mark.parametrize("gap", ["d1", "d2", "d3"])
+def test_section7_cases_converge(gap, load, lev, model_factory):
+    """All six cases converge from the paper's u⁽⁰⁾ = 0 with the default settings (tol 0.1, ILU)."""
+    model = model_factory(lev, gap, load)
+    solver = SCDNewtonSolver(model)
+    try:
+        result = solver.solve(-model.shift.getArray(readonly=True).copy())
+    finally:
+        solver.destroy()
+    assert result.converged
+    assert result.residual_history[-1] <= 1e-12 * result.residual_history[0]
+    checks = physics_residuals(model, result.displacement)
+    assert checks["penetration"] < 1e-8 and checks["cone"] < 1e-8 and checks["equilibrium"] < 1e-8
