@@ -1,4 +1,4 @@
-"""fenics-coulomb: 3D static Coulomb-friction contact with a rigid obstacle by the SCD semismooth* Newton method.
+"""fenics-coulomb: 3D static Coulomb-friction contact with a rigid obstacle, SCD semismooth* Newton method.
 
 Modules, one concept each:
 

@@ -20,12 +20,11 @@ from __future__ import annotations
 from mpi4py import MPI
 from petsc4py import PETSc
 
+import dolfinx.fem
+import dolfinx.fem.petsc
 import numpy as np
 import numpy.typing as npt
 import ufl
-
-import dolfinx.fem
-import dolfinx.fem.petsc
 
 from fenics_coulomb.model import ContactModel
 

@@ -18,10 +18,9 @@ from typing import Any
 
 from mpi4py import MPI
 
-
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel, Material, validate_friction
-from fenics_coulomb.newton import PRECONDITIONERS, VARIANTS, SCDNewtonSolver, SolverSettings
+from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver, SolverSettings
 from fenics_coulomb.output import summary, write_summary, write_xdmf
 from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, create_cuboid
 
@@ -53,6 +52,8 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     p.add_argument("--max-it", type=int, default=100, help="maximal Newton iterations (default 100)")
     p.add_argument("--pc", default="ilu", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default ilu)")
     p.add_argument("--gamma", type=float, default=None, help="fixed γ (default: power method on A)")
+    p.add_argument("--gamma-scale", type=float, default=0.01,
+                   help="γ = scale × power-method estimate of λ_max(A); the paper uses 1 (default 0.01)")
     p.add_argument(
         "--start",
         default="zero",
@@ -96,7 +97,7 @@ def settings_from_args(args: argparse.Namespace) -> SolverSettings:
     """Solver settings of the command line."""
     return SolverSettings(
         variant=args.variant, tol=args.tol, rtol=args.rtol, max_iterations=args.max_it, pc=args.pc,
-        gamma=args.gamma,
+        gamma=args.gamma, gamma_scale=args.gamma_scale,
     )
 
 

@@ -12,11 +12,10 @@ from dataclasses import dataclass
 
 from mpi4py import MPI
 
-import numpy as np
-import numpy.typing as npt
-
 import dolfinx.fem
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
 
 
 def boundary_blocks(

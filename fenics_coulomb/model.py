@@ -25,14 +25,13 @@ from dataclasses import dataclass
 from mpi4py import MPI
 from petsc4py import PETSc
 
+import dolfinx
+import dolfinx.fem.petsc
 import numpy as np
 import numpy.typing as npt
 import ufl
 
-import dolfinx
-import dolfinx.fem.petsc
-
-from fenics_coulomb.contact import ContactMap, boundary_blocks
+from fenics_coulomb.contact import ContactMap
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.scene import Body
 
@@ -80,7 +79,9 @@ def epsilon(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
     return ufl.sym(ufl.grad(u))
 
 
-def sigma(u: ufl.core.expr.Expr, mu: float | ufl.core.expr.Expr, lmbda: float | ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+def sigma(
+    u: ufl.core.expr.Expr, mu: float | ufl.core.expr.Expr, lmbda: float | ufl.core.expr.Expr
+) -> ufl.core.expr.Expr:
     """Cauchy stress of isotropic linear elasticity (the Lamé operator in weak form)."""
     return 2.0 * mu * epsilon(u) + lmbda * ufl.tr(epsilon(u)) * ufl.Identity(len(u))
 

@@ -25,12 +25,11 @@ from typing import Any
 from mpi4py import MPI
 from petsc4py import PETSc
 
-import numpy as np
-import numpy.typing as npt
-
 import dolfinx
 import dolfinx.fem
 import dolfinx.io
+import numpy as np
+import numpy.typing as npt
 
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.newton import SolveResult

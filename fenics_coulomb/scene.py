@@ -17,10 +17,9 @@ from dataclasses import dataclass, field
 
 from mpi4py import MPI
 
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
-
-import dolfinx.mesh
 
 from fenics_coulomb.errors import InputError, check_all
 

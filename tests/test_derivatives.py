@@ -51,7 +51,7 @@ def unscaled(v12, theta, F):
     s = np.linalg.norm(v12)
     n = v12 / s
     P = np.eye(2) - np.outer(n, n)
-    X = np.zeros((3, 3)); Y = np.zeros((3, 3)); W = np.zeros((3, 3)); U = np.zeros((3, 3))
+    X, Y, W, U = (np.zeros((3, 3)) for _ in range(4))
     X[:2, :2] = np.eye(2)
     Y[:2, :2] = -F * theta / s * P
     Y[:2, 2] = -F * n

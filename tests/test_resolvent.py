@@ -76,7 +76,7 @@ def test_resolvent_matches_brute_force(F, gamma):
     w = rng.standard_normal((12, 3)) * gamma
     w[:3, 2] = np.abs(w[:3, 2])  # open
     w[3:6, :2] *= 1e-3  # sticking
-    v, z = resolvent(w, gamma, F)
+    v, _ = resolvent(w, gamma, F)
     for i in range(w.shape[0]):
         ref = brute_force(w[i], gamma, F)
         assert np.allclose(v[i], ref, rtol=1e-6, atol=1e-7 * (1 + np.abs(ref).max())), (w[i], v[i], ref)

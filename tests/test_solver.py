@@ -14,14 +14,13 @@ from petsc4py import PETSc
 import h5py
 import numpy as np
 import pytest
+from conftest import make_model, paper_tractions
 
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.model import ContactModel, Material
 from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings
 from fenics_coulomb.resolvent import SLIP, STICK
 from fenics_coulomb.scene import create_cuboid
-
-from conftest import make_model, paper_tractions
 
 TIGHT = dict(rtol=1e-12)
 
@@ -257,3 +256,33 @@ def test_section7_cases_converge(gap, load, lev, model_factory):
     assert result.residual_history[-1] <= 1e-12 * result.residual_history[0]
     checks = physics_residuals(model, result.displacement)
     assert checks["penetration"] < 1e-8 and checks["cone"] < 1e-8 and checks["equilibrium"] < 1e-8
+
+
+def test_gamma_does_not_change_the_solution(model_factory):
+    """γ only steers the iteration: the paper's γ ≈ λ_max(A) and the default 0.01·λ_max give one solution."""
+    model = model_factory(3, "d2", "L1")
+    r1 = solve(model, gamma_scale=1.0)
+    r2 = solve(model, gamma_scale=0.01)
+    assert r1.converged and r2.converged
+    assert np.isclose(r1.gamma, 100 * r2.gamma)
+    comm = MPI.COMM_WORLD
+    diff = np.sqrt(comm.allreduce(np.sum((r1.displacement - r2.displacement) ** 2)))
+    assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(r1.displacement**2)))
+    assert r1.state_counts(comm) == r2.state_counts(comm)
+
+
+@pytest.mark.parametrize("variant", ["4a", "4b"])
+@pytest.mark.parametrize("pc", ["gamg", "hypre", "lu", "jacobi"])
+def test_preconditioners_reach_the_same_solution(pc, variant, model_factory):
+    """Every selectable preconditioner solves the Newton systems to the same contact solution."""
+    if pc == "hypre" and variant == "4b":
+        with pytest.raises(Exception, match="hypre"):
+            SolverSettings(pc=pc, variant=variant).validate()
+        return
+    model = model_factory(2, "d3", "L1")
+    ref = solve(model, variant="4a")
+    result = solve(model, pc=pc, variant=variant)
+    assert result.converged
+    comm = MPI.COMM_WORLD
+    diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref.displacement) ** 2)))
+    assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(ref.displacement**2)))

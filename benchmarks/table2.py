@@ -1,0 +1,107 @@
+"""Table 2 of the paper: the six Section 7 cases for a range of levels (tol = 0.1, u⁽⁰⁾ = 0).
+
+    container/run mpirun -n 2 python3 benchmarks/table2.py --levels 2 3 4 5 6 --out docs/table2
+
+Writes ``table2.csv`` and ``table2.md`` (p, n, Newton iterations, Krylov iterations, wall time, peak
+memory per case) with the machine and software versions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import logging
+import platform
+import resource
+import sys
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+from fenics_coulomb.errors import SolverError
+from fenics_coulomb.model import ContactModel, Material
+from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings
+from fenics_coulomb.output import software_versions
+from fenics_coulomb.scene import FACE_NAMES, LOAD_CASES, create_cuboid
+
+CASES = [(g, ld) for g in ("d1", "d2", "d3") for ld in ("L1", "L2")]
+
+
+def run_case(comm: MPI.Comm, lev: int, gap: str, load: str, settings: SolverSettings) -> dict:
+    """Solve one case; return its row (global numbers, identical on all ranks)."""
+    t0 = time.perf_counter()
+    body = create_cuboid(comm, lev, gap)
+    names = {tag: name for name, tag in FACE_NAMES.items()}
+    tractions = {names[t]: v for t, v in LOAD_CASES[load].items()}
+    model = ContactModel(body, Material(), 0.23, tractions)
+    t_model = time.perf_counter() - t0
+    solver = SCDNewtonSolver(model, settings)
+    try:
+        result = solver.solve(-model.shift.getArray(readonly=True).copy())
+    except SolverError as err:
+        result = err.result
+    counts = result.state_counts(comm)
+    row = {
+        "lev": lev, "case": f"{gap}/{load}", "p": model.p, "n": model.n,
+        "converged": result.converged, "newton": result.iterations, "krylov": result.krylov_iterations,
+        "solve_s": comm.allreduce(result.timings["total"], op=MPI.MAX),
+        "model_s": comm.allreduce(t_model, op=MPI.MAX),
+        "peak_rss_MiB": comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.SUM) / 1024,
+        "open": counts["open"], "stick": counts["stick"], "slip": counts["slip"],
+    }
+    solver.destroy()
+    model.destroy()
+    return row
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", type=int, nargs="+", default=[2, 3, 4, 5, 6])
+    parser.add_argument("--tol", type=float, default=0.1)
+    parser.add_argument("--pc", default="ilu")
+    parser.add_argument("--variant", default="4a")
+    parser.add_argument("--gamma-scale", type=float, default=SolverSettings.gamma_scale)
+    parser.add_argument("--out", default="docs/table2")
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    logging.basicConfig(level=logging.WARNING)
+    settings = SolverSettings(tol=args.tol, pc=args.pc, variant=args.variant, gamma_scale=args.gamma_scale)
+    rows = []
+    for lev in args.levels:
+        for gap, load in CASES:
+            row = run_case(comm, lev, gap, load, settings)
+            rows.append(row)
+            if comm.rank == 0:
+                print(json.dumps(row), flush=True)
+    if comm.rank == 0:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        with open(out / "table2.csv", "w", newline="") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+        lines = [
+            f"# Table 2: tol = {args.tol}, pc = {args.pc}, variant {args.variant}, "
+            f"gamma = {args.gamma_scale} x power-method estimate, u(0) = 0, "
+            f"{comm.size} rank(s)",
+            "",
+            f"Machine: {platform.machine()} {platform.processor() or ''}, {comm.size} MPI rank(s); "
+            f"versions: {json.dumps(software_versions())}",
+            "",
+            "| lev | case | p | n | Newton | Krylov | solve (s) | peak RSS (MiB) | open/stick/slip |",
+            "|---:|:---|---:|---:|---:|---:|---:|---:|:---|",
+        ]
+        for r in rows:
+            flag = "" if r["converged"] else " (not converged)"
+            lines.append(
+                f"| {r['lev']} | {r['case']} | {r['p']} | {r['n']} | {r['newton']}{flag} | {r['krylov']} | "
+                f"{r['solve_s']:.2f} | {r['peak_rss_MiB']:.0f} | {r['open']}/{r['stick']}/{r['slip']} |"
+            )
+        (out / "table2.md").write_text("\n".join(lines) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
