@@ -57,49 +57,43 @@ def _split(sets: npt.NDArray[np.int8], friction: float) -> tuple[npt.NDArray[np.
     return slide, rest
 
 
-def sstar_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float) -> tuple[Array, Array]:
-    """Return (W*, U*), shape (m, 3, 3) each, with rge(W*, U*) ∈ S*Q̃(v, z) node-wise."""
+def _blocks(
+    v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float, adjoint: bool
+) -> tuple[Array, Array]:
+    """The pair (W*, U*) (``adjoint``) or (X, Y) node-wise; see the module docstring.
+
+    Both share their open/stick blocks and, on sliding nodes, C and b·P; they differ only in where
+    F·n sits: in the last row of W* (the adjoint) or in the last column of Y.
+    """
     m = v.shape[0]
-    W = np.zeros((m, 3, 3))
-    U = np.zeros((m, 3, 3))
+    first = np.zeros((m, 3, 3))
+    second = np.zeros((m, 3, 3))
     slide, stick = _split(sets, friction)
-    opened = ~(slide | stick)
-    W[opened] = np.eye(3)
-    U[stick] = np.eye(3)
+    first[~(slide | stick)] = np.eye(3)
+    second[stick] = np.eye(3)
 
     n, a, b, _ = _slip_quantities(v[slide], z[slide], friction)
     nn = n[:, :, None] * n[:, None, :]
     eye2 = np.eye(2)
-    Ws = np.zeros((n.shape[0], 3, 3))
-    Ws[:, :2, :2] = a[:, None, None] * eye2 + b[:, None, None] * nn
-    Ws[:, 2, :2] = friction * n
-    Us = np.zeros((n.shape[0], 3, 3))
-    Us[:, :2, :2] = b[:, None, None] * (eye2 - nn)
-    Us[:, 2, 2] = 1.0
-    W[slide] = Ws
-    U[slide] = Us
-    return W, U
+    f = np.zeros((n.shape[0], 3, 3))
+    f[:, :2, :2] = a[:, None, None] * eye2 + b[:, None, None] * nn
+    g = np.zeros((n.shape[0], 3, 3))
+    g[:, :2, :2] = b[:, None, None] * (eye2 - nn)
+    g[:, 2, 2] = 1.0
+    if adjoint:
+        f[:, 2, :2] = friction * n
+    else:
+        g[:, :2, 2] = -friction * n
+    first[slide] = f
+    second[slide] = g
+    return first, second
+
+
+def sstar_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float) -> tuple[Array, Array]:
+    """Return (W*, U*), shape (m, 3, 3) each, with rge(W*, U*) ∈ S*Q̃(v, z) node-wise."""
+    return _blocks(v, z, sets, friction, adjoint=True)
 
 
 def s_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float) -> tuple[Array, Array]:
     """Return (X, Y), shape (m, 3, 3) each, with rge(X, Y) ∈ SQ̃(v, z) node-wise."""
-    m = v.shape[0]
-    X = np.zeros((m, 3, 3))
-    Y = np.zeros((m, 3, 3))
-    slide, stick = _split(sets, friction)
-    opened = ~(slide | stick)
-    X[opened] = np.eye(3)
-    Y[stick] = np.eye(3)
-
-    n, a, b, _ = _slip_quantities(v[slide], z[slide], friction)
-    nn = n[:, :, None] * n[:, None, :]
-    eye2 = np.eye(2)
-    Xs = np.zeros((n.shape[0], 3, 3))
-    Xs[:, :2, :2] = a[:, None, None] * eye2 + b[:, None, None] * nn
-    Ys = np.zeros((n.shape[0], 3, 3))
-    Ys[:, :2, :2] = b[:, None, None] * (eye2 - nn)
-    Ys[:, :2, 2] = -friction * n
-    Ys[:, 2, 2] = 1.0
-    X[slide] = Xs
-    Y[slide] = Ys
-    return X, Y
+    return _blocks(v, z, sets, friction, adjoint=False)
