@@ -21,7 +21,7 @@ from mpi4py import MPI
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel, Material, validate_friction
 from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver, SolverSettings
-from fenics_coulomb.output import summary, write_summary, write_xdmf
+from fenics_coulomb.output import summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, create_cuboid
 
 logger = logging.getLogger("fenics_coulomb")
@@ -61,6 +61,7 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
         "'undeformed' (ũ = 0); default zero",
     )
     p.add_argument("--out", default="out", help="output directory (default ./out)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("--quiet", action="store_true", help="only errors and the final line")
     p.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     return p
@@ -154,6 +155,15 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
     data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
     write_summary(out / "summary.json", data, comm)
+    write_convergence_csv(out / "convergence.csv", result, comm)
+    if not args.no_plots:
+        from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence
+
+        gathered = gather_contact(comm, model.contact.coordinates, result.states)
+        if gathered is not None:
+            case = f"{args.gap}/{args.load}, lev {args.lev}"
+            plot_convergence({case: result.residual_history}, out / "convergence.png", f"Convergence, {case}")
+            plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {case}")
     counts = data["state_counts"]
     if comm.rank == 0:
         print(

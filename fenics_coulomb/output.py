@@ -127,6 +127,20 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
     return data
 
 
+def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> None:
+    """Per-iteration history as CSV on rank 0: residual, relative residual, step, Krylov, states."""
+    if comm.rank != 0:
+        return
+    h0 = result.residual_history[0] if result.residual_history else 0.0
+    lines = ["iteration,residual,relative_residual,step_length,krylov_iterations,open,stick,slip"]
+    lines.append(f"0,{h0:.17g},1,,,,,")
+    for rec in result.records:
+        rel = rec.residual / h0 if h0 > 0 else 0.0
+        lines.append(f"{rec.iteration},{rec.residual:.17g},{rel:.17g},{rec.step_length:.17g},"
+                     f"{rec.krylov_iterations},{rec.open},{rec.stick},{rec.slip}")
+    path.write_text("\n".join(lines) + "\n")
+
+
 def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
     """Write the summary as JSON on rank 0."""
     if comm.rank == 0:

@@ -49,6 +49,23 @@ def test_outputs(mpi_tmp_path, capsys):
     assert np.allclose(x[touching, 2] + u[touching, 2], 0.0, atol=1e-10)
     if comm.rank == 0:
         assert "converged" in capsys.readouterr().out
+    # convergence.csv: one row per iterate, consistent with the summary
+    rows = (out / "convergence.csv").read_text().strip().splitlines()
+    assert rows[0].startswith("iteration,residual,relative_residual,step_length,krylov_iterations")
+    table = [r.split(",") for r in rows[1:]]
+    assert len(table) == summary["newton_iterations"] + 1
+    assert np.allclose([float(r[1]) for r in table], summary["residual_history"], rtol=1e-15)
+    assert [int(r[4]) for r in table[1:]] == summary["krylov_history"]
+    assert [int(r[5]) + int(r[6]) + int(r[7]) for r in table[1:]] == [p] * (len(table) - 1)
+    for png in ("convergence.png", "contact_states.png"):
+        assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_no_plots(mpi_tmp_path):
+    out = mpi_tmp_path / "noplots"
+    assert main(["--lev", "0", "--out", str(out), "--quiet", "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    assert (out / "convergence.csv").exists() and not list(out.glob("*.png"))
 
 
 @pytest.mark.parametrize(
