@@ -8,21 +8,22 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import os
 import sys
 import time
 import traceback
 from pathlib import Path
-from typing import Any
 
 from mpi4py import MPI
 
+import numpy as np
+
+from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.model import ContactModel, Material, validate_friction
-from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver, SolverSettings
+from fenics_coulomb.model import ContactModel, Material
+from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver
 from fenics_coulomb.output import summary, write_convergence_csv, write_summary, write_xdmf
-from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, create_cuboid
+from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES
 
 logger = logging.getLogger("fenics_coulomb")
 
@@ -31,35 +32,39 @@ EXIT_DIVERGED = 3
 
 
 def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentParser:
-    """The argument parser shared by the CLI and the demo."""
+    """The argument parser shared by the CLI and the demo (scene values are None unless given)."""
+    d = Scene()
     p = argparse.ArgumentParser(
         prog=prog,
-        description="3D static contact of a linear-elastic cuboid with a rigid plane under Coulomb friction, "
+        description="3D static contact of a linear-elastic body with a rigid plane under Coulomb friction, "
         "solved by the SCD semismooth* Newton method (DOLFINx/PETSc, MPI-parallel).",
-        epilog="PETSc options for the Newton system can be appended with the prefix -coulomb_, "
-        "e.g. -coulomb_ksp_monitor -coulomb_pc_type gamg.",
+        epilog="Flags override the scene file's values. PETSc options for the Newton system can be appended "
+        "with the prefix -coulomb_, e.g. -coulomb_ksp_monitor -coulomb_pc_type gamg.",
     )
-    p.add_argument("--lev", type=int, default=4, help="discretization level (>= 0), default 4")
-    p.add_argument("--gap", default="d3", help=f"gap profile: {', '.join(GAP_PROFILES)} (default d3)")
-    p.add_argument("--load", default="L2", help=f"load case: {', '.join(LOAD_CASES)} (default L2)")
-    p.add_argument("--load-scale", type=float, default=1.0, help="factor on the tractions (default 1)")
-    p.add_argument("--young", type=float, default=70.0, help="Young's modulus E in GPa (default 70)")
-    p.add_argument("--poisson", type=float, default=0.334, help="Poisson ratio (default 0.334)")
-    p.add_argument("--friction", type=float, default=0.23, help="Coulomb coefficient F (default 0.23)")
-    p.add_argument("--variant", default="4a", help="Newton step: 4a (S*Q, (5.4)) or 4b (SQ); default 4a")
-    p.add_argument("--tol", type=float, default=0.1, help="relative GMRES residual per Newton step (0.1)")
-    p.add_argument("--rtol", type=float, default=1e-12, help="stop at |y| <= rtol |y0| (default 1e-12)")
-    p.add_argument("--max-it", type=int, default=100, help="maximal Newton iterations (default 100)")
-    p.add_argument("--pc", default="ilu", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default ilu)")
-    p.add_argument("--gamma", type=float, default=None, help="fixed γ (default: power method on A)")
-    p.add_argument("--gamma-scale", type=float, default=0.01,
-                   help="γ = scale × power-method estimate of λ_max(A); the paper uses 1 (default 0.01)")
+    p.add_argument("--scene", default=None, help="scene file (TOML), e.g. demos/scenes/d3_L2.toml")
+    p.add_argument("--lev", type=int, help=f"discretization level of the cuboid (>= 0; default {d.lev})")
+    p.add_argument("--gap", help=f"gap profile {', '.join(GAP_PROFILES)} or an expression in x1, x2 "
+                   f"(default {d.gap})")
+    p.add_argument("--load", help=f"load case {', '.join(LOAD_CASES)} (default {d.load})")
+    p.add_argument("--load-scale", type=float, help="factor on the tractions (default 1)")
+    p.add_argument("--young", type=float, help=f"Young's modulus E in GPa (default {d.young})")
+    p.add_argument("--poisson", type=float, help=f"Poisson ratio (default {d.poisson})")
+    p.add_argument("--friction", type=float, help=f"Coulomb coefficient F (default {d.friction})")
+    p.add_argument("--variant", help="Newton step: 4a (S*Q, (5.4)) or 4b (SQ); default 4a")
+    p.add_argument("--tol", type=float, help=f"relative GMRES residual per Newton step (default {d.tol})")
+    p.add_argument("--rtol", type=float, help=f"stop at |y| <= rtol |y0| (default {d.rtol})")
+    p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.max_it})")
+    p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.pc})")
+    p.add_argument("--gamma-scale", type=float,
+                   help="γ = scale × power-method estimate of λ_max(A); the paper uses 1 "
+                   f"(default {d.gamma_scale})")
     p.add_argument(
         "--start",
-        default="zero",
-        help="start: 'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d) or "
-        "'undeformed' (ũ = 0); default zero",
+        help="'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d), 'undeformed' (ũ = 0) or the "
+        "solution.xdmf of an earlier run, interpolated onto this mesh (default zero)",
     )
+    p.add_argument("--predictor", action="store_const", const=True, default=None,
+                   help="first solve the linear problem; if it does not touch the obstacle it is the solution")
     p.add_argument("--out", default="out", help="output directory (default ./out)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     p.add_argument("--quiet", action="store_true", help="only errors and the final line")
@@ -77,28 +82,13 @@ def configure_logging(comm: MPI.Comm, quiet: bool, verbose: bool) -> None:
     logger.propagate = False
 
 
-def validate_args(args: argparse.Namespace) -> None:
-    """Raise InputError for any bad value (runs identically on every rank, no communication)."""
-    if args.lev < 0:
-        raise InputError(f"--lev {args.lev}: must be >= 0")
-    if args.gap not in GAP_PROFILES:
-        raise InputError(f"--gap {args.gap!r}: choose one of {sorted(GAP_PROFILES)}")
-    if args.load not in LOAD_CASES:
-        raise InputError(f"--load {args.load!r}: choose one of {sorted(LOAD_CASES)}")
-    if not math.isfinite(args.load_scale):
-        raise InputError(f"--load-scale {args.load_scale!r}: must be finite")
-    Material(args.young, args.poisson).validate()
-    validate_friction(args.friction)
-    if args.start not in ("zero", "undeformed"):
-        raise InputError(f"--start {args.start!r}: choose 'zero' or 'undeformed'")
-    settings_from_args(args).validate()
-
-
-def settings_from_args(args: argparse.Namespace) -> SolverSettings:
-    """Solver settings of the command line."""
-    return SolverSettings(
-        variant=args.variant, tol=args.tol, rtol=args.rtol, max_iterations=args.max_it, pc=args.pc,
-        gamma=args.gamma, gamma_scale=args.gamma_scale,
+def scene_from_args(args: argparse.Namespace) -> Scene:
+    """Defaults < scene file < flags; raises InputError naming any bad value (no communication)."""
+    scene = Scene.from_toml(args.scene) if args.scene else Scene()
+    return scene.override(
+        lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
+        poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
+        max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
     )
 
 
@@ -122,60 +112,75 @@ def prepare_output(comm: MPI.Comm, out: str) -> Path:
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     """Solve the scene described by ``args``; return the exit status."""
     t0 = time.perf_counter()
-    validate_args(args)
+    scene = scene_from_args(args)
     out = prepare_output(comm, args.out)
 
-    body = create_cuboid(comm, args.lev, args.gap)
-    names = {tag: name for name, tag in FACE_NAMES.items()}
-    tractions = {
-        names[tag]: tuple(args.load_scale * c for c in value) for tag, value in LOAD_CASES[args.load].items()
-    }
-    model = ContactModel(body, Material(args.young, args.poisson), args.friction, tractions)
+    body = scene.build_body(comm)
+    model = ContactModel(body, Material(scene.young, scene.poisson), scene.friction, scene.traction_table(),
+                         body_force=tuple(scene.body_force))
     t_model = time.perf_counter() - t0
-    logger.info("%s: n = %d unknowns, p = %d contact nodes, %d rank(s)", body.description, model.n, model.p,
-                comm.size)
-    solver = SCDNewtonSolver(model, settings_from_args(args))
-    start = None if args.start == "undeformed" else -model.shift.getArray(readonly=True).copy()
+    logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s)", body.description, model.n,
+                model.p, scene.friction, comm.size)
+    solver = SCDNewtonSolver(model, scene.settings())
     status = 0
     try:
-        result = solver.solve(start)
+        result = None
+        if model.p == 0 or scene.predictor:
+            result = solver.solve_linear()
+            if model.p == 0:
+                logger.info("no contact boundary: one linear solve")
+            elif result.converged and solver.is_separated(result):
+                logger.info("the linear solution does not reach the obstacle: it is the solution")
+            else:
+                logger.info("the linear solution penetrates the obstacle: SCD semismooth* Newton")
+                result = None
+        if result is None:
+            result = solver.solve(initial_displacement(scene.start, model))
     except SolverError as err:
         result = err.result
         status = EXIT_DIVERGED
         logger.error("fenics-coulomb: the solve did not converge: %s", err)
-    scene: dict[str, Any] = {
-        "body": body.description, "lev": args.lev, "gap": args.gap, "load": args.load,
-        "load_scale": args.load_scale, "young_GPa": args.young, "poisson": args.poisson,
-        "friction": args.friction, "start": args.start,
-    }
-    settings = vars(settings_from_args(args))
     t_write = time.perf_counter()
     write_xdmf(out / "solution.xdmf", model, result)
-    data = summary(model, result, {"scene": scene, "settings": settings})
+    data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(scene.settings()),
+                                   "body": body.description})
     data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-    data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
-    write_summary(out / "summary.json", data, comm)
     write_convergence_csv(out / "convergence.csv", result, comm)
     if not args.no_plots:
         from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence
 
         gathered = gather_contact(comm, model.contact.coordinates, result.states)
         if gathered is not None:
-            case = f"{args.gap}/{args.load}, lev {args.lev}"
-            plot_convergence({case: result.residual_history}, out / "convergence.png", f"Convergence, {case}")
-            plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {case}")
+            label = scene.name if args.scene else f"{scene.gap}/{scene.load}, lev {scene.lev}"
+            plot_convergence({label: result.residual_history}, out / "convergence.png",
+                             f"Convergence, {label}")
+            plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
+    data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
+    write_summary(out / "summary.json", data, comm)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
             f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
-            f"{data['wall_time_s']:.2f} s; results in {out}/solution.xdmf and {out}/summary.json",
+            f"{data['wall_time_s']:.2f} s; results in {out}/ (solution.xdmf, summary.json, convergence.csv"
+            f"{'' if args.no_plots else ', convergence.png, contact_states.png'})",
             flush=True,
         )
     solver.destroy()
     model.destroy()
     return status
+
+
+def initial_displacement(start: str, model: ContactModel) -> np.ndarray | None:
+    """ũ⁽⁰⁾ on the owned DOFs for a start setting (None means ũ = 0)."""
+    if start == "undeformed":
+        return None
+    if start == "zero":
+        return -model.shift.getArray(readonly=True).copy()
+    from fenics_coulomb.output import read_displacement
+
+    return read_displacement(Path(start), model.V)
 
 
 def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb") -> int:

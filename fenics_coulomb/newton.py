@@ -520,6 +520,43 @@ class SCDNewtonSolver:
             raise
         return result(converged, reason)
 
+    def solve_linear(self) -> SolveResult:
+        """Solve A ũ = l̃ once (no contact possible): the Newton matrix is A and the KSP runs to ``rtol``."""
+        model = self.model
+        t0 = time.perf_counter()
+        model.A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        tol = self.ksp.getTolerances()
+        self.ksp.setTolerances(rtol=self.settings.rtol)
+        self._du.set(0.0)
+        self.ksp.solve(model.load, self._du)
+        self.ksp.setTolerances(rtol=tol[0])
+        its = int(self.ksp.getIterationNumber())
+        reason = int(self.ksp.getConvergedReason())
+        self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
+        displacement = self._du.getArray(readonly=True).copy()
+        u = displacement + model.shift.getArray(readonly=True)
+        self._u.array[:] = u
+        model.A.mult(self._u, self._r)
+        self._r.axpy(-1.0, model.rhs)
+        e, v, z = self._approximate(u, self._r.getArray(readonly=True).copy())
+        res = self._norm(e)
+        res0 = math.sqrt(1.0 + self.gamma**2) * model.load.norm() / self.gamma
+        sets = classify(v, z, model.friction)
+        self.timings["total"] = time.perf_counter() - t0
+        converged = reason > 0
+        return SolveResult(
+            u=u, displacement=displacement, converged=converged,
+            reason="converged" if converged else f"ksp_reason_{reason}", iterations=1, krylov_iterations=its,
+            residual_history=[res0, res], records=[IterationRecord(1, res, 1.0, its, 0, 0, 0)], sets=sets,
+            states=contact_states(sets, model.friction), normal_force=-z[:, 2].copy(),
+            tangential_force=-z[:, :2].copy(), gap=v[:, 2].copy(), gamma=self.gamma, timings=dict(self.timings),
+        )
+
+    def is_separated(self, result: SolveResult) -> bool:
+        """True on all ranks if no contact node of ``result`` touches or penetrates the obstacle."""
+        gap = result.displacement[self.cdofs[:, 2]] + self.model.contact.gap
+        return bool(self.comm.allreduce(bool(np.all(gap > 0.0)), op=MPI.LAND))
+
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
         for obj in (self.ksp, self.M, self._u, self._r, self._b, self._du, self._Adu, self._w):

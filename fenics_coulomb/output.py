@@ -86,6 +86,39 @@ def write_xdmf(path: Path, model: ContactModel, result: SolveResult) -> None:
             xdmf.write_function(f, 0.0)
 
 
+def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6) -> npt.NDArray[np.float64]:
+    """Read ``displacement`` from an earlier run's solution.xdmf/.h5 and interpolate it onto V (collective).
+
+    The meshes need not match (nested iteration across levels): the old field is rebuilt as a P1 function
+    on the old mesh and interpolated point-wise; nodes up to ``padding`` outside the old mesh (the bottoms
+    of two levels follow d at different resolutions) take the value of the closest cell.
+
+    Returns:
+        The interpolated physical displacement on V's owned DOFs.
+    """
+    import h5py
+
+    comm = V.mesh.comm
+    with dolfinx.io.XDMFFile(comm, str(path.with_suffix(".xdmf")), "r") as xdmf:
+        old = xdmf.read_mesh(name="mesh")
+    with h5py.File(path.with_suffix(".h5"), "r") as h5:
+        values = np.asarray(h5["Function/displacement/0"][:], dtype=np.float64)
+    V_old = dolfinx.fem.functionspace(old, ("Lagrange", 1, (3,)))
+    u_old = dolfinx.fem.Function(V_old)
+    # P1 on the mesh's own (degree-1) geometry: cell-local node j is cell-local DOF j.
+    nodes = old.geometry.dofmap.ravel()
+    blocks = V_old.dofmap.list.ravel()
+    u_old.x.array.reshape(-1, 3)[blocks] = values[old.geometry.input_global_indices[nodes]]
+    u_old.x.scatter_forward()
+    u = dolfinx.fem.Function(V)
+    tdim = V.mesh.topology.dim
+    cells = np.arange(V.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+    data = dolfinx.fem.create_interpolation_data(V, V_old, cells, padding=padding)
+    u.interpolate_nonmatching(u_old, cells, data)
+    u.x.scatter_forward()
+    return np.asarray(u.x.petsc_vec.getArray(readonly=True)).copy()
+
+
 def software_versions() -> dict[str, str]:
     """Versions of the numerical stack."""
     import ufl

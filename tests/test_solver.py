@@ -15,6 +15,7 @@ import h5py
 import numpy as np
 import pytest
 from conftest import make_model, paper_tractions
+from reference import tresca_fixed_point
 
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.model import ContactModel, Material
@@ -143,47 +144,6 @@ def test_serial_equals_parallel(model_factory):
         xs, us = sort_by_coordinates(xs, us)
     assert np.allclose(x, xs, atol=1e-12)
     assert np.linalg.norm(u - us) <= 1e-8 * np.linalg.norm(u)
-
-
-def tresca_fixed_point(A, load, cdofs, gap, F, tol=1e-13):
-    """Independent reference: Coulomb contact as the fixed point λ ↦ λ(Tresca(F·λ)) [Haslinger et al.].
-
-    Each Tresca problem min ½ũᵀAũ − l̃ᵀũ + Σ sᵢ‖ũ₁₂ⁱ‖ s.t. ũ₃ⁱ ≥ −αᵢ is solved by FISTA with restarts
-    (dense, tiny problem); λᵢ is the normal component of A ũ − l̃ at node i.
-    """
-    L = np.linalg.eigvalsh(A).max()
-    u = np.zeros(A.shape[0])
-    lam = np.zeros(len(gap))
-
-    def prox(y, s):
-        x = y.copy()
-        x[cdofs[:, 2]] = np.maximum(y[cdofs[:, 2]], -gap)
-        t = y[cdofs[:, :2]]
-        nt = np.linalg.norm(t, axis=1)
-        factor = np.where(nt > s / L, 1 - s / (L * np.maximum(nt, 1e-300)), 0.0)
-        x[cdofs[:, :2]] = factor[:, None] * t
-        return x
-
-    for _outer in range(500):
-        s = F * lam
-        y = u.copy()
-        tk = 1.0
-        for _ in range(200000):
-            u_new = prox(y - (A @ y - load) / L, s)
-            if np.linalg.norm(u_new - u) <= tol * max(np.linalg.norm(u_new), 1e-300):
-                u = u_new
-                break
-            t_new = 0.5 * (1 + np.sqrt(1 + 4 * tk * tk))
-            if (u_new - u) @ (y - u_new) > 0:  # adaptive restart
-                t_new, y = 1.0, u_new.copy()
-            else:
-                y = u_new + (tk - 1) / t_new * (u_new - u)
-            u, tk = u_new, t_new
-        lam_new = np.maximum((A @ u - load)[cdofs[:, 2]], 0.0)
-        if np.linalg.norm(lam_new - lam) <= 1e-11 * np.linalg.norm(lam_new):
-            return u
-        lam = lam_new
-    raise AssertionError("the Tresca fixed point did not converge")
 
 
 def test_matches_independent_solver():

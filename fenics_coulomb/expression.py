@@ -1,0 +1,107 @@
+"""Safe arithmetic expressions in x1, x2 for gap profiles given in scene files (no ``eval`` of user text).
+
+The text is parsed with :mod:`ast` and only numbers, the variables ``x1``, ``x2``, the constants ``pi``
+and ``e``, the operators + − * / ** and unary ±, and calls of the whitelisted NumPy functions below are
+accepted; anything else (attribute access, names such as ``__import__``, subscripts, lambdas,
+comprehensions, keyword arguments) is rejected with an :class:`InputError` naming it. The accepted tree is
+evaluated by a small interpreter on NumPy arrays.
+"""
+
+from __future__ import annotations
+
+import ast
+import operator
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.errors import InputError
+
+Array = npt.NDArray[np.float64]
+
+FUNCTIONS: dict[str, Callable[..., Array]] = {
+    "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
+    "abs": np.abs, "tanh": np.tanh, "arctan": np.arctan, "arctan2": np.arctan2,
+    "max": np.maximum, "min": np.minimum, "hypot": np.hypot,
+}
+CONSTANTS = {"pi": np.pi, "e": np.e}
+VARIABLES = ("x1", "x2")
+BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
+          ast.Pow: operator.pow}
+UNARY = {ast.UAdd: operator.pos, ast.USub: operator.neg}
+MAX_LENGTH = 2000
+
+
+def _check(node: ast.AST, text: str) -> None:
+    """Raise InputError unless every node of the tree is allowed."""
+    for sub in ast.walk(node):
+        if isinstance(sub, ast.Expression | ast.Load):
+            continue
+        if isinstance(sub, ast.Constant):
+            if isinstance(sub.value, bool) or not isinstance(sub.value, int | float):
+                raise InputError(f"gap expression {text!r}: constant {sub.value!r} is not a number")
+        elif isinstance(sub, ast.Name):
+            if sub.id not in VARIABLES and sub.id not in CONSTANTS and sub.id not in FUNCTIONS:
+                raise InputError(
+                    f"gap expression {text!r}: unknown name {sub.id!r} "
+                    f"(allowed: {', '.join(VARIABLES)}, {', '.join(CONSTANTS)}, {', '.join(sorted(FUNCTIONS))})"
+                )
+        elif isinstance(sub, ast.Call):
+            if not isinstance(sub.func, ast.Name) or sub.func.id not in FUNCTIONS:
+                raise InputError(f"gap expression {text!r}: only calls of {sorted(FUNCTIONS)} are allowed")
+            if sub.keywords:
+                raise InputError(f"gap expression {text!r}: keyword arguments are not allowed")
+        elif isinstance(sub, ast.BinOp):
+            if type(sub.op) not in BINARY:
+                raise InputError(f"gap expression {text!r}: operator {type(sub.op).__name__} is not allowed")
+        elif isinstance(sub, ast.UnaryOp):
+            if type(sub.op) not in UNARY:
+                raise InputError(f"gap expression {text!r}: operator {type(sub.op).__name__} is not allowed")
+        elif not isinstance(sub, ast.operator | ast.unaryop):
+            raise InputError(f"gap expression {text!r}: {type(sub).__name__} is not allowed")
+
+
+def _evaluate(node: ast.AST, env: dict[str, Array | float]) -> Array | float:
+    if isinstance(node, ast.Expression):
+        return _evaluate(node.body, env)
+    if isinstance(node, ast.Constant):
+        return float(node.value)
+    if isinstance(node, ast.Name):
+        return env[node.id] if node.id in env else CONSTANTS[node.id]
+    if isinstance(node, ast.BinOp):
+        return BINARY[type(node.op)](_evaluate(node.left, env), _evaluate(node.right, env))
+    if isinstance(node, ast.UnaryOp):
+        return UNARY[type(node.op)](_evaluate(node.operand, env))
+    if isinstance(node, ast.Call):
+        assert isinstance(node.func, ast.Name)
+        return FUNCTIONS[node.func.id](*(_evaluate(a, env) for a in node.args))
+    raise InputError(f"{type(node).__name__} is not allowed")  # unreachable after _check
+
+
+def parse_gap_expression(text: str) -> Callable[[Array, Array], Array]:
+    """Compile a gap expression d(x1, x2) into a vectorized function.
+
+    Args:
+        text: e.g. ``"0.01 + 0.005*(sin(2*pi*x1) + cos(2*pi*x2))"``.
+
+    Raises:
+        InputError: for text that does not parse or uses anything outside the whitelist.
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise InputError(f"gap expression {text!r}: must be a non-empty string")
+    if len(text) > MAX_LENGTH:
+        raise InputError(f"gap expression is longer than {MAX_LENGTH} characters")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as err:
+        raise InputError(f"gap expression {text!r} does not parse: {err.msg}") from None
+    _check(tree, text)
+
+    def gap(x1: Array, x2: Array) -> Array:
+        with np.errstate(all="ignore"):
+            value = _evaluate(tree, {"x1": np.asarray(x1, float), "x2": np.asarray(x2, float)})
+        return np.broadcast_to(np.asarray(value, dtype=np.float64), np.shape(x1)).copy()
+
+    gap.__name__ = text.strip()
+    return gap

@@ -1,0 +1,205 @@
+"""Scenes (TOML), safe gap expressions, the shortcuts, the non-box mesh and restarts from a file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+from reference import tresca_fixed_point
+
+from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.cli import EXIT_INPUT, main
+from fenics_coulomb.config import Scene
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.expression import parse_gap_expression
+from fenics_coulomb.model import ContactModel, Material
+from fenics_coulomb.newton import SCDNewtonSolver
+from fenics_coulomb.scene import gap_d3
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = sorted((ROOT / "demos" / "scenes").glob("*.toml"))
+
+
+def write(tmp: Path, name: str, text: str) -> Path:
+    path = tmp / name
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+@pytest.mark.parametrize("path", SCENES, ids=lambda p: p.stem)
+def test_shipped_scenes_parse(path):
+    scene = Scene.from_toml(path)
+    assert scene.name == path.stem
+    scene.settings().validate()
+
+
+def test_section7_scene_matches_paper_data():
+    scene = Scene.from_toml(ROOT / "demos" / "scenes" / "d2_L1.toml")
+    assert (scene.gap, scene.load, scene.friction, scene.young, scene.poisson) == ("d2", "L1", 0.23, 70.0, 0.334)
+    assert scene.traction_table() == {"top": (0.0, 0.0, -1.0), "right": (-0.2, 0.0, 0.0)}
+
+
+def test_expression_equals_numpy():
+    f = parse_gap_expression("0.01 + 0.005*(sin(2*pi*x1) + cos(2*pi*x2))")
+    x1, x2 = np.random.default_rng(0).random((2, 50))
+    assert np.allclose(f(x1, x2), gap_d3(x1, x2), rtol=1e-15)
+    g = parse_gap_expression("max(0.01 - 0.015*sqrt(0.5*(x1-1)**2 + 2*(x2-0.5)**2), 0.0025)")
+    assert np.allclose(g(x1, x2), np.maximum(0.01 - 0.015 * np.hypot(np.sqrt(0.5) * (x1 - 1), np.sqrt(2) * (x2 - 0.5)),
+                                             0.0025))
+    assert np.all(parse_gap_expression("-(-0.5)")(x1, x2) == 0.5)
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["__import__('os').system('true')", "x1.__class__", "open('/etc/passwd')", "[x1, x2]", "lambda: 1",
+     "x1 if x2 else 1", "x3 + 1", "sin(x=1)", "1 +", "", "'a' * 3", "x1 < 2", "(lambda: 0)()", "True + x1",
+     "getattr(x1, 'shape')", "x1 @ x2", "{x1: 1}"],
+)
+def test_expression_rejects(text):
+    with pytest.raises(InputError, match="gap expression|does not parse"):
+        parse_gap_expression(text)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("[body]\nlev = \n", "does not parse"),
+        ("[bodie]\nlev = 1\n", "unknown section"),
+        ("[body]\nlevel = 1\n", "unknown key 'level'"),
+        ("[body]\nlev = -2\n", "lev"),
+        ("[body]\nclamped = ['nowhere']\n", "'nowhere'"),
+        ("[tractions]\nfront = [0, 0, 1]\n", "'front'"),
+        ("[tractions]\ntop = [0, 1]\n", "3 numbers"),
+        ("[material]\nyoung = 'stiff'\n", "young"),
+        ("[material]\npoisson = 0.5\n", "Poisson"),
+        ("[friction]\ncoefficient = -0.1\n", "friction"),
+        ("[load]\ncase = 'L3'\n", "L3"),
+        ("[load]\ncase = 'L1'\n[tractions]\ntop = [0, 0, 1]\n", "either"),
+        ("[body]\ngap = \"__import__('os')\"\n", "__import__"),
+        ("[body]\nshape = 'mesh'\nmesh = 'missing.msh'\n", "missing.msh"),
+        ("[solver]\npc = 'magic'\n", "magic"),
+        ("[solver]\nstart = 'nowhere.xdmf'\n", "nowhere.xdmf"),
+    ],
+)
+def test_bad_scene_files(text, message, mpi_tmp_path, capsys):
+    path = write(mpi_tmp_path, "bad.toml", text)
+    with pytest.raises(InputError, match=message):
+        Scene.from_toml(path)
+    assert main(["--scene", str(path), "--out", str(mpi_tmp_path / "o")]) == EXIT_INPUT
+    if MPI.COMM_WORLD.rank == 0:
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "error:" in err[0]
+
+
+def test_flags_override_scene(mpi_tmp_path):
+    path = write(mpi_tmp_path, "s.toml", "[body]\nlev = 1\ngap = 'd1'\n[friction]\ncoefficient = 0.5\n")
+    out = mpi_tmp_path / "o"
+    assert main(["--scene", str(path), "--friction", "0.1", "--gap", "d2", "--out", str(out), "--quiet",
+                 "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["scene"]["friction"] == 0.1 and summary["scene"]["gap"] == "d2"
+    assert summary["scene"]["lev"] == 1 and summary["p"] == 6 * 4
+
+
+def solve_scene(scene: Scene, start: str | None = None, **overrides):
+    scene = scene.override(**overrides)
+    comm = MPI.COMM_WORLD
+    model = ContactModel(scene.build_body(comm), Material(scene.young, scene.poisson), scene.friction,
+                         scene.traction_table())
+    solver = SCDNewtonSolver(model, scene.settings())
+    init = None if (start or scene.start) == "undeformed" else -model.shift.getArray(readonly=True).copy()
+    result = solver.solve(init)
+    solver.destroy()
+    return model, result
+
+
+def test_frictionless_matches_signorini_reference():
+    """F = 0 solves the Signorini problem: compared with a projected-gradient QP solve (one Tresca solve
+    with zero slip bound), and no node sticks."""
+    scene = Scene.from_toml(ROOT / "demos" / "scenes" / "wavy_frictionless.toml").override(lev=0)
+    comm = MPI.COMM_SELF
+    model = ContactModel(scene.build_body(comm), Material(), 0.0, scene.traction_table())
+    solver = SCDNewtonSolver(model, scene.override(pc="lu", tol=1e-13).settings())
+    result = solver.solve(-model.shift.getArray(readonly=True).copy())
+    solver.destroy()
+    assert result.converged and not np.any(result.states == 1)
+    A = model.A.convert("dense").getDenseArray().copy()
+    ref = tresca_fixed_point(A, model.load.getArray(readonly=True).copy(), model.contact.local_dofs,
+                             model.contact.gap, 0.0)
+    assert np.linalg.norm(result.displacement - ref) <= 1e-7 * np.linalg.norm(ref)
+    assert np.allclose(result.tangential_force, 0.0)
+    model.destroy()
+
+
+def test_no_contact_shortcut_equals_full_model(mpi_tmp_path):
+    """The lifted scene: one linear solve (predictor) gives the full model's Newton solution."""
+    path = ROOT / "demos" / "scenes" / "lifted.toml"
+    out = mpi_tmp_path / "short"
+    assert main(["--scene", str(path), "--out", str(out), "--quiet", "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["newton_iterations"] == 1 and summary["state_counts"]["open"] == summary["p"]
+    model, full = solve_scene(Scene.from_toml(path), rtol=1e-13)
+    assert full.converged
+    import h5py
+
+    with h5py.File(out / "solution.h5", "r") as h5:
+        x = h5["Mesh/mesh/geometry"][:]
+        u = h5["Function/displacement/0"][:]
+    n = model.V.dofmap.index_map.size_local
+    mine = np.concatenate(MPI.COMM_WORLD.allgather(np.round(model.V.tabulate_dof_coordinates()[:n], 9)))
+    vals = np.concatenate(MPI.COMM_WORLD.allgather(full.displacement.reshape(-1, 3)))
+    order_a = np.lexsort(np.round(x, 9).T[::-1])
+    order_b = np.lexsort(mine.T[::-1])
+    assert np.allclose(np.round(x, 9)[order_a], mine[order_b])
+    assert np.linalg.norm(u[order_a] - vals[order_b]) <= 1e-8 * np.linalg.norm(vals)
+    model.destroy()
+
+
+def test_no_contact_boundary_is_one_linear_solve(mpi_tmp_path):
+    path = write(mpi_tmp_path, "free.toml", "[body]\nlev = 1\ncontact = []\n[load]\ncase = 'L1'\n")
+    out = mpi_tmp_path / "free"
+    assert main(["--scene", str(path), "--out", str(out), "--quiet", "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["p"] == 0 and summary["newton_iterations"] == 1 and summary["converged"]
+
+
+def test_non_box_mesh_physics():
+    """The tetrahedral roller (meshes/roller.msh) against the plane: the physics checks hold."""
+    scene = Scene.from_toml(ROOT / "demos" / "scenes" / "roller.toml")
+    model, result = solve_scene(scene)
+    assert result.converged
+    counts = result.state_counts(MPI.COMM_WORLD)
+    assert counts["slip"] > 0 and counts["open"] > 0 and sum(counts.values()) == model.p
+    checks = physics_residuals(model, result.displacement)
+    for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone",
+                "reaction_balance"):
+        assert checks[key] < 1e-8, (key, checks[key])
+    assert checks["slip_direction"] < 1e-5
+    model.destroy()
+
+
+def test_start_from_coarser_solution(mpi_tmp_path):
+    """--start FILE interpolates an earlier (coarser, non-matching) solution; the solve reaches the same
+    solution as from zero, from a much smaller residual and in no more iterations."""
+    coarse = mpi_tmp_path / "coarse"
+    assert main(["--lev", "3", "--out", str(coarse), "--quiet", "--no-plots"]) == 0
+    fine_zero = mpi_tmp_path / "fine0"
+    fine_start = mpi_tmp_path / "fine1"
+    assert main(["--lev", "4", "--out", str(fine_zero), "--quiet", "--no-plots"]) == 0
+    assert main(["--lev", "4", "--start", str(coarse / "solution.xdmf"), "--out", str(fine_start), "--quiet",
+                 "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    a = json.loads((fine_zero / "summary.json").read_text())
+    b = json.loads((fine_start / "summary.json").read_text())
+    assert a["state_counts"] == b["state_counts"]
+    assert b["newton_iterations"] <= a["newton_iterations"]
+    assert b["residual_history"][0] < 0.1 * a["residual_history"][0]
