@@ -62,7 +62,7 @@ def test_expression_equals_numpy():
      "getattr(x1, 'shape')", "x1 @ x2", "{x1: 1}"],
 )
 def test_expression_rejects(text):
-    with pytest.raises(InputError, match="gap expression|does not parse"):
+    with pytest.raises(InputError, match=r"gap expression|does not parse"):
         parse_gap_expression(text)
 
 
