@@ -147,11 +147,14 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
     write_convergence_csv(out / "convergence.csv", result, comm)
     if not args.no_plots:
-        from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence
+        from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence, plot_deformed
 
+        label = scene.name if args.scene else f"{scene.gap}/{scene.load}, lev {scene.lev}"
+        plot_deformed(model.V, result.displacement, model.contact.coordinates,
+                      result.displacement[model.contact.local_dofs], result.states, out / "deformed.png",
+                      f"Deformed body, {label}")
         gathered = gather_contact(comm, model.contact.coordinates, result.states)
         if gathered is not None:
-            label = scene.name if args.scene else f"{scene.gap}/{scene.load}, lev {scene.lev}"
             plot_convergence({label: result.residual_history}, out / "convergence.png",
                              f"Convergence, {label}")
             plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
@@ -164,7 +167,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
             f"{data['wall_time_s']:.2f} s; results in {out}/ (solution.xdmf, summary.json, convergence.csv"
-            f"{'' if args.no_plots else ', convergence.png, contact_states.png'})",
+            f"{'' if args.no_plots else ', convergence.png, contact_states.png, deformed.png'})",
             flush=True,
         )
     solver.destroy()

@@ -80,3 +80,72 @@ def plot_contact_states(
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def plot_deformed(
+    V: object,
+    displacement: npt.NDArray[np.float64],
+    contact_coordinates: npt.NDArray[np.float64],
+    contact_displacement: npt.NDArray[np.float64],
+    states: npt.NDArray[np.int8],
+    path: Path,
+    title: str = "",
+) -> None:
+    """Render the deformed body (pyvista, off screen) coloured by |ũ|, with the contact nodes coloured
+    by state, to ``path`` (collective: every rank sends its part to rank 0).
+
+    The displacement is magnified so that the largest one is 10 % of the body's size.
+    """
+    import dolfinx.fem
+    import dolfinx.plot
+
+    comm: MPI.Comm = V.mesh.comm  # type: ignore[attr-defined]
+    u = dolfinx.fem.Function(V)  # type: ignore[arg-type]
+    u.x.petsc_vec.array[:] = displacement
+    u.x.scatter_forward()
+    topology, cell_types, x = dolfinx.plot.vtk_mesh(V)  # type: ignore[arg-type]
+    values = u.x.array.reshape(-1, 3)[: x.shape[0]]
+    parts = comm.gather((topology, cell_types, x, values), root=0)
+    contact = gather_contact(comm, np.hstack([contact_coordinates, contact_displacement]), states)
+    if comm.rank != 0:
+        return
+    import os
+
+    import pyvista
+
+    pyvista.OFF_SCREEN = True
+    if not os.environ.get("DISPLAY"):
+        try:
+            pyvista.start_xvfb(wait=0.3)
+        except Exception:  # no Xvfb: VTK may still render off screen (EGL/OSMesa builds)
+            pass
+    grids = []
+    for top, types, pts, vals in parts:
+        grid = pyvista.UnstructuredGrid(top, types, pts)
+        grid.point_data["u"] = vals
+        grids.append(grid)
+    grid = grids[0].merge(grids[1:]) if len(grids) > 1 else grids[0]
+    size = float(np.max(np.ptp(grid.points, axis=0)))
+    umax = float(np.max(np.linalg.norm(grid.point_data["u"], axis=1), initial=0.0))
+    factor = 0.1 * size / umax if umax > 0 else 1.0
+    warped = grid.warp_by_vector("u", factor=factor)
+    warped.point_data["|u|"] = np.linalg.norm(grid.point_data["u"], axis=1)
+    plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 800))
+    plotter.add_mesh(warped, scalars="|u|", cmap="viridis", show_edges=True, edge_color="grey",
+                     line_width=0.5, scalar_bar_args={"title": "|displacement|"})
+    assert contact is not None
+    data, st = contact
+    if st.size:
+        points = data[:, :3] + factor * data[:, 3:]
+        for state, (label, colour) in STATE_COLOURS.items():
+            mask = st == state
+            if np.any(mask):
+                plotter.add_points(points[mask], color=colour, point_size=8, render_points_as_spheres=True,
+                                   label=label)
+        plotter.add_legend(bcolor="white", size=(0.15, 0.1), loc="upper left")
+    if title:
+        plotter.add_title(f"{title} (displacement x{factor:.3g})", font_size=10)
+    # from below and in front, so that the contact boundary is seen
+    plotter.view_vector((0.55, -1.0, -0.75), viewup=(0.0, 0.0, 1.0))
+    plotter.screenshot(str(path))
+    plotter.close()

@@ -110,13 +110,28 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float =
     blocks = V_old.dofmap.list.ravel()
     u_old.x.array.reshape(-1, 3)[blocks] = values[old.geometry.input_global_indices[nodes]]
     u_old.x.scatter_forward()
+    return interpolate_displacement(u_old, V, padding)
+
+
+def interpolate_displacement(
+    u_from: dolfinx.fem.Function, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6
+) -> npt.NDArray[np.float64]:
+    """Interpolate a (possibly non-matching) vector field onto V; return V's owned DOF values (collective)."""
     u = dolfinx.fem.Function(V)
     tdim = V.mesh.topology.dim
     cells = np.arange(V.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
-    data = dolfinx.fem.create_interpolation_data(V, V_old, cells, padding=padding)
-    u.interpolate_nonmatching(u_old, cells, data)
+    data = dolfinx.fem.create_interpolation_data(V, u_from.function_space, cells, padding=padding)
+    u.interpolate_nonmatching(u_from, cells, data)
     u.x.scatter_forward()
     return np.asarray(u.x.petsc_vec.getArray(readonly=True)).copy()
+
+
+def displacement_function(V: dolfinx.fem.FunctionSpace, owned: npt.NDArray[np.float64]) -> dolfinx.fem.Function:
+    """A Function on V holding the owned DOF values ``owned`` (ghosts updated)."""
+    u = dolfinx.fem.Function(V, name="displacement")
+    u.x.petsc_vec.array[:] = owned
+    u.x.scatter_forward()
+    return u
 
 
 def software_versions() -> dict[str, str]:

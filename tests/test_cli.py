@@ -57,7 +57,7 @@ def test_outputs(mpi_tmp_path, capsys):
     assert np.allclose([float(r[1]) for r in table], summary["residual_history"], rtol=1e-15)
     assert [int(r[4]) for r in table[1:]] == summary["krylov_history"]
     assert [int(r[5]) + int(r[6]) + int(r[7]) for r in table[1:]] == [p] * (len(table) - 1)
-    for png in ("convergence.png", "contact_states.png"):
+    for png in ("convergence.png", "contact_states.png", "deformed.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

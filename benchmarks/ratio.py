@@ -1,0 +1,81 @@
+"""Cost of the contact solve relative to one linear-elastic solve of the same mesh on the same ranks.
+
+Both include assembly. The linear-elastic reference is CG + GAMG with the rigid-body near-nullspace to
+rtol 1e-8; the contact solve is the SCD semismooth* Newton method with the chosen preconditioner.
+
+    container/run mpirun -n 2 python3 benchmarks/ratio.py --levels 6 8 --pc gamg --out docs/ratio
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from fenics_coulomb.model import rigid_body_modes
+from fenics_coulomb.newton import SolverSettings
+
+sys.path.insert(0, str(Path(__file__).parent))
+from common import build, peak_rss_mib, solve, write_table  # noqa: E402
+
+
+def linear_elastic(comm: MPI.Comm, lev: int, gap: str, load: str) -> tuple[float, int]:
+    """Assemble and solve A ũ = l̃ with CG + GAMG (rtol 1e-8); return (wall time, CG iterations)."""
+    comm.barrier()
+    t0 = time.perf_counter()
+    model, _ = build(comm, lev, gap, load)
+    ns = rigid_body_modes(model.V)
+    model.A.setNearNullSpace(ns)
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOptionsPrefix("elastic_")
+    ksp.setOperators(model.A)
+    ksp.setType("cg")
+    ksp.getPC().setType("gamg")
+    ksp.setTolerances(rtol=1e-8)
+    ksp.setFromOptions()
+    x = model.A.createVecRight()
+    ksp.solve(model.load, x)
+    its = ksp.getIterationNumber()
+    elapsed = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    for obj in (ksp, x, ns):
+        obj.destroy()
+    model.destroy()
+    return elapsed, its
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--levels", type=int, nargs="+", default=[6, 8])
+    parser.add_argument("--case", default="d3/L2")
+    parser.add_argument("--pc", nargs="+", default=["gamg", "ilu"])
+    parser.add_argument("--out", default="docs/ratio")
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    gap, load = args.case.split("/")
+    rows = []
+    for lev in args.levels:
+        t_lin, its_lin = linear_elastic(comm, lev, gap, load)
+        for pc in args.pc:
+            comm.barrier()
+            model, t_model = build(comm, lev, gap, load)
+            result, t_solve = solve(model, SolverSettings(pc=pc))
+            row = {"lev": lev, "n": model.n, "pc": pc, "newton": result.iterations,
+                   "krylov": result.krylov_iterations, "contact_s": t_model + t_solve,
+                   "assembly_s": t_model, "linear_elastic_s": t_lin, "cg_its": its_lin,
+                   "ratio": (t_model + t_solve) / t_lin, "converged": result.converged,
+                   "peak_rss_MiB": peak_rss_mib(comm)}
+            model.destroy()
+            rows.append(row)
+            if comm.rank == 0:
+                print(row, flush=True)
+    write_table(Path(args.out), "ratio", f"Contact solve / linear-elastic solve, case {args.case}, {comm.size} ranks",
+                rows, comm)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
