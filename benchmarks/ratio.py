@@ -20,7 +20,7 @@ from fenics_coulomb.model import rigid_body_modes
 from fenics_coulomb.newton import SolverSettings
 
 sys.path.insert(0, str(Path(__file__).parent))
-from common import build, peak_rss_mib, solve, write_table  # noqa: E402
+from common import build, peak_rss_mib, solve, write_table
 
 
 def linear_elastic(comm: MPI.Comm, lev: int, gap: str, load: str) -> tuple[float, int]:

@@ -16,7 +16,7 @@ from fenics_coulomb.newton import SolverSettings
 from fenics_coulomb.output import displacement_function, interpolate_displacement
 
 sys.path.insert(0, str(Path(__file__).parent))
-from common import CASES, build, solve, write_table  # noqa: E402
+from common import CASES, build, solve, write_table
 
 
 def main() -> int:

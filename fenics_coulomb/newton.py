@@ -324,6 +324,11 @@ class SCDNewtonSolver:
                 pc.setFactorSolverType("mumps")
         elif s.pc == "gamg":
             pc.setType("gamg")
+            # Only contact rows change between Newton steps: keep the aggregation/prolongation and redo the
+            # Galerkin products only (overridable with -coulomb_pc_gamg_reuse_interpolation false).
+            opts = PETSc.Options(s.prefix)
+            if not opts.hasName("pc_gamg_reuse_interpolation"):
+                opts.setValue("pc_gamg_reuse_interpolation", True)
             self._nullspace = rigid_body_modes(self.model.V)
             self.M.setNearNullSpace(self._nullspace)
         elif s.pc == "hypre":
