@@ -15,7 +15,7 @@ test-serial:
 	$(RUN) python3 -m pytest -q --color=no tests $(PYTEST_ARGS)
 
 test-mpi:
-	$(RUN) mpirun -n $(NP) python3 -m mpi4py -m pytest -q --color=no -p no:cacheprovider tests $(PYTEST_ARGS)
+	$(RUN) mpirun -n $(NP) python3 -m mpi4py -m pytest -q --color=no -p no:cacheprovider -m "not serial" tests $(PYTEST_ARGS)
 
 env:
 	$(RUN) python3 -c "import dolfinx, petsc4py; print('DOLFINx', dolfinx.__version__)"

@@ -5,9 +5,9 @@ force on the body at a contact node is fⁱ = (A ũ − l̃)ⁱ (normal part λ 
 the gap is ũ₃ + α. The residuals are relative, so that thresholds do not depend on units:
 
 * ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃|;
-* ``penetration``: max(−gap, 0) / max α  (gap ≥ 0);
+* ``penetration``: max(−gap, 0) / δ  (gap ≥ 0), δ = max(max α, max |ũ|) the displacement scale;
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
-* ``complementarity``: max |gap·λ| / (max α · max λ)  (gap·λ = 0);
+* ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
 * ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
 * ``slip_direction``: on nodes sliding by more than 1e-6 of the largest slip, max ‖t + F λ s/‖s‖‖ / max λ
   (the friction force opposes the slip s = ũ₁₂);
@@ -68,7 +68,8 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     free[model.dirichlet_rows] = False
     load_scale = _gmax(comm, np.abs(model.load.getArray(readonly=True)))
     lam_scale = _gmax(comm, lam)
-    gap_scale = _gmax(comm, cmap.gap)
+    # displacement scale: the largest initial gap or displacement (a zero gap profile has no gap scale)
+    gap_scale = max(_gmax(comm, cmap.gap), _gmax(comm, np.abs(displacement)))
     tiny = np.finfo(float).tiny
     out: dict[str, float] = {}
     out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale, tiny)

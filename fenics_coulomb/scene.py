@@ -175,7 +175,11 @@ def create_cuboid(
     if not message and np.any(bad):
         message = f"gap profile value {dval[bad][0]!r} outside [0, {HEIGHT}) (the body would invert)"
     check_all(comm, not message, message)
-    x[:, 2] = dval + x[:, 2] * (HEIGHT - dval)
+    # create_box leaves round-off (~1e-17) on the coordinate planes: snap the box's x3 to [0, 1] first, so
+    # that the bottom sits exactly at d (a zero gap stays zero, not slightly negative).
+    t = np.clip(x[:, 2], 0.0, HEIGHT)
+    t[np.abs(t) < 1e-12] = 0.0
+    x[:, 2] = dval + t * (HEIGHT - dval)
 
     name = gap if isinstance(gap, str) else getattr(gap, "__name__", "custom")
     return Body(
