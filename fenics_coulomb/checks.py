@@ -67,7 +67,8 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     free[cmap.local_dofs.ravel()] = False
     free[model.dirichlet_rows] = False
     load_scale = _gmax(comm, np.abs(model.load.getArray(readonly=True)))
-    lam_scale = _gmax(comm, lam)
+    # force scale: the largest contact force, or the largest nodal load when nothing touches
+    lam_scale = max(_gmax(comm, lam), load_scale)
     # displacement scale: the largest initial gap or displacement (a zero gap profile has no gap scale)
     gap_scale = max(_gmax(comm, cmap.gap), _gmax(comm, np.abs(displacement)))
     tiny = np.finfo(float).tiny

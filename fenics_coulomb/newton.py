@@ -52,7 +52,7 @@ logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
-PRECONDITIONERS = ("ilu", "gamg", "hypre", "lu", "jacobi", "none")
+PRECONDITIONERS = ("ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
 
 
@@ -76,6 +76,8 @@ class SolverSettings:
         gmres_restart: GMRES restart length.
         ksp_max_it: Maximal Krylov iterations per Newton step.
         line_search_steps: Number of step lengths tried before the line search fails.
+        pc_refresh: gamg only: rebuild the preconditioning matrix when more than this fraction of the contact
+            DOFs changed between fixed and free (0 rebuilds on every change).
         prefix: PETSc options prefix of the Newton matrix and its KSP.
     """
 
@@ -91,6 +93,7 @@ class SolverSettings:
     gmres_restart: int = 100
     ksp_max_it: int = 2000
     line_search_steps: int = 20
+    pc_refresh: float = 0.02
     prefix: str = "coulomb_"
 
     def validate(self) -> None:
@@ -302,6 +305,14 @@ class SCDNewtonSolver:
         self.rows = ContactRows(A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
         self._nullspace: PETSc.NullSpace | None = None
+        self._steps = 0
+        # contact-aware AMG: a separate SPD preconditioning matrix (see _update_preconditioner)
+        self.P: PETSc.Mat | None = None
+        self._fixed: npt.NDArray[np.bool_] | None = None
+        self.preconditioner_updates = 0
+        if settings.pc == "gamg":
+            self.P = A.duplicate(copy=True)
+            self.P.setOptionsPrefix(settings.prefix + "P_")
         self.ksp = self._create_ksp()
         # work vectors
         self._u, self._r = A.createVecs()
@@ -313,7 +324,7 @@ class SCDNewtonSolver:
         s = self.settings
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(s.prefix)
-        ksp.setOperators(self.M)
+        ksp.setOperators(self.M, self.P if self.P is not None else self.M)
         ksp.setType(PETSc.KSP.Type.GMRES)
         ksp.setGMRESRestart(s.gmres_restart)
         ksp.setPCSide(PETSc.PC.Side.RIGHT)
@@ -327,15 +338,13 @@ class SCDNewtonSolver:
             pc.setType("lu")
             if parallel:
                 pc.setFactorSolverType("mumps")
-        elif s.pc == "gamg":
+        elif s.pc in ("gamg", "gamg-newton"):
+            # gamg: smoothed aggregation on the SPD matrix P = A with the DOFs that the Newton step fixes
+            # (sticking nodes, normal DOFs of sliding nodes) treated like Dirichlet rows and columns.
+            # gamg-newton: smoothed aggregation on the (nonsymmetric) Newton matrix itself.
             pc.setType("gamg")
-            # Only contact rows change between Newton steps: keep the aggregation/prolongation and redo the
-            # Galerkin products only (overridable with -coulomb_pc_gamg_reuse_interpolation false).
-            opts = PETSc.Options(s.prefix)
-            if not opts.hasName("pc_gamg_reuse_interpolation"):
-                opts.setValue("pc_gamg_reuse_interpolation", True)
             self._nullspace = rigid_body_modes(self.model.V)
-            self.M.setNearNullSpace(self._nullspace)
+            (self.P if self.P is not None else self.M).setNearNullSpace(self._nullspace)
         elif s.pc == "hypre":
             pc.setType("hypre")
             pc.setHYPREType("boomeramg")
@@ -364,6 +373,33 @@ class SCDNewtonSolver:
         total = self.comm.allreduce(local, op=MPI.SUM)
         return int(total[0]), int(total[1]), int(total[2])
 
+    def _update_preconditioner(self, left: Array) -> None:
+        """Refresh P = A with the fixed DOFs' rows and columns replaced by the Dirichlet diagonal.
+
+        A contact row is fixed when its stiffness part vanishes (row of Bⁱ = 0: all rows of a sticking node,
+        the normal row of a sliding one); the Newton step prescribes such a DOF directly, so for the
+        preconditioner it is a Dirichlet DOF and P stays symmetric positive definite, the case AMG with the
+        rigid-body near-nullspace is made for.
+        """
+        if self.P is None:
+            return
+        fixed = ~np.any(left != 0.0, axis=2)  # (m, 3)
+        # P depends only on the fixed set. It is rebuilt (with its AMG hierarchy) only when more than
+        # `pc_refresh` of the contact DOFs changed between fixed and free since it was built: a slightly stale P
+        # is still a good preconditioner, and an AMG setup costs several Krylov iterations.
+        changed = self.comm.allreduce(
+            int(fixed.size if self._fixed is None else np.sum(fixed != self._fixed)), op=MPI.SUM)
+        total = max(self.comm.allreduce(int(fixed.size), op=MPI.SUM), 1)
+        same = self._fixed is not None and changed <= self.settings.pc_refresh * total
+        self.ksp.getPC().setReusePreconditioner(same)
+        if same:
+            return
+        self._fixed = fixed
+        rows = np.ascontiguousarray(self.rows.rows.reshape(-1, 3)[fixed], dtype=PETSc.IntType)
+        self.model.A.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.P.zeroRowsColumns(rows, diag=self.model.dirichlet_diagonal)
+        self.preconditioner_updates += 1
+
     # -- the Newton step ---------------------------------------------------------------------------
     def _newton_direction(
         self, e: Array, v: Array, z: Array, sets: npt.NDArray[np.int8]
@@ -381,6 +417,7 @@ class SCDNewtonSolver:
             W, U = sstar_blocks(v, z / gamma, sets, F)
             left, right = np.swapaxes(W, 1, 2), gamma * np.swapaxes(U, 1, 2)
             self.rows.update(self.M, left, right)
+            self._update_preconditioner(left)
             b = -gamma * e
             b[cd] = -gamma * (np.einsum("iab,ib->ia", left, e[cd]) + np.einsum("iab,ib->ia", right, e[cd]) / gamma)
             self._b.array[:] = b
@@ -388,6 +425,7 @@ class SCDNewtonSolver:
             X, Y = s_blocks(v, z / gamma, sets, F)
             left, right = np.swapaxes(X, 1, 2), gamma * np.swapaxes(Y, 1, 2)
             self.rows.update(self.M, left, right)
+            self._update_preconditioner(left)
             # (A X + Y) p = A ŷ₂ − ŷ₁ with ŷ₂ = e, ŷ₁ = γ e. Near the solution Δu = X p − e is much
             # smaller than p ≈ e, so an inexact p would swamp Δu: solve for q = p − e instead, with
             # (A X + Y) q = A e − γ e − (A X + Y) e, whose size is that of Δu (and tol then means the
@@ -419,13 +457,20 @@ class SCDNewtonSolver:
             du[cd] = np.einsum("iba,ib->ia", left, p[cd]) - e[cd]  # Xⁱ p = (leftⁱ)ᵀ p
         finite = self.comm.allreduce(bool(np.all(np.isfinite(du))), op=MPI.LAND)
         if (reason < 0 and reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT) or not finite:
+            names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
+            hint = ""
+            if reason == PETSc.KSP.ConvergedReason.DIVERGED_BREAKDOWN and self.settings.pc == "ilu":
+                hint = ("; ILU-preconditioned GMRES stagnated, as it does for nearly incompressible materials "
+                        "(nu -> 0.5): use --pc gamg or --pc lu")
             raise SolverError(
-                f"the linear solver broke down (KSP reason {reason}, finite direction: {finite})",
-                "ksp_breakdown",
+                f"the linear solver failed in Newton step {self._steps + 1}: {names.get(reason, reason)} after "
+                f"{its} iterations{'' if finite else ', non-finite direction'}{hint}",
+                "ksp_breakdown" if finite else "non_finite",
             )
         if reason == PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT and self.comm.rank == 0:
             logger.warning("KSP reached %d iterations without tol=%g; using the inexact direction",
                            its, self.settings.tol)
+        self._steps += 1
         return du, its
 
     # -- the driver --------------------------------------------------------------------------------
@@ -439,6 +484,8 @@ class SCDNewtonSolver:
         model = self.model
         A = model.A
         t_start = time.perf_counter()
+        self._steps = 0
+        self._fixed = None
         shift = model.shift.getArray(readonly=True)
         u = np.array(shift, dtype=np.float64)
         if initial_displacement is not None:
@@ -584,5 +631,7 @@ class SCDNewtonSolver:
         """Destroy the PETSc objects (collective)."""
         for obj in (self.ksp, self.M, self._u, self._r, self._b, self._du, self._Adu, self._w):
             obj.destroy()
+        if self.P is not None:
+            self.P.destroy()
         if self._nullspace is not None:
             self._nullspace.destroy()

@@ -232,7 +232,7 @@ def test_gamma_does_not_change_the_solution(model_factory):
 
 
 @pytest.mark.parametrize("variant", ["4a", "4b"])
-@pytest.mark.parametrize("pc", ["gamg", "hypre", "lu", "jacobi"])
+@pytest.mark.parametrize("pc", ["gamg", "gamg-newton", "hypre", "lu", "jacobi"])
 def test_preconditioners_reach_the_same_solution(pc, variant, model_factory):
     """Every selectable preconditioner solves the Newton systems to the same contact solution."""
     if pc == "hypre" and variant == "4b":
