@@ -36,13 +36,14 @@ def cases(lev: int) -> list[tuple[str, dict[str, Any]]]:
     out: list[tuple[str, dict[str, Any]]] = []
     out += [(f"F={F:g}", {"friction": F}) for F in (0.0, 1e-6, 0.23, 1.0, 5.0)]
     out += [(f"nu={nu:g}", {"poisson": nu}) for nu in (0.0, 0.3, 0.45, 0.49, 0.499)]
+    out += [(f"nu={nu:g}, pc gamg", {"poisson": nu, "pc": "gamg"}) for nu in (0.49, 0.499)]
     out += [(f"load x{s:g}", {"load_scale": s}) for s in (1e-6, 1e-3, 0.1, 1.0, 3.0, 10.0)]
     out += [("zero load", {"load_scale": 0.0, "start": "undeformed"}),
             ("pulled away", {"load_scale": -1.0}),
             ("d = 0 (touching)", {"gap": "0"}),
             ("gap 0.5 (never reached)", {"gap": "0.5", "load_scale": 0.02})]
     out += [(f"E={E:g} GPa", {"young": E}) for E in (1e-3, 1.0, 70.0, 1e3)]
-    out += [("lev 0", {"lev": 0})]
+    out += [("lev 0", {"lev": 0}), ("lev 8", {"lev": 8})]
     out += [("variant 4b", {"variant": "4b"}), ("pc gamg", {"pc": "gamg"}), ("tol 0.5", {"tol": 0.5})]
     return out
 

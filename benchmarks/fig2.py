@@ -28,7 +28,7 @@ def main() -> int:
     comm = MPI.COMM_WORLD
     panels = []
     for gap, load in CASES:
-        run = run_case(comm, args.lev, gap, load, SolverSettings())
+        run = run_case(comm, args.lev, gap, load, SolverSettings(rtol=1e-12))
         gathered = gather_contact(comm, run.model.contact.coordinates, run.result.states)
         counts = run.result.state_counts(comm)
         panels.append((f"{gap}/{load}", gathered, counts))

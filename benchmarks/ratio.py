@@ -62,7 +62,7 @@ def main() -> int:
         for pc in args.pc:
             comm.barrier()
             model, t_model = build(comm, lev, gap, load)
-            result, t_solve = solve(model, SolverSettings(pc=pc))
+            result, t_solve = solve(model, SolverSettings(rtol=1e-12, pc=pc))
             row = {"lev": lev, "n": model.n, "pc": pc, "newton": result.iterations,
                    "krylov": result.krylov_iterations, "contact_s": t_model + t_solve,
                    "assembly_s": t_model, "linear_elastic_s": t_lin, "cg_its": its_lin,

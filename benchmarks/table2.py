@@ -67,7 +67,7 @@ def main() -> int:
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     logging.basicConfig(level=logging.WARNING)
-    settings = SolverSettings(tol=args.tol, pc=args.pc, variant=args.variant, gamma_scale=args.gamma_scale)
+    settings = SolverSettings(rtol=1e-12, tol=args.tol, pc=args.pc, variant=args.variant, gamma_scale=args.gamma_scale)
     rows = []
     for lev in args.levels:
         for gap, load in CASES:

@@ -27,7 +27,7 @@ def main() -> int:
     parser.add_argument("--out", default="docs/table3")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    settings = SolverSettings(pc=args.pc, tol=args.tol)
+    settings = SolverSettings(rtol=1e-12, pc=args.pc, tol=args.tol)
     rows = []
     for gap, load in CASES:
         previous = None  # (model, displacement) of the previous level

@@ -31,7 +31,7 @@ def main() -> int:
     model, _ = build(comm, args.lev, gap, load)
     rows, histories = [], {}
     for tol in args.tols:
-        result, t = solve(model, SolverSettings(tol=tol, pc=args.pc))
+        result, t = solve(model, SolverSettings(rtol=1e-12, tol=tol, pc=args.pc))
         rows.append({"lev": args.lev, "case": args.case, "n": model.n, "tol": tol, "newton": result.iterations,
                      "krylov": result.krylov_iterations, "solve_s": t, "converged": result.converged,
                      "peak_rss_MiB": peak_rss_mib(comm)})

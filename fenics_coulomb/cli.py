@@ -53,6 +53,9 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     p.add_argument("--variant", help="Newton step: 4a (S*Q, (5.4)) or 4b (SQ); default 4a")
     p.add_argument("--tol", type=float, help=f"relative GMRES residual per Newton step (default {d.tol})")
     p.add_argument("--rtol", type=float, help=f"stop at |y| <= rtol |y0| (default {d.rtol})")
+    p.add_argument("--accuracy", type=float,
+                   help="relative displacement error to reach instead of --rtol (e.g. 1e-6); "
+                   "mapped to rtol by the measured speed-accuracy table (docs/tradeoff)")
     p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.max_it})")
     p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.pc})")
     p.add_argument("--gamma-scale", type=float,
@@ -89,6 +92,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
         max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
+        accuracy=args.accuracy,
     )
 
 

@@ -17,7 +17,7 @@ One iteration k, from the iterate u = u⁽ᵏ⁾ with residual r = A u − l:
 3. Non-monotone line search (Section 7): α is the first of 1, 1/2, 1/4, 1/8, 1/32, 1/128, 0.1/128,
    0.01/128, … with ‖ŷ(u + αΔu)‖ ≤ (1 − 0.1α + 0.1/(k + 1))‖ŷ(u)‖.
 
-Stop when ‖ŷ‖ ≤ rtol·‖ŷ⁽⁰⁾‖ and ‖ŷ‖ ≤ load_rtol·‖ŷ(ũ = 0)‖ (the second only binds for loads so small that the
+Stop when ‖ŷ‖ ≤ rtol·min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖) (the second term only binds for loads so small that the
 start's gap misfit dominates ‖ŷ⁽⁰⁾‖), or when ‖ŷ‖ reaches the round-off level of the displacements (a start
 that already solves the problem, e.g. zero load from ũ = 0, stops at once).
 """
@@ -52,6 +52,9 @@ logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
+#: The reduction is measured relative to min(‖ŷ⁽⁰⁾‖, LOAD_GUARD·‖ŷ(ũ = 0)‖).
+LOAD_GUARD = 100.0
+
 PRECONDITIONERS = ("ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
 
@@ -63,8 +66,9 @@ class SolverSettings:
     Attributes:
         variant: Newton step "4a" (S*Q, system (5.4)) or "4b" (SQ).
         tol: Relative unpreconditioned GMRES residual that ends each linear solve (paper: 0.1).
-        rtol: Stop when ‖ŷ‖ <= rtol·‖ŷ⁽⁰⁾‖ (paper: 1e-12) ...
-        load_rtol: ... and ‖ŷ‖ <= load_rtol·√(1+γ²)/γ·‖l̃‖, the residual of ũ = 0 (resolves small loads).
+        rtol: Stop when ‖ŷ‖ <= rtol·min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖) (paper: rtol·‖ŷ⁽⁰⁾‖ with rtol = 1e-12). The
+            default 1e-8 is chosen from docs/tradeoff: relative displacement errors ≤ 3e-7 with every contact
+            state right, 25–40 % faster than 1e-12, and far below the discretization error (3.5e-3 at lev 6).
         max_iterations: Newton iterations before giving up.
         pc: Preconditioner: ilu (block-Jacobi/ILU in parallel), gamg, hypre, lu, jacobi, none.
         power_iterations: Power-method iterations on A for γ (paper: 5).
@@ -83,8 +87,7 @@ class SolverSettings:
 
     variant: str = "4a"
     tol: float = 0.1
-    rtol: float = 1e-12
-    load_rtol: float = 1e-9
+    rtol: float = 1e-8
     max_iterations: int = 100
     pc: str = "ilu"
     power_iterations: int = 5
@@ -104,8 +107,6 @@ class SolverSettings:
             raise InputError(f"tol = {self.tol!r}: the linear-solve tolerance must lie in (0, 1)")
         if not (math.isfinite(self.rtol) and 0.0 < self.rtol < 1.0):
             raise InputError(f"rtol = {self.rtol!r}: the residual reduction must lie in (0, 1)")
-        if not (math.isfinite(self.load_rtol) and 0.0 < self.load_rtol < 1.0):
-            raise InputError(f"load_rtol = {self.load_rtol!r}: must lie in (0, 1)")
         if int(self.max_iterations) != self.max_iterations or self.max_iterations < 1:
             raise InputError(f"max_iterations = {self.max_iterations!r}: must be an integer >= 1")
         if self.pc not in PRECONDITIONERS:
@@ -504,9 +505,11 @@ class SCDNewtonSolver:
         floor = 100.0 * np.finfo(np.float64).eps * scale
         # The load's own residual scale ‖ŷ(ũ = 0)‖ = √(1+γ²)/γ·‖l̃‖ (no contact at ũ = 0): ‖ŷ⁽⁰⁾‖ of the paper's
         # start is dominated by γ·d when the load is small, and a reduction relative to it alone would
-        # accept a field that does not resolve the load.
+        # accept a field that does not resolve the load. The reduction is therefore taken relative to
+        # min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖): the paper's rule for ordinary loads (‖ŷ⁽⁰⁾‖ is then below the bound),
+        # a load-relative rule when the start's misfit dwarfs the load.
         load_scale = self._norm(model.load.getArray(readonly=True)) / self.gamma
-        target = min(s.rtol * res0, s.load_rtol * load_scale)
+        target = s.rtol * min(res0, LOAD_GUARD * load_scale)
         history = [res]
         records: list[IterationRecord] = []
         krylov_total = 0

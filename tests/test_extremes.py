@@ -53,7 +53,7 @@ def assert_converged_or_explained(model, result):
         assert result.reason in REASONS
 
 
-BASE = Scene(lev=2, gap="d3", load="L2")
+BASE = Scene(lev=2, gap="d3", load="L2", rtol=1e-12)
 
 
 @pytest.mark.parametrize(

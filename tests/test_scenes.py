@@ -126,7 +126,7 @@ def test_frictionless_matches_signorini_reference():
     scene = Scene.from_toml(ROOT / "demos" / "scenes" / "wavy_frictionless.toml").override(lev=0)
     comm = MPI.COMM_SELF
     model = ContactModel(scene.build_body(comm), Material(), 0.0, scene.traction_table())
-    solver = SCDNewtonSolver(model, scene.override(pc="lu", tol=1e-13).settings())
+    solver = SCDNewtonSolver(model, scene.override(pc="lu", tol=1e-13, rtol=1e-12).settings())
     result = solver.solve(-model.shift.getArray(readonly=True).copy())
     solver.destroy()
     assert result.converged and not np.any(result.states == 1)
@@ -175,7 +175,7 @@ def test_no_contact_boundary_is_one_linear_solve(mpi_tmp_path):
 def test_non_box_mesh_physics():
     """The tetrahedral roller (meshes/roller.msh) against the plane: the physics checks hold."""
     scene = Scene.from_toml(ROOT / "demos" / "scenes" / "roller.toml")
-    model, result = solve_scene(scene)
+    model, result = solve_scene(scene, rtol=1e-12)
     assert result.converged
     counts = result.state_counts(MPI.COMM_WORLD)
     assert counts["slip"] > 0 and counts["open"] > 0 and sum(counts.values()) == model.p
@@ -203,3 +203,27 @@ def test_start_from_coarser_solution(mpi_tmp_path):
     assert a["state_counts"] == b["state_counts"]
     assert b["newton_iterations"] <= a["newton_iterations"]
     assert b["residual_history"][0] < 0.1 * a["residual_history"][0]
+
+
+@pytest.mark.parametrize("accuracy", [1e-4, 1e-8])
+def test_accuracy_instead_of_rtol(accuracy, model_factory):
+    """A scene may ask for a displacement accuracy; the solve meets it against a tight reference."""
+    from conftest import make_model  # noqa: F401  (model_factory builds the scene's model)
+
+    scene = Scene(lev=3, gap="d3", load="L2", accuracy=accuracy)
+    model = model_factory(3, "d3", "L2")
+    tight = SCDNewtonSolver(model, Scene(lev=3, rtol=1e-14, tol=1e-3).settings())
+    ref = tight.solve(-model.shift.getArray(readonly=True).copy())
+    tight.destroy()
+    solver = SCDNewtonSolver(model, scene.settings())
+    result = solver.solve(-model.shift.getArray(readonly=True).copy())
+    solver.destroy()
+    comm = MPI.COMM_WORLD
+    err = np.sqrt(comm.allreduce(np.sum((result.displacement - ref.displacement) ** 2)))
+    assert err <= accuracy * np.sqrt(comm.allreduce(np.sum(ref.displacement**2)))
+    assert scene.settings().rtol < accuracy
+
+
+@pytest.mark.parametrize("value", ["0", "1.5", "-1e-3", "nan"])
+def test_bad_accuracy(value, mpi_tmp_path):
+    assert main(["--lev", "0", f"--accuracy={value}", "--out", str(mpi_tmp_path)]) == EXIT_INPUT

@@ -133,7 +133,7 @@ def test_serial_equals_parallel(model_factory):
 
         with tempfile.TemporaryDirectory() as out:
             cmd = [mpirun, "-n", "2", sys.executable, "-m", "fenics_coulomb", "--lev", str(lev), "--gap", gap,
-                   "--load", load, "--out", out, "--quiet"]
+                   "--load", load, "--rtol", "1e-12", "--out", out, "--quiet"]
             env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_"))}
             subprocess.run(cmd, check=True, env=env, capture_output=True, timeout=300)
             summary = json.loads(open(f"{out}/summary.json").read())
@@ -213,9 +213,11 @@ def test_section7_cases_converge(gap, load, lev, model_factory):
     finally:
         solver.destroy()
     assert result.converged
-    assert result.residual_history[-1] <= 1e-12 * result.residual_history[0]
+    rtol = SolverSettings().rtol
+    assert result.residual_history[-1] <= rtol * result.residual_history[0]
     checks = physics_residuals(model, result.displacement)
-    assert checks["penetration"] < 1e-8 and checks["cone"] < 1e-8 and checks["equilibrium"] < 1e-8
+    # the residual reduction rtol bounds the physics residuals up to the ratio ‖ŷ⁽⁰⁾‖/‖l̃‖ (< 1e3 here)
+    assert checks["penetration"] < 1e3 * rtol and checks["cone"] < 1e3 * rtol and checks["equilibrium"] < 1e3 * rtol
 
 
 def test_gamma_does_not_change_the_solution(model_factory):
