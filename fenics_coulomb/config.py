@@ -55,7 +55,8 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "friction": ("coefficient",),
     "load": ("case", "scale", "body_force"),
     "tractions": (),  # free names → 3-vectors
-    "solver": ("variant", "tol", "rtol", "pc", "start", "max_it", "gamma_scale", "predictor", "accuracy"),
+    "solver": ("variant", "tol", "rtol", "pc", "start", "max_it", "gamma_scale", "predictor", "accuracy",
+               "line_search_steps"),
 }
 
 
@@ -113,6 +114,7 @@ class Scene:
     gamma_scale: float = SolverSettings.gamma_scale
     predictor: bool = False
     accuracy: float | None = None
+    line_search_steps: int = SolverSettings.line_search_steps
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -269,7 +271,8 @@ class Scene:
         """Solver settings of the scene; ``accuracy``, when given, sets rtol (see :func:`rtol_for_accuracy`)."""
         rtol = self.rtol if self.accuracy is None else rtol_for_accuracy(self.accuracy)
         return SolverSettings(variant=self.variant, tol=self.tol, rtol=rtol, pc=self.pc,
-                              max_iterations=self.max_it, gamma_scale=self.gamma_scale)
+                              max_iterations=self.max_it, gamma_scale=self.gamma_scale,
+                              line_search_steps=self.line_search_steps)
 
     def build_body(self, comm: MPI.Comm) -> Body:
         """Create the mesh and boundary tags (collective)."""

@@ -119,8 +119,10 @@ class SolverSettings:
             raise InputError(f"gamma = {self.gamma!r}: must be finite and > 0")
         if not (math.isfinite(self.gamma_scale) and self.gamma_scale > 0.0):
             raise InputError(f"gamma_scale = {self.gamma_scale!r}: must be finite and > 0")
-        if self.gmres_restart < 1 or self.ksp_max_it < 1 or self.line_search_steps < 1:
-            raise InputError("gmres_restart, ksp_max_it and line_search_steps must be >= 1")
+        for name in ("gmres_restart", "ksp_max_it", "line_search_steps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise InputError(f"{name} = {value!r}: must be an integer >= 1")
 
 
 @dataclass

@@ -17,7 +17,7 @@ import pytest
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_DIVERGED, main
 from fenics_coulomb.config import Scene
-from fenics_coulomb.errors import SolverError
+from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model import ContactModel, Material
 from fenics_coulomb.newton import SCDNewtonSolver
 
@@ -114,32 +114,31 @@ def test_touching_everywhere_start():
     model.destroy()
 
 
-def test_line_search_exhausted_exits_3(mpi_tmp_path):
-    """With only the full step allowed and the paper's γ, a full step is soon rejected: the solver stops with
-    the reason and keeps the history; the CLI exits 3 and writes it."""
+def test_line_search_exhausted_exits_3(mpi_tmp_path, capsys):
+    """With only the full step allowed and the paper's γ, a full step is soon rejected: exit 3 naming the line
+    search, with the last iterate and the history written."""
     out = mpi_tmp_path / "ls"
     scene = mpi_tmp_path / "ls.toml"
     if MPI.COMM_WORLD.rank == 0:
-        scene.write_text("[body]\nlev = 2\n[solver]\ngamma_scale = 1.0\n")
+        scene.write_text("[body]\nlev = 2\n[solver]\ngamma_scale = 1.0\nline_search_steps = 1\n")
     MPI.COMM_WORLD.barrier()
-    # line_search_steps is not a scene setting: drive the solver directly, then the CLI with max-it.
-    s = Scene.from_toml(scene)
-    settings = s.settings()
-    settings.line_search_steps = 1
-    comm = MPI.COMM_WORLD
-    model = ContactModel(s.build_body(comm), Material(), s.friction, s.traction_table())
-    solver = SCDNewtonSolver(model, settings)
-    with pytest.raises(SolverError, match="line search") as info:
-        solver.solve(-model.shift.getArray(readonly=True).copy())
-    result = info.value.result
-    assert info.value.reason == "line_search" and not result.converged
-    assert len(result.residual_history) == result.iterations + 1 and f"iteration {result.iterations + 1}" in str(
-        info.value)
-    solver.destroy()
-    model.destroy()
-    assert main(["--scene", str(scene), "--max-it", "1", "--out", str(out), "--quiet", "--no-plots"]) == EXIT_DIVERGED
+    assert main(["--scene", str(scene), "--out", str(out), "--no-plots"]) == EXIT_DIVERGED
     MPI.COMM_WORLD.barrier()
-    assert json.loads((out / "summary.json").read_text())["reason"] == "max_iterations"
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "line_search" and not summary["converged"]
+    assert len(summary["residual_history"]) == summary["newton_iterations"] + 1
+    assert (out / "solution.h5").exists() and (out / "convergence.csv").exists()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "line search found no acceptable step" in capsys.readouterr().err
+
+
+def test_bad_solver_setting_in_scene(mpi_tmp_path):
+    scene = mpi_tmp_path / "bad.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        scene.write_text("[solver]\nline_search_steps = 0\n")
+    MPI.COMM_WORLD.barrier()
+    with pytest.raises(InputError, match="line_search_steps = 0"):
+        Scene.from_toml(scene)
 
 
 def test_non_finite_linear_solve_exits_3(mpi_tmp_path, capsys):
