@@ -52,6 +52,7 @@ def main() -> int:
     parser.add_argument("--levels", type=int, nargs="+", default=[6, 8])
     parser.add_argument("--case", default="d3/L2")
     parser.add_argument("--pc", nargs="+", default=["gamg", "ilu"])
+    parser.add_argument("--adaptive-tol", action="store_true", help="Eisenstat-Walker forcing terms")
     parser.add_argument("--out", default="docs/ratio")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
@@ -62,8 +63,9 @@ def main() -> int:
         for pc in args.pc:
             comm.barrier()
             model, t_model = build(comm, lev, gap, load)
-            result, t_solve = solve(model, SolverSettings(rtol=1e-12, pc=pc))
-            row = {"lev": lev, "n": model.n, "pc": pc, "newton": result.iterations,
+            result, t_solve = solve(model, SolverSettings(rtol=1e-12, pc=pc, adaptive_tol=args.adaptive_tol))
+            label = pc + (" + EW" if args.adaptive_tol else "")
+            row = {"lev": lev, "n": model.n, "pc": label, "newton": result.iterations,
                    "krylov": result.krylov_iterations, "contact_s": t_model + t_solve,
                    "assembly_s": t_model, "linear_elastic_s": t_lin, "cg_its": its_lin,
                    "ratio": (t_model + t_solve) / t_lin, "converged": result.converged,

@@ -63,11 +63,13 @@ def main() -> int:
     parser.add_argument("--pc", default="ilu")
     parser.add_argument("--variant", default="4a")
     parser.add_argument("--gamma-scale", type=float, default=SolverSettings.gamma_scale)
+    parser.add_argument("--adaptive-tol", action="store_true", help="Eisenstat-Walker forcing terms")
     parser.add_argument("--out", default="docs/table2")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     logging.basicConfig(level=logging.WARNING)
-    settings = SolverSettings(rtol=1e-12, tol=args.tol, pc=args.pc, variant=args.variant, gamma_scale=args.gamma_scale)
+    settings = SolverSettings(rtol=1e-12, tol=args.tol, pc=args.pc, variant=args.variant, gamma_scale=args.gamma_scale,
+                              adaptive_tol=args.adaptive_tol)
     rows = []
     for lev in args.levels:
         for gap, load in CASES:

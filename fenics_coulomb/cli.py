@@ -56,6 +56,8 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     p.add_argument("--accuracy", type=float,
                    help="relative displacement error to reach instead of --rtol (e.g. 1e-6); "
                    "mapped to rtol by the measured speed-accuracy table (docs/tradeoff)")
+    p.add_argument("--adaptive-tol", action="store_const", const=True, default=None,
+                   help="Eisenstat-Walker forcing: tighten --tol as the residual falls (fewer Newton steps)")
     p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.max_it})")
     p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.pc})")
     p.add_argument("--gamma-scale", type=float,
@@ -92,7 +94,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
         max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
-        accuracy=args.accuracy,
+        accuracy=args.accuracy, adaptive_tol=args.adaptive_tol,
     )
 
 

@@ -56,7 +56,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "load": ("case", "scale", "body_force"),
     "tractions": (),  # free names → 3-vectors
     "solver": ("variant", "tol", "rtol", "pc", "start", "max_it", "gamma_scale", "predictor", "accuracy",
-               "line_search_steps"),
+               "line_search_steps", "adaptive_tol"),
 }
 
 
@@ -115,6 +115,7 @@ class Scene:
     predictor: bool = False
     accuracy: float | None = None
     line_search_steps: int = SolverSettings.line_search_steps
+    adaptive_tol: bool = False
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -241,6 +242,8 @@ class Scene:
             acc = number("accuracy", self.accuracy)
             if not 1e-13 <= acc < 1.0:
                 raise InputError(f"accuracy = {acc!r}: a relative displacement error in [1e-13, 1)")
+        if not isinstance(self.adaptive_tol, bool):
+            raise InputError(f"adaptive_tol = {self.adaptive_tol!r}: must be true or false")
         if not isinstance(self.predictor, bool):
             raise InputError(f"predictor = {self.predictor!r}: must be true or false")
         self.settings().validate()
@@ -272,7 +275,7 @@ class Scene:
         rtol = self.rtol if self.accuracy is None else rtol_for_accuracy(self.accuracy)
         return SolverSettings(variant=self.variant, tol=self.tol, rtol=rtol, pc=self.pc,
                               max_iterations=self.max_it, gamma_scale=self.gamma_scale,
-                              line_search_steps=self.line_search_steps)
+                              line_search_steps=self.line_search_steps, adaptive_tol=self.adaptive_tol)
 
     def build_body(self, comm: MPI.Comm) -> Body:
         """Create the mesh and boundary tags (collective)."""

@@ -80,6 +80,7 @@ class SolverSettings:
         gmres_restart: GMRES restart length.
         ksp_max_it: Maximal Krylov iterations per Newton step.
         line_search_steps: Number of step lengths tried before the line search fails.
+        adaptive_tol: Eisenstat–Walker forcing: tol_k = min(tol, max(1e-6, 0.9·(‖ŷ⁽ᵏ⁾‖/‖ŷ⁽ᵏ⁻¹⁾‖)²)).
         pc_refresh: gamg only: rebuild the preconditioning matrix when more than this fraction of the contact
             DOFs changed between fixed and free (0 rebuilds on every change).
         prefix: PETSc options prefix of the Newton matrix and its KSP.
@@ -97,6 +98,7 @@ class SolverSettings:
     ksp_max_it: int = 2000
     line_search_steps: int = 20
     pc_refresh: float = 0.02
+    adaptive_tol: bool = False
     prefix: str = "coulomb_"
 
     def validate(self) -> None:
@@ -489,6 +491,7 @@ class SCDNewtonSolver:
         t_start = time.perf_counter()
         self._steps = 0
         self._fixed = None
+        self.ksp.setTolerances(rtol=s.tol)
         shift = model.shift.getArray(readonly=True)
         u = np.array(shift, dtype=np.float64)
         if initial_displacement is not None:
@@ -555,6 +558,10 @@ class SCDNewtonSolver:
                         f"no convergence after {k} Newton iterations: |y|/|y0| = {res / res0:.3e} "
                         f"> rtol = {s.rtol:g}", "max_iterations")
                 sets = classify(v, z, model.friction)
+                if s.adaptive_tol and len(history) > 1:
+                    # Eisenstat–Walker (choice 2): tighten the linear solves as the residual falls fast
+                    ratio = history[-1] / history[-2]
+                    self.ksp.setTolerances(rtol=min(s.tol, max(1e-6, 0.9 * ratio * ratio)))
                 du, its = self._newton_direction(e, v, z, sets)
                 krylov_total += its
 

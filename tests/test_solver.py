@@ -248,3 +248,14 @@ def test_preconditioners_reach_the_same_solution(pc, variant, model_factory):
     comm = MPI.COMM_WORLD
     diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref.displacement) ** 2)))
     assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(ref.displacement**2)))
+
+
+def test_adaptive_tolerance_reaches_the_same_solution(model_factory):
+    """Eisenstat–Walker forcing terms change the path, not the solution, and cut Newton iterations."""
+    model = model_factory(4, "d3", "L2")
+    fixed = solve(model)
+    adaptive = solve(model, adaptive_tol=True)
+    assert adaptive.converged and adaptive.iterations <= fixed.iterations
+    comm = MPI.COMM_WORLD
+    diff = np.sqrt(comm.allreduce(np.sum((adaptive.displacement - fixed.displacement) ** 2)))
+    assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(fixed.displacement**2)))
