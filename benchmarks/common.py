@@ -18,7 +18,7 @@ from fenics_coulomb.errors import SolverError
 from fenics_coulomb.model import ContactModel, Material
 from fenics_coulomb.newton import SCDNewtonSolver, SolveResult, SolverSettings
 from fenics_coulomb.output import software_versions
-from fenics_coulomb.scene import FACE_NAMES, LOAD_CASES, create_cuboid
+from fenics_coulomb.scene import create_cuboid, paper_tractions
 
 CASES = [(g, ld) for g in ("d1", "d2", "d3") for ld in ("L1", "L2")]
 
@@ -40,8 +40,7 @@ def build(comm: MPI.Comm, lev: int, gap: str, load: str, friction: float = 0.23)
     """Assemble a case; return the model and the wall time (max over ranks)."""
     t0 = time.perf_counter()
     body = create_cuboid(comm, lev, gap)
-    names = {tag: name for name, tag in FACE_NAMES.items()}
-    model = ContactModel(body, Material(), friction, {names[t]: v for t, v in LOAD_CASES[load].items()})
+    model = ContactModel(body, Material(), friction, paper_tractions(load))
     return model, comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
 
 

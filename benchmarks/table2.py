@@ -13,46 +13,30 @@ import csv
 import json
 import logging
 import platform
-import resource
 import sys
-import time
 from pathlib import Path
 
 from mpi4py import MPI
 
-from fenics_coulomb.errors import SolverError
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings
+from fenics_coulomb.newton import SolverSettings
 from fenics_coulomb.output import software_versions
-from fenics_coulomb.scene import FACE_NAMES, LOAD_CASES, create_cuboid
 
-CASES = [(g, ld) for g in ("d1", "d2", "d3") for ld in ("L1", "L2")]
+sys.path.insert(0, str(Path(__file__).parent))
+from common import CASES, peak_rss_mib, run_case
 
 
-def run_case(comm: MPI.Comm, lev: int, gap: str, load: str, settings: SolverSettings) -> dict:
+def row_of(comm: MPI.Comm, lev: int, gap: str, load: str, settings: SolverSettings) -> dict:
     """Solve one case; return its row (global numbers, identical on all ranks)."""
-    t0 = time.perf_counter()
-    body = create_cuboid(comm, lev, gap)
-    names = {tag: name for name, tag in FACE_NAMES.items()}
-    tractions = {names[t]: v for t, v in LOAD_CASES[load].items()}
-    model = ContactModel(body, Material(), 0.23, tractions)
-    t_model = time.perf_counter() - t0
-    solver = SCDNewtonSolver(model, settings)
-    try:
-        result = solver.solve(-model.shift.getArray(readonly=True).copy())
-    except SolverError as err:
-        result = err.result
+    run = run_case(comm, lev, gap, load, settings)
+    result = run.result
     counts = result.state_counts(comm)
     row = {
-        "lev": lev, "case": f"{gap}/{load}", "p": model.p, "n": model.n,
+        "lev": lev, "case": f"{gap}/{load}", "p": run.model.p, "n": run.model.n,
         "converged": result.converged, "newton": result.iterations, "krylov": result.krylov_iterations,
-        "solve_s": comm.allreduce(result.timings["total"], op=MPI.MAX),
-        "model_s": comm.allreduce(t_model, op=MPI.MAX),
-        "peak_rss_MiB": comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.SUM) / 1024,
+        "solve_s": run.solve_s, "model_s": run.model_s, "peak_rss_MiB": peak_rss_mib(comm),
         "open": counts["open"], "stick": counts["stick"], "slip": counts["slip"],
     }
-    solver.destroy()
-    model.destroy()
+    run.destroy()
     return row
 
 
@@ -73,7 +57,7 @@ def main() -> int:
     rows = []
     for lev in args.levels:
         for gap, load in CASES:
-            row = run_case(comm, lev, gap, load, settings)
+            row = row_of(comm, lev, gap, load, settings)
             rows.append(row)
             if comm.rank == 0:
                 print(json.dumps(row), flush=True)

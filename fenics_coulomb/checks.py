@@ -34,11 +34,6 @@ def _gmax(comm: MPI.Comm, values: npt.NDArray[np.float64], initial: float = 0.0)
     return float(comm.allreduce(local, op=MPI.MAX))
 
 
-def contact_forces(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """fⁱ = (A ũ − l̃)ⁱ on the owned contact nodes, shape (m, 3); also returns the full residual."""
-    return residual(model, displacement)[model.contact.local_dofs]
-
-
 def residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """A ũ − l̃ on the owned DOFs."""
     x, y = model.A.createVecs()

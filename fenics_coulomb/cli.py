@@ -123,7 +123,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
 
     body = scene.build_body(comm)
     model = ContactModel(body, Material(scene.young, scene.poisson), scene.friction, scene.traction_table(),
-                         body_force=tuple(scene.body_force))
+                         body_force=(scene.body_force[0], scene.body_force[1], scene.body_force[2]))
     t_model = time.perf_counter() - t0
     logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s)", body.description, model.n,
                 model.p, scene.friction, comm.size)
@@ -189,6 +189,20 @@ def initial_displacement(start: str, model: ContactModel) -> np.ndarray | None:
         return -model.shift.getArray(readonly=True).copy()
     from fenics_coulomb.output import read_displacement
 
+    comm = model.V.mesh.comm
+    message = ""
+    if comm.rank == 0:
+        try:
+            import h5py
+
+            with h5py.File(Path(start).with_suffix(".h5"), "r") as h5:
+                shape = h5["Function/displacement/0"].shape
+                if len(shape) != 2 or shape[1] != 3:
+                    message = f"--start {start!r}: 'displacement' is not a 3-vector field (shape {shape})"
+        except (OSError, KeyError) as err:
+            message = f"--start {start!r}: no displacement from an earlier run can be read ({err})"
+    message = comm.bcast(message, root=0)
+    check_all(comm, not message, message)
     return read_displacement(Path(start), model.V)
 
 

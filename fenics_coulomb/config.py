@@ -46,7 +46,7 @@ from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.expression import parse_gap_expression
 from fenics_coulomb.model import Material, validate_friction
 from fenics_coulomb.newton import SolverSettings
-from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, Body, GapFunction, create_cuboid
+from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, Body, GapFunction, create_cuboid, paper_tractions
 
 SECTIONS: dict[str, tuple[str, ...]] = {
     "body": ("shape", "lev", "gap", "mesh", "clamped", "contact", "name"),
@@ -75,10 +75,20 @@ def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mes
     """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, facet tags)."""
     import gmsh
 
+    message = ""
     if comm.rank == 0:
         gmsh.initialize()
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.merge(path)
+        try:
+            gmsh.merge(path)
+            if not gmsh.model.getEntities(3):
+                message = f"mesh file {path!r} holds no volume (3D) entities"
+        except Exception as err:  # gmsh raises plain Exceptions
+            message = f"mesh file {path!r} cannot be read by gmsh: {err}"
+        if message:
+            gmsh.finalize()
+    message = comm.bcast(message, root=0)
+    check_all(comm, not message, message)
     msh, _, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0,
                                                          gdim=3)
     if comm.rank == 0:
@@ -261,14 +271,10 @@ class Scene:
 
     def traction_table(self) -> dict[str, tuple[float, float, float]]:
         """Tractions (GPa) per boundary name, scaled."""
-        if self.tractions is not None:
-            table = {k: tuple(float(c) for c in v) for k, v in self.tractions.items()}
-        elif self.load is not None:
-            names = {tag: name for name, tag in FACE_NAMES.items()}
-            table = {names[tag]: value for tag, value in LOAD_CASES[self.load].items()}
-        else:
-            table = {}
-        return {k: tuple(self.load_scale * c for c in v) for k, v in table.items()}  # type: ignore[misc]
+        if self.tractions is None:
+            return paper_tractions(self.load, self.load_scale) if self.load is not None else {}
+        s = float(self.load_scale)
+        return {k: (s * float(v[0]), s * float(v[1]), s * float(v[2])) for k, v in self.tractions.items()}
 
     def settings(self) -> SolverSettings:
         """Solver settings of the scene; ``accuracy``, when given, sets rtol (see :func:`rtol_for_accuracy`)."""
@@ -285,6 +291,7 @@ class Scene:
             body.dirichlet = list(self.clamped)
             body.contact = list(self.contact)
             return body
+        assert self.mesh is not None  # validate() requires it for shape = "mesh"
         msh, facet_tags = read_gmsh(self.mesh, comm)
         present = np.unique(facet_tags.values)
         present = np.unique(np.concatenate(comm.allgather(present)))

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ast
 import operator
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -29,7 +30,7 @@ CONSTANTS = {"pi": np.pi, "e": np.e}
 VARIABLES = ("x1", "x2")
 BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
           ast.Pow: operator.pow}
-UNARY = {ast.UAdd: operator.pos, ast.USub: operator.neg}
+UNARY: dict[type[ast.unaryop], Callable[[Any], Any]] = {ast.UAdd: operator.pos, ast.USub: operator.neg}
 MAX_LENGTH = 2000
 
 
@@ -66,6 +67,7 @@ def _evaluate(node: ast.AST, env: dict[str, Array | float]) -> Array | float:
     if isinstance(node, ast.Expression):
         return _evaluate(node.body, env)
     if isinstance(node, ast.Constant):
+        assert isinstance(node.value, int | float)  # guaranteed by _check
         return float(node.value)
     if isinstance(node, ast.Name):
         return env[node.id] if node.id in env else CONSTANTS[node.id]
@@ -75,7 +77,9 @@ def _evaluate(node: ast.AST, env: dict[str, Array | float]) -> Array | float:
         return UNARY[type(node.op)](_evaluate(node.operand, env))
     if isinstance(node, ast.Call):
         assert isinstance(node.func, ast.Name)
-        return FUNCTIONS[node.func.id](*(_evaluate(a, env) for a in node.args))
+        function: Callable[..., Array] = FUNCTIONS[node.func.id]
+        args = [_evaluate(a, env) for a in node.args]
+        return function(*args)
     raise InputError(f"{type(node).__name__} is not allowed")  # unreachable after _check
 
 

@@ -100,10 +100,10 @@ def plot_deformed(
     import dolfinx.plot
 
     comm: MPI.Comm = V.mesh.comm  # type: ignore[attr-defined]
-    u = dolfinx.fem.Function(V)  # type: ignore[arg-type]
+    u = dolfinx.fem.Function(V)
     u.x.petsc_vec.array[:] = displacement
     u.x.scatter_forward()
-    topology, cell_types, x = dolfinx.plot.vtk_mesh(V)  # type: ignore[arg-type]
+    topology, cell_types, x = dolfinx.plot.vtk_mesh(V)
     values = u.x.array.reshape(-1, 3)[: x.shape[0]]
     parts = comm.gather((topology, cell_types, x, values), root=0)
     contact = gather_contact(comm, np.hstack([contact_coordinates, contact_displacement]), states)

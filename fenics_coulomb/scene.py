@@ -57,6 +57,14 @@ LOAD_CASES: dict[str, dict[int, tuple[float, float, float]]] = {
 }
 
 
+def paper_tractions(load: str, scale: float = 1.0) -> dict[str, tuple[float, float, float]]:
+    """The tractions (GPa) of a Section 7 load case keyed by boundary name, times ``scale``."""
+    if load not in LOAD_CASES:
+        raise InputError(f"load case {load!r}: choose one of {sorted(LOAD_CASES)}")
+    names = {tag: name for name, tag in FACE_NAMES.items()}
+    return {names[tag]: (scale * v[0], scale * v[1], scale * v[2]) for tag, v in LOAD_CASES[load].items()}
+
+
 def cells_per_direction(lev: int) -> tuple[int, int, int]:
     """Return (n_x1, n_x2, n_x3) = (⌈4·2^(lev/2)⌉, ⌈2·2^(lev/2)⌉, ⌈2·2^(lev/2)⌉)."""
     if isinstance(lev, bool) or not isinstance(lev, int | np.integer) or lev < 0:

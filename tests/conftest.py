@@ -13,7 +13,7 @@ from mpi4py import MPI
 import pytest
 
 from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.scene import FACE_NAMES, LOAD_CASES, create_cuboid
+from fenics_coulomb.scene import create_cuboid, paper_tractions
 
 
 @pytest.fixture(autouse=True)
@@ -34,12 +34,6 @@ def mpi_tmp_path() -> Iterator[Path]:
     comm.barrier()
     if comm.rank == 0:
         shutil.rmtree(path, ignore_errors=True)
-
-
-def paper_tractions(load: str, scale: float = 1.0) -> dict[str, tuple[float, float, float]]:
-    """Tractions of a load case of Section 7 keyed by boundary name."""
-    names = {tag: name for name, tag in FACE_NAMES.items()}
-    return {names[tag]: tuple(scale * c for c in value) for tag, value in LOAD_CASES[load].items()}
 
 
 def make_model(

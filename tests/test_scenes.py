@@ -227,3 +227,26 @@ def test_accuracy_instead_of_rtol(accuracy, model_factory):
 @pytest.mark.parametrize("value", ["0", "1.5", "-1e-3", "nan"])
 def test_bad_accuracy(value, mpi_tmp_path):
     assert main(["--lev", "0", f"--accuracy={value}", "--out", str(mpi_tmp_path)]) == EXIT_INPUT
+
+
+def test_unreadable_mesh_file_is_input_error(mpi_tmp_path, capsys):
+    """A mesh file gmsh cannot read ends every rank with exit 2 (rank 0 reads, the others must not hang)."""
+    mesh = mpi_tmp_path / "garbage.msh"
+    if MPI.COMM_WORLD.rank == 0:
+        mesh.write_text("this is not a gmsh file\n")
+    path = write(mpi_tmp_path, "m.toml", f"[body]\nshape = 'mesh'\nmesh = '{mesh}'\n[boundaries]\nleft = 1\n"
+                 "bottom = 2\n[tractions]\nleft = [0, 0, 0]\n")
+    assert main(["--scene", str(path), "--out", str(mpi_tmp_path / "o"), "--no-plots"]) == EXIT_INPUT
+    if MPI.COMM_WORLD.rank == 0:
+        assert "garbage.msh" in capsys.readouterr().err
+
+
+def test_unreadable_start_file_is_input_error(mpi_tmp_path, capsys):
+    start = mpi_tmp_path / "old.xdmf"
+    if MPI.COMM_WORLD.rank == 0:
+        start.write_text("<Xdmf/>")
+        start.with_suffix(".h5").write_text("not HDF5")
+    MPI.COMM_WORLD.barrier()
+    assert main(["--lev", "1", "--start", str(start), "--out", str(mpi_tmp_path / "o"), "--no-plots"]) == EXIT_INPUT
+    if MPI.COMM_WORLD.rank == 0:
+        assert "--start" in capsys.readouterr().err
