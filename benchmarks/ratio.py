@@ -64,7 +64,7 @@ def main() -> int:
             comm.barrier()
             model, t_model = build(comm, lev, gap, load)
             result, t_solve = solve(model, SolverSettings(rtol=1e-12, pc=pc, adaptive_tol=args.adaptive_tol))
-            label = pc + (" + EW" if args.adaptive_tol else "")
+            label = (pc if pc == result.pc else f"{pc} ({result.pc})") + (" + EW" if args.adaptive_tol else "")
             row = {"lev": lev, "n": model.n, "pc": label, "newton": result.iterations,
                    "krylov": result.krylov_iterations, "contact_s": t_model + t_solve,
                    "assembly_s": t_model, "linear_elastic_s": t_lin, "cg_its": its_lin,

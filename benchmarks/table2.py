@@ -31,7 +31,7 @@ def row_of(comm: MPI.Comm, lev: int, gap: str, load: str, settings: SolverSettin
     result = run.result
     counts = result.state_counts(comm)
     row = {
-        "lev": lev, "case": f"{gap}/{load}", "p": run.model.p, "n": run.model.n,
+        "lev": lev, "case": f"{gap}/{load}", "p": run.model.p, "n": run.model.n, "pc": result.pc,
         "converged": result.converged, "newton": result.iterations, "krylov": result.krylov_iterations,
         "solve_s": run.solve_s, "model_s": run.model_s, "peak_rss_MiB": peak_rss_mib(comm),
         "open": counts["open"], "stick": counts["stick"], "slip": counts["slip"],
@@ -44,7 +44,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", type=int, nargs="+", default=[2, 3, 4, 5, 6])
     parser.add_argument("--tol", type=float, default=0.1)
-    parser.add_argument("--pc", default="ilu")
+    parser.add_argument("--pc", default=SolverSettings.pc)
     parser.add_argument("--variant", default="4a")
     parser.add_argument("--gamma-scale", type=float, default=SolverSettings.gamma_scale)
     parser.add_argument("--adaptive-tol", action="store_true", help="Eisenstat-Walker forcing terms")
@@ -76,13 +76,13 @@ def main() -> int:
             f"Machine: {platform.machine()} {platform.processor() or ''}, {comm.size} MPI rank(s); "
             f"versions: {json.dumps(software_versions())}",
             "",
-            "| lev | case | p | n | Newton | Krylov | solve (s) | peak RSS (MiB) | open/stick/slip |",
-            "|---:|:---|---:|---:|---:|---:|---:|---:|:---|",
+            "| lev | case | p | n | pc | Newton | Krylov | solve (s) | peak RSS (MiB) | open/stick/slip |",
+            "|---:|:---|---:|---:|:---|---:|---:|---:|---:|:---|",
         ]
         for r in rows:
             flag = "" if r["converged"] else " (not converged)"
             lines.append(
-                f"| {r['lev']} | {r['case']} | {r['p']} | {r['n']} | {r['newton']}{flag} | {r['krylov']} | "
+                f"| {r['lev']} | {r['case']} | {r['p']} | {r['n']} | {r['pc']} | {r['newton']}{flag} | {r['krylov']} | "
                 f"{r['solve_s']:.2f} | {r['peak_rss_MiB']:.0f} | {r['open']}/{r['stick']}/{r['slip']} |"
             )
         (out / "table2.md").write_text("\n".join(lines) + "\n")

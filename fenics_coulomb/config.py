@@ -24,7 +24,7 @@ Precedence: built-in defaults < scene file < command-line flags. Example (``demo
     variant = "4a"
     tol = 0.1
     rtol = 1e-12            # the paper's reduction (default 1e-8)
-    pc = "ilu"
+    pc = "auto"              # ilu below 50 000 unknowns, gamg above
     start = "zero"
 """
 
@@ -118,7 +118,7 @@ class Scene:
     variant: str = "4a"
     tol: float = 0.1
     rtol: float = SolverSettings.rtol
-    pc: str = "ilu"
+    pc: str = SolverSettings.pc
     start: str = "zero"
     max_it: int = 100
     gamma_scale: float = SolverSettings.gamma_scale

@@ -55,7 +55,15 @@ Array = npt.NDArray[np.float64]
 #: The reduction is measured relative to min(‖ŷ⁽⁰⁾‖, LOAD_GUARD·‖ŷ(ũ = 0)‖).
 LOAD_GUARD = 100.0
 
-PRECONDITIONERS = ("ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
+PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
+#: pc = "auto" takes GAMG from this many unknowns on and ILU (the paper's) below (docs/ratio, docs/table2:
+#: ILU is the faster up to lev 6 (27 744 unknowns), GAMG from lev 7 (79 488) on, and its Krylov count
+#: stays level-independent where ILU's grows).
+AUTO_GAMG_UNKNOWNS = 50_000
+#: GAMG's level smoother (Chebyshev) sweeps unless -<prefix>mg_levels_ksp_max_it says otherwise: one sweep
+#: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
+#: against 105 s).
+GAMG_SMOOTHER_SWEEPS = 1
 VARIANTS = ("4a", "4b")
 
 
@@ -71,8 +79,11 @@ class SolverSettings:
             (≤ 8e-7 for every measured tol and pc), every contact state right, 13–41 % faster than 1e-12,
             and far below the discretization error (3.5e-3 at lev 6).
         max_iterations: Newton iterations before giving up.
-        pc: Preconditioner: ilu (block-Jacobi/ILU in parallel), gamg (contact-aware), gamg-newton, hypre, lu,
-            jacobi, none.
+        pc: Preconditioner: auto (ilu below AUTO_GAMG_UNKNOWNS unknowns, gamg from there on), ilu
+            (block-Jacobi/ILU(0) in parallel, the paper's), gamg (smoothed aggregation on the stiffness matrix A
+            with the rigid-body near-nullspace, set up once per solver and reused by every Newton step),
+            gamg-newton (smoothed aggregation on the Newton matrix, set up every step), hypre, lu, jacobi,
+            none.
         power_iterations: Power-method iterations on A for γ (paper: 5).
         gamma: Fixed γ instead of the power-method estimate.
         gamma_scale: Factor on the power-method estimate of λ_max(A). The paper uses γ ≈ λ_max(A)
@@ -83,8 +94,6 @@ class SolverSettings:
         ksp_max_it: Maximal Krylov iterations per Newton step.
         line_search_steps: Number of step lengths tried before the line search fails.
         adaptive_tol: Eisenstat–Walker forcing: tol_k = min(tol, max(1e-6, 0.9·(‖ŷ⁽ᵏ⁾‖/‖ŷ⁽ᵏ⁻¹⁾‖)²)).
-        pc_refresh: gamg only: rebuild the preconditioning matrix when more than this fraction of the contact
-            DOFs changed between fixed and free (0 rebuilds on every change).
         prefix: PETSc options prefix of the Newton matrix and its KSP.
     """
 
@@ -92,14 +101,13 @@ class SolverSettings:
     tol: float = 0.1
     rtol: float = 1e-8
     max_iterations: int = 100
-    pc: str = "ilu"
+    pc: str = "auto"
     power_iterations: int = 5
     gamma: float | None = None
     gamma_scale: float = 0.01
     gmres_restart: int = 100
     ksp_max_it: int = 2000
     line_search_steps: int = 20
-    pc_refresh: float = 0.02
     adaptive_tol: bool = False
     prefix: str = "coulomb_"
 
@@ -162,6 +170,7 @@ class SolveResult:
         gap: Final gap u3 per owned contact node (from the approximation step, d̂3 >= 0).
         gamma: γ used in the approximation step.
         timings: Wall time per phase in seconds (this rank).
+        pc: The preconditioner used (``auto`` resolved).
     """
 
     u: Array
@@ -179,6 +188,7 @@ class SolveResult:
     gap: Array
     gamma: float
     timings: dict[str, float] = field(default_factory=dict)
+    pc: str = ""
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes."""
@@ -312,14 +322,11 @@ class SCDNewtonSolver:
         self.rows = ContactRows(A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
         self._nullspace: PETSc.NullSpace | None = None
+        self._options_set: list[str] = []
         self._steps = 0
-        # contact-aware AMG: a separate SPD preconditioning matrix (see _update_preconditioner)
-        self.P: PETSc.Mat | None = None
-        self._fixed: npt.NDArray[np.bool_] | None = None
-        self.preconditioner_updates = 0
-        if settings.pc == "gamg":
-            self.P = A.duplicate(copy=True)
-            self.P.setOptionsPrefix(settings.prefix + "P_")
+        n_global = A.getSize()[0]
+        #: The preconditioner in use ("auto" resolved by the global number of unknowns).
+        self.pc = settings.pc if settings.pc != "auto" else ("gamg" if n_global >= AUTO_GAMG_UNKNOWNS else "ilu")
         self.ksp = self._create_ksp()
         # work vectors
         self._u, self._r = A.createVecs()
@@ -331,7 +338,9 @@ class SCDNewtonSolver:
         s = self.settings
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(s.prefix)
-        ksp.setOperators(self.M, self.P if self.P is not None else self.M)
+        # gamg preconditions with the stiffness matrix A, which never changes: PETSc sets the AMG hierarchy up
+        # at the first solve and reuses it for every Newton matrix (only contact rows differ from A).
+        ksp.setOperators(self.M, self.model.A if self.pc == "gamg" else self.M)
         ksp.setType(PETSc.KSP.Type.GMRES)
         ksp.setGMRESRestart(s.gmres_restart)
         ksp.setPCSide(PETSc.PC.Side.RIGHT)
@@ -339,24 +348,28 @@ class SCDNewtonSolver:
         ksp.setTolerances(rtol=s.tol, atol=0.0, max_it=s.ksp_max_it)
         pc = ksp.getPC()
         parallel = self.comm.size > 1
-        if s.pc == "ilu":
+        if self.pc == "ilu":
             pc.setType("bjacobi" if parallel else "ilu")
-        elif s.pc == "lu":
+        elif self.pc == "lu":
             pc.setType("lu")
             if parallel:
                 pc.setFactorSolverType("mumps")
-        elif s.pc in ("gamg", "gamg-newton"):
-            # gamg: smoothed aggregation on the SPD matrix P = A with the DOFs that the Newton step fixes
-            # (sticking nodes, normal DOFs of sliding nodes) treated like Dirichlet rows and columns.
-            # gamg-newton: smoothed aggregation on the (nonsymmetric) Newton matrix itself.
+        elif self.pc in ("gamg", "gamg-newton"):
+            # Smoothed aggregation with the rigid-body near-nullspace, on A (gamg) or on the Newton matrix
+            # itself (gamg-newton, a new hierarchy every step).
             pc.setType("gamg")
             self._nullspace = rigid_body_modes(self.model.V)
-            (self.P if self.P is not None else self.M).setNearNullSpace(self._nullspace)
-        elif s.pc == "hypre":
+            (self.model.A if self.pc == "gamg" else self.M).setNearNullSpace(self._nullspace)
+            opts = PETSc.Options()
+            key = f"{s.prefix}mg_levels_ksp_max_it"
+            if not opts.hasName(key):
+                opts.setValue(key, GAMG_SMOOTHER_SWEEPS)
+                self._options_set.append(key)
+        elif self.pc == "hypre":
             pc.setType("hypre")
             pc.setHYPREType("boomeramg")
         else:
-            pc.setType(s.pc)
+            pc.setType(self.pc)
         ksp.setFromOptions()
         return ksp
 
@@ -380,33 +393,6 @@ class SCDNewtonSolver:
         total = self.comm.allreduce(local, op=MPI.SUM)
         return int(total[0]), int(total[1]), int(total[2])
 
-    def _update_preconditioner(self, left: Array) -> None:
-        """Refresh P = A with the fixed DOFs' rows and columns replaced by the Dirichlet diagonal.
-
-        A contact row is fixed when its stiffness part vanishes (row of Bⁱ = 0: all rows of a sticking node,
-        the normal row of a sliding one); the Newton step prescribes such a DOF directly, so for the
-        preconditioner it is a Dirichlet DOF and P stays symmetric positive definite, the case AMG with the
-        rigid-body near-nullspace is made for.
-        """
-        if self.P is None:
-            return
-        fixed = ~np.any(left != 0.0, axis=2)  # (m, 3)
-        # P depends only on the fixed set. It is rebuilt (with its AMG hierarchy) only when more than
-        # `pc_refresh` of the contact DOFs changed between fixed and free since it was built: a slightly stale P
-        # is still a good preconditioner, and an AMG setup costs several Krylov iterations.
-        changed = self.comm.allreduce(
-            int(fixed.size if self._fixed is None else np.sum(fixed != self._fixed)), op=MPI.SUM)
-        total = max(self.comm.allreduce(int(fixed.size), op=MPI.SUM), 1)
-        same = self._fixed is not None and changed <= self.settings.pc_refresh * total
-        self.ksp.getPC().setReusePreconditioner(same)
-        if same:
-            return
-        self._fixed = fixed
-        rows = np.ascontiguousarray(self.rows.rows.reshape(-1, 3)[fixed], dtype=PETSc.IntType)
-        self.model.A.copy(self.P, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.P.zeroRowsColumns(rows, diag=self.model.dirichlet_diagonal)
-        self.preconditioner_updates += 1
-
     # -- the Newton step ---------------------------------------------------------------------------
     def _newton_direction(
         self, e: Array, v: Array, z: Array, sets: npt.NDArray[np.int8]
@@ -424,7 +410,6 @@ class SCDNewtonSolver:
             W, U = sstar_blocks(v, z / gamma, sets, F)
             left, right = np.swapaxes(W, 1, 2), gamma * np.swapaxes(U, 1, 2)
             self.rows.update(self.M, left, right)
-            self._update_preconditioner(left)
             b = -gamma * e
             b[cd] = -gamma * (np.einsum("iab,ib->ia", left, e[cd]) + np.einsum("iab,ib->ia", right, e[cd]) / gamma)
             self._b.array[:] = b
@@ -432,7 +417,6 @@ class SCDNewtonSolver:
             X, Y = s_blocks(v, z / gamma, sets, F)
             left, right = np.swapaxes(X, 1, 2), gamma * np.swapaxes(Y, 1, 2)
             self.rows.update(self.M, left, right)
-            self._update_preconditioner(left)
             # (A X + Y) p = A ŷ₂ − ŷ₁ with ŷ₂ = e, ŷ₁ = γ e. Near the solution Δu = X p − e is much
             # smaller than p ≈ e, so an inexact p would swamp Δu: solve for q = p − e instead, with
             # (A X + Y) q = A e − γ e − (A X + Y) e, whose size is that of Δu (and tol then means the
@@ -466,7 +450,7 @@ class SCDNewtonSolver:
         if (reason < 0 and reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT) or not finite:
             names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
             hint = ""
-            if reason == PETSc.KSP.ConvergedReason.DIVERGED_BREAKDOWN and self.settings.pc == "ilu":
+            if reason == PETSc.KSP.ConvergedReason.DIVERGED_BREAKDOWN and self.pc == "ilu":
                 hint = ("; ILU-preconditioned GMRES stagnated, as it does for nearly incompressible materials "
                         "(nu -> 0.5): use --pc gamg or --pc lu")
             raise SolverError(
@@ -492,7 +476,6 @@ class SCDNewtonSolver:
         A = model.A
         t_start = time.perf_counter()
         self._steps = 0
-        self._fixed = None
         self.ksp.setTolerances(rtol=s.tol)
         shift = model.shift.getArray(readonly=True)
         u = np.array(shift, dtype=np.float64)
@@ -525,7 +508,7 @@ class SCDNewtonSolver:
         k = 0
         if self.comm.rank == 0:
             logger.info("SCD semismooth* Newton (%s, tol=%g, pc=%s, gamma=%.4g): |y0| = %.3e",
-                        s.variant, s.tol, s.pc, self.gamma, res0)
+                        s.variant, s.tol, self.pc, self.gamma, res0)
 
         def result(conv: bool, why: str) -> SolveResult:
             sets = classify(v, z, model.friction)
@@ -545,6 +528,7 @@ class SCDNewtonSolver:
                 tangential_force=-z[:, :2].copy(),
                 gap=v[:, 2].copy(),
                 gamma=self.gamma,
+                pc=self.pc,
                 timings=dict(self.timings),
             )
 
@@ -634,6 +618,7 @@ class SCDNewtonSolver:
             residual_history=[res0, res], records=[IterationRecord(1, res, 1.0, its, 0, 0, 0)], sets=sets,
             states=contact_states(sets, model.friction), normal_force=-z[:, 2].copy(),
             tangential_force=-z[:, :2].copy(), gap=v[:, 2].copy(), gamma=self.gamma, timings=dict(self.timings),
+            pc=self.pc,
         )
 
     def is_separated(self, result: SolveResult) -> bool:
@@ -645,7 +630,9 @@ class SCDNewtonSolver:
         """Destroy the PETSc objects (collective)."""
         for obj in (self.ksp, self.M, self._u, self._r, self._b, self._du, self._Adu, self._w):
             obj.destroy()
-        if self.P is not None:
-            self.P.destroy()
         if self._nullspace is not None:
             self._nullspace.destroy()
+        opts = PETSc.Options()
+        for key in self._options_set:
+            opts.delValue(key)
+        self._options_set = []

@@ -166,6 +166,7 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
         "wall_time_s": timings.get("total", 0.0),
         "state_counts": result.state_counts(comm),
         "gamma": result.gamma,
+        "preconditioner": result.pc,
         "timings_s": timings,
         "ranks": comm.size,
         "versions": software_versions(),

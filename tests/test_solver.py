@@ -250,6 +250,51 @@ def test_preconditioners_reach_the_same_solution(pc, variant, model_factory):
     assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(ref.displacement**2)))
 
 
+@pytest.mark.parametrize("threshold, expected", [(10**9, "ilu"), (0, "gamg")])
+def test_auto_preconditioner_follows_the_problem_size(threshold, expected, model_factory, monkeypatch):
+    """pc = auto takes ILU below AUTO_GAMG_UNKNOWNS unknowns and GAMG from there on, and says so."""
+    import fenics_coulomb.newton as newton
+
+    monkeypatch.setattr(newton, "AUTO_GAMG_UNKNOWNS", threshold)
+    model = model_factory(2, "d3", "L1")
+    solver = SCDNewtonSolver(model, SolverSettings(pc="auto"))
+    try:
+        assert solver.pc == expected
+        parallel = MPI.COMM_WORLD.size > 1
+        assert solver.ksp.getPC().getType() == {"ilu": "bjacobi" if parallel else "ilu", "gamg": "gamg"}[expected]
+    finally:
+        solver.destroy()
+
+
+def test_gamg_is_set_up_once_on_the_stiffness_matrix(model_factory):
+    """gamg preconditions every Newton matrix with one hierarchy built on A, with one Chebyshev sweep per
+    level unless the user asks otherwise, and leaves no option of its own behind."""
+    model = model_factory(3, "d3", "L2")
+    opts = PETSc.Options()
+    solver = SCDNewtonSolver(model, SolverSettings(pc="gamg", rtol=1e-10))
+    try:
+        _, P = solver.ksp.getOperators()
+        assert P.handle == model.A.handle
+        PETSc.Log.begin()
+        setups = PETSc.Log.Event("PCSetUp").getPerfInfo()["count"]
+        result = solver.solve(-model.shift.getArray(readonly=True).copy())
+        assert result.converged and result.iterations >= 3
+        assert PETSc.Log.Event("PCSetUp").getPerfInfo()["count"] - setups == 1
+        assert P.getNearNullSpace().handle != 0
+        assert solver.ksp.getPC().getMGSmoother(1).getTolerances()[3] == 1
+    finally:
+        solver.destroy()
+    assert not opts.hasName("coulomb_mg_levels_ksp_max_it")
+    opts["coulomb_mg_levels_ksp_max_it"] = 3
+    solver = SCDNewtonSolver(model, SolverSettings(pc="gamg"))
+    try:
+        solver.solve(-model.shift.getArray(readonly=True).copy())
+        assert solver.ksp.getPC().getMGSmoother(1).getTolerances()[3] == 3
+    finally:
+        solver.destroy()
+        del opts["coulomb_mg_levels_ksp_max_it"]
+
+
 def test_adaptive_tolerance_reaches_the_same_solution(model_factory):
     """Eisenstat–Walker forcing terms change the path, not the solution, and cut Newton iterations."""
     model = model_factory(4, "d3", "L2")
