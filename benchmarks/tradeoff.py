@@ -1,6 +1,9 @@
 """The speed–accuracy trade: wall time against the error for the stopping reduction rtol, the GMRES
 tolerance tol, the preconditioner and the mesh level.
 
+Each setting is run with the fixed GMRES tolerance tol (the paper's forcing) and with the safeguarded
+Eisenstat–Walker terms capped by tol (``forcing`` column).
+
 Errors of a run on level L, case d3/L2:
 * ``solve_error``: ‖ũ − ũ_ref‖/‖ũ_ref‖ against a tightly solved reference on the same mesh
   (rtol 1e-14, tol 1e-3, LU where it fits);
@@ -37,6 +40,8 @@ def main() -> int:
     parser.add_argument("--rtols", type=float, nargs="+", default=[1e-4, 1e-6, 1e-8, 1e-10, 1e-12])
     parser.add_argument("--tols", type=float, nargs="+", default=[0.5, 0.1, 0.01])
     parser.add_argument("--pcs", nargs="+", default=["ilu", "gamg"])
+    parser.add_argument("--forcing", nargs="+", choices=["fixed", "ew"], default=["fixed", "ew"],
+                        help="fixed GMRES tolerance tol (the paper's) and/or Eisenstat-Walker terms <= tol")
     parser.add_argument("--out", default="docs/tradeoff")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
@@ -54,18 +59,21 @@ def main() -> int:
         on_fine = interpolate_displacement(displacement_function(model.V, ref.displacement), fine_model.V)
         disc = norm(comm, on_fine - fine.displacement) / fine_norm
         for pc in args.pcs:
-            for tol in args.tols:
-                for rtol in args.rtols:
-                    result, t = solve(model, SolverSettings(rtol=rtol, tol=tol, pc=pc))
-                    wrong = comm.allreduce(int(np.sum(result.states != ref.states)), op=MPI.SUM)
-                    rows.append({
-                        "lev": lev, "n": model.n, "pc": pc, "tol": tol, "rtol": rtol, "converged": result.converged,
-                        "newton": result.iterations, "krylov": result.krylov_iterations, "time_s": t,
-                        "solve_error": norm(comm, result.displacement - ref.displacement) / ref_norm,
-                        "wrong_state_pct": 100.0 * wrong / model.p, "discretization_error": disc,
-                    })
-                    if comm.rank == 0:
-                        print(rows[-1], flush=True)
+            for forcing in args.forcing:
+                for tol in args.tols:
+                    for rtol in args.rtols:
+                        settings = SolverSettings(rtol=rtol, tol=tol, pc=pc, adaptive_tol=forcing == "ew")
+                        result, t = solve(model, settings)
+                        wrong = comm.allreduce(int(np.sum(result.states != ref.states)), op=MPI.SUM)
+                        rows.append({
+                            "lev": lev, "n": model.n, "pc": pc, "forcing": forcing, "tol": tol, "rtol": rtol,
+                            "converged": result.converged, "newton": result.iterations,
+                            "krylov": result.krylov_iterations, "time_s": t,
+                            "solve_error": norm(comm, result.displacement - ref.displacement) / ref_norm,
+                            "wrong_state_pct": 100.0 * wrong / model.p, "discretization_error": disc,
+                        })
+                        if comm.rank == 0:
+                            print(rows[-1], flush=True)
         model.destroy()
     fine_model.destroy()
     out = Path(args.out)
@@ -80,10 +88,12 @@ def main() -> int:
         fig, axes = plt.subplots(1, len(args.levels), figsize=(6 * len(args.levels), 4.5), squeeze=False)
         for ax, lev in zip(axes[0], args.levels, strict=True):
             for pc, marker in zip(args.pcs, "os^", strict=False):
-                for tol in args.tols:
-                    sel = [r for r in rows if r["lev"] == lev and r["pc"] == pc and r["tol"] == tol]
-                    ax.loglog([r["time_s"] for r in sel], [max(r["solve_error"], 1e-16) for r in sel],
-                              marker=marker, label=f"{pc}, tol {tol:g}")
+                for forcing, style in zip(args.forcing, ("-", "--"), strict=False):
+                    for tol in args.tols:
+                        sel = [r for r in rows if r["lev"] == lev and r["pc"] == pc and r["tol"] == tol
+                               and r["forcing"] == forcing]
+                        ax.loglog([r["time_s"] for r in sel], [max(r["solve_error"], 1e-16) for r in sel],
+                                  marker=marker, ls=style, label=f"{pc}, tol {tol:g}, {forcing}")
             disc = next(r["discretization_error"] for r in rows if r["lev"] == lev)
             ax.axhline(disc, color="k", ls="--", lw=1, label="discretization error")
             ax.set_xlabel("wall time (s)")

@@ -56,8 +56,10 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     p.add_argument("--accuracy", type=float,
                    help="relative displacement error to reach instead of --rtol (e.g. 1e-6); "
                    "mapped to rtol by the measured speed-accuracy table (docs/tradeoff)")
-    p.add_argument("--adaptive-tol", action="store_const", const=True, default=None,
-                   help="Eisenstat-Walker forcing: tighten --tol as the residual falls (fewer Newton steps)")
+    p.add_argument("--adaptive-tol", action=argparse.BooleanOptionalAction, default=None,
+                   help="safeguarded Eisenstat-Walker forcing terms <= --tol (superlinear tail, fewer Newton "
+                   f"steps); --no-adaptive-tol keeps every GMRES solve at --tol, as the paper (default "
+                   f"{'on' if d.adaptive_tol else 'off'})")
     p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.max_it})")
     p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.pc})")
     p.add_argument("--gamma-scale", type=float,

@@ -93,7 +93,8 @@ class SolverSettings:
         gmres_restart: GMRES restart length.
         ksp_max_it: Maximal Krylov iterations per Newton step.
         line_search_steps: Number of step lengths tried before the line search fails.
-        adaptive_tol: Eisenstat–Walker forcing: tol_k = min(tol, max(1e-6, 0.9·(‖ŷ⁽ᵏ⁾‖/‖ŷ⁽ᵏ⁻¹⁾‖)²)).
+        adaptive_tol: Safeguarded Eisenstat–Walker forcing terms η_k <= tol (:func:`forcing_term`) instead
+            of the fixed tol.
         prefix: PETSc options prefix of the Newton matrix and its KSP.
     """
 
@@ -139,7 +140,8 @@ class SolverSettings:
 
 @dataclass
 class IterationRecord:
-    """One Newton iteration: residual after it, step length, Krylov iterations, contact states."""
+    """One Newton iteration: residual after it, step length, Krylov iterations, contact states, the
+    forcing term η of its linear solve and the relative unpreconditioned residual the solve reached."""
 
     iteration: int
     residual: float
@@ -148,6 +150,8 @@ class IterationRecord:
     open: int
     stick: int
     slip: int
+    forcing: float = math.nan
+    linear_residual: float = math.nan
 
 
 @dataclass
@@ -202,6 +206,37 @@ def line_search_steps(count: int) -> Iterator[float]:
     head = (1.0, 0.5, 0.25, 0.125, 1.0 / 32.0, 1.0 / 128.0)
     for i in range(count):
         yield head[i] if i < len(head) else (1.0 / 128.0) * 0.1 ** (i - len(head) + 1)
+
+
+def forcing_term(tol: float, history: list[float], eta_prev: float, target: float) -> float:
+    r"""Safeguarded Eisenstat–Walker forcing term (choice 2, as in Kelley 1995, (6.18)–(6.20)).
+
+    With the residual norms ‖ŷ⁽ᵏ⁾‖ in ``history`` (last = current) and the previous forcing term η₋:
+
+        ηᴬ = 0.9·(‖ŷ⁽ᵏ⁾‖/‖ŷ⁽ᵏ⁻¹⁾‖)²,
+        ηᴮ = min(tol, ηᴬ)                      if 0.9·η₋² <= 0.1,
+             min(tol, max(ηᴬ, 0.9·η₋²))        otherwise (no sudden drop after one lucky step),
+        η  = min(tol, max(ηᴮ, 0.5·target/‖ŷ⁽ᵏ⁾‖))   (no over-solving in the last step).
+
+    The first step (one residual) takes ``tol``. ``tol`` is thus the largest forcing term: while the
+    method localizes the contact states (residual ratios near 1) the solves are those of the fixed rule;
+    once the residual falls fast they tighten, and the Newton method turns superlinear instead of
+    converging linearly at the rate ``tol``.
+
+    Args:
+        tol: Largest forcing term (the fixed rule's tolerance).
+        history: Residual norms so far.
+        eta_prev: Forcing term of the previous step.
+        target: The residual norm that ends the iteration.
+    """
+    if len(history) < 2 or history[-2] <= 0.0:
+        return tol
+    gamma = 0.9
+    eta_a = gamma * (history[-1] / history[-2]) ** 2
+    safeguard = gamma * eta_prev**2
+    eta_b = min(tol, eta_a) if safeguard <= 0.1 else min(tol, max(eta_a, safeguard))
+    guard = 0.5 * target / history[-1] if history[-1] > 0.0 else tol
+    return float(min(tol, max(eta_b, guard)))
 
 
 def power_iteration(A: PETSc.Mat, iterations: int) -> float:
@@ -396,8 +431,8 @@ class SCDNewtonSolver:
     # -- the Newton step ---------------------------------------------------------------------------
     def _newton_direction(
         self, e: Array, v: Array, z: Array, sets: npt.NDArray[np.int8]
-    ) -> tuple[Array, int]:
-        """Solve for Δu by variant 4a or 4b; return (Δu on owned DOFs, Krylov iterations)."""
+    ) -> tuple[Array, int, float]:
+        """Solve for Δu by variant 4a or 4b; return (Δu on owned DOFs, Krylov iterations, relative residual)."""
         F = self.model.friction
         gamma = self.gamma
         cd = self.cdofs
@@ -441,6 +476,9 @@ class SCDNewtonSolver:
         self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
         its = int(self.ksp.getIterationNumber())
         reason = int(self.ksp.getConvergedReason())
+        b_norm = self._b.norm()
+        # GMRES with right preconditioning monitors the true (unpreconditioned) residual norm
+        linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
         du = self._du.getArray(readonly=True).copy()
         if self.settings.variant == "4b":
             p = du + e
@@ -462,7 +500,7 @@ class SCDNewtonSolver:
             logger.warning("KSP reached %d iterations without tol=%g; using the inexact direction",
                            its, self.settings.tol)
         self._steps += 1
-        return du, its
+        return du, its, linear_residual
 
     # -- the driver --------------------------------------------------------------------------------
     def solve(self, initial_displacement: Array | None = None) -> SolveResult:
@@ -503,6 +541,7 @@ class SCDNewtonSolver:
         history = [res]
         records: list[IterationRecord] = []
         krylov_total = 0
+        eta = s.tol
         reason = "max_iterations"
         converged = False
         k = 0
@@ -544,11 +583,10 @@ class SCDNewtonSolver:
                         f"no convergence after {k} Newton iterations: |y|/|y0| = {res / res0:.3e} "
                         f"> rtol = {s.rtol:g}", "max_iterations")
                 sets = classify(v, z, model.friction)
-                if s.adaptive_tol and len(history) > 1:
-                    # Eisenstat–Walker (choice 2): tighten the linear solves as the residual falls fast
-                    ratio = history[-1] / history[-2]
-                    self.ksp.setTolerances(rtol=min(s.tol, max(1e-6, 0.9 * ratio * ratio)))
-                du, its = self._newton_direction(e, v, z, sets)
+                if s.adaptive_tol:
+                    eta = forcing_term(s.tol, history, eta, max(target, floor))
+                    self.ksp.setTolerances(rtol=eta)
+                du, its, linear_residual = self._newton_direction(e, v, z, sets)
                 krylov_total += its
 
                 t0 = time.perf_counter()
@@ -577,7 +615,8 @@ class SCDNewtonSolver:
                 history.append(res)
                 n_open, n_stick, n_slip = self._counts(contact_states(classify(v, z, model.friction),
                                                                       model.friction))
-                records.append(IterationRecord(k, res, alpha, its, n_open, n_stick, n_slip))
+                records.append(IterationRecord(k, res, alpha, its, n_open, n_stick, n_slip,
+                                               float(self.ksp.getTolerances()[0]), linear_residual))
                 if self.comm.rank == 0:
                     logger.info("it %3d  |y|/|y0| = %.3e  step %.4g  krylov %4d  open/stick/slip %d/%d/%d",
                                 k, res / res0, alpha, its, n_open, n_stick, n_slip)
@@ -600,6 +639,8 @@ class SCDNewtonSolver:
         self.ksp.setTolerances(rtol=tol[0])
         its = int(self.ksp.getIterationNumber())
         reason = int(self.ksp.getConvergedReason())
+        b_norm = model.load.norm()
+        linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
         self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
         displacement = self._du.getArray(readonly=True).copy()
         u = displacement + model.shift.getArray(readonly=True)
@@ -615,7 +656,8 @@ class SCDNewtonSolver:
         return SolveResult(
             u=u, displacement=displacement, converged=converged,
             reason="converged" if converged else f"ksp_reason_{reason}", iterations=1, krylov_iterations=its,
-            residual_history=[res0, res], records=[IterationRecord(1, res, 1.0, its, 0, 0, 0)], sets=sets,
+            residual_history=[res0, res],
+            records=[IterationRecord(1, res, 1.0, its, 0, 0, 0, self.settings.rtol, linear_residual)], sets=sets,
             states=contact_states(sets, model.friction), normal_force=-z[:, 2].copy(),
             tangential_force=-z[:, :2].copy(), gap=v[:, 2].copy(), gamma=self.gamma, timings=dict(self.timings),
             pc=self.pc,

@@ -163,6 +163,7 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
         "residual_history": result.residual_history,
         "step_lengths": [rec.step_length for rec in result.records],
         "krylov_history": [rec.krylov_iterations for rec in result.records],
+        "forcing_history": [rec.forcing for rec in result.records],
         "wall_time_s": timings.get("total", 0.0),
         "state_counts": result.state_counts(comm),
         "gamma": result.gamma,
@@ -181,12 +182,14 @@ def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> No
     if comm.rank != 0:
         return
     h0 = result.residual_history[0] if result.residual_history else 0.0
-    lines = ["iteration,residual,relative_residual,step_length,krylov_iterations,open,stick,slip"]
-    lines.append(f"0,{h0:.17g},1,,,,,")
+    lines = ["iteration,residual,relative_residual,step_length,krylov_iterations,open,stick,slip,forcing,"
+             "linear_residual"]
+    lines.append(f"0,{h0:.17g},1,,,,,,,")
     for rec in result.records:
         rel = rec.residual / h0 if h0 > 0 else 0.0
         lines.append(f"{rec.iteration},{rec.residual:.17g},{rel:.17g},{rec.step_length:.17g},"
-                     f"{rec.krylov_iterations},{rec.open},{rec.stick},{rec.slip}")
+                     f"{rec.krylov_iterations},{rec.open},{rec.stick},{rec.slip},{rec.forcing:.6g},"
+                     f"{rec.linear_residual:.6g}")
     path.write_text("\n".join(lines) + "\n")
 
 

@@ -57,6 +57,11 @@ def test_outputs(mpi_tmp_path, capsys):
     assert np.allclose([float(r[1]) for r in table], summary["residual_history"], rtol=1e-15)
     assert [int(r[4]) for r in table[1:]] == summary["krylov_history"]
     assert [int(r[5]) + int(r[6]) + int(r[7]) for r in table[1:]] == [p] * (len(table) - 1)
+    # the forcing term of each linear solve (the fixed tol by default) and the linear residual it reached
+    assert summary["settings"]["adaptive_tol"] is False
+    forcing = [float(r[8]) for r in table[1:]]
+    assert forcing == summary["forcing_history"] == [summary["settings"]["tol"]] * (len(table) - 1)
+    assert all(0.0 <= float(r[9]) <= float(r[8]) for r in table[1:])
     for png in ("convergence.png", "contact_states.png", "deformed.png"):
         assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -19,7 +19,7 @@ from reference import tresca_fixed_point
 
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings
+from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings, forcing_term
 from fenics_coulomb.resolvent import SLIP, STICK
 from fenics_coulomb.scene import create_cuboid
 
@@ -295,10 +295,66 @@ def test_gamg_is_set_up_once_on_the_stiffness_matrix(model_factory):
         del opts["coulomb_mg_levels_ksp_max_it"]
 
 
+@pytest.mark.serial
+@pytest.mark.parametrize(
+    "tol, history, eta_prev, target, expected",
+    [
+        (0.1, [1.0], 0.1, 1e-12, 0.1),  # first step: tol
+        (0.1, [1.0, 0.9], 0.1, 1e-12, 0.1),  # localizing (ratio near 1): capped by tol
+        (0.1, [1.0, 0.1], 0.1, 1e-12, 0.9 * 0.01),  # fast decrease: 0.9·ratio²
+        (0.1, [1.0, 1e-3], 0.1, 1e-12, 0.9 * 1e-6),
+        (0.1, [1e-8, 1e-11], 1e-3, 1e-12, 0.5 * 1e-12 / 1e-11),  # last step: no over-solving
+        (0.1, [1e-8, 1e-13], 1e-3, 1e-12, 0.1),  # already below the target: guard > tol, capped
+        (0.9, [1.0, 0.1], 0.5, 1e-12, 0.9 * 0.25),  # safeguard 0.9·η₋² > 0.1 keeps η from dropping
+        (0.9, [1.0, 0.1], 0.3, 1e-12, 0.9 * 0.01),  # safeguard 0.081 <= 0.1: not applied
+    ],
+)
+def test_forcing_term(tol, history, eta_prev, target, expected):
+    """The safeguarded Eisenstat–Walker term of Kelley (6.18)–(6.20), case by case."""
+    assert forcing_term(tol, history, eta_prev, target) == pytest.approx(expected, rel=1e-12)
+
+
+def test_adaptive_forcing_reaches_the_linear_solves(model_factory):
+    """With adaptive_tol every GMRES solve gets the term of forcing_term (tightening below tol in the tail)
+    and meets it; with the fixed rule every solve gets tol. The reached residual is recomputed here from the
+    Newton matrix, the right-hand side and the solution, independently of the KSP's own estimate."""
+    model = model_factory(3, "d3", "L2")
+    for adaptive in (False, True):
+        solver = SCDNewtonSolver(model, SolverSettings(rtol=1e-12, adaptive_tol=adaptive))
+        seen: list[tuple[float, float]] = []
+
+        def after_solve(ksp, b, x, seen=seen):
+            r = b.duplicate()
+            ksp.getOperators()[0].mult(x, r)
+            r.aypx(-1.0, b)
+            seen.append((ksp.getTolerances()[0], r.norm() / b.norm()))
+            r.destroy()
+
+        solver.ksp.setPostSolve(after_solve)
+        try:
+            result = solver.solve(-model.shift.getArray(readonly=True).copy())
+        finally:
+            solver.destroy()
+        assert result.converged and len(seen) == result.iterations == len(result.records)
+        etas = np.array([eta for eta, _ in seen])
+        reached = np.array([rel for _, rel in seen])
+        assert np.allclose(etas, [rec.forcing for rec in result.records], rtol=1e-14)
+        assert np.allclose(reached, [rec.linear_residual for rec in result.records], rtol=1e-6, atol=1e-14)
+        assert np.all(reached <= etas * (1 + 1e-6))
+        history = result.residual_history
+        if adaptive:
+            assert etas[0] == 0.1 and np.all(etas <= 0.1) and etas.min() < 1e-3
+            target = 1e-12 * history[0]
+            for k in range(1, result.iterations):
+                assert etas[k] == pytest.approx(forcing_term(0.1, history[: k + 1], etas[k - 1], target), rel=1e-14)
+        else:
+            assert np.all(etas == 0.1)
+
+
 def test_adaptive_tolerance_reaches_the_same_solution(model_factory):
     """Eisenstat–Walker forcing terms change the path, not the solution, and cut Newton iterations."""
     model = model_factory(4, "d3", "L2")
-    fixed = solve(model)
+    fixed = solve(model, adaptive_tol=False)
     adaptive = solve(model, adaptive_tol=True)
     assert adaptive.converged and adaptive.iterations <= fixed.iterations
     comm = MPI.COMM_WORLD
