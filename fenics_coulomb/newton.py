@@ -150,8 +150,8 @@ class IterationRecord:
     open: int
     stick: int
     slip: int
-    forcing: float = math.nan
-    linear_residual: float = math.nan
+    forcing: float
+    linear_residual: float
 
 
 @dataclass
@@ -616,7 +616,7 @@ class SCDNewtonSolver:
                 n_open, n_stick, n_slip = self._counts(contact_states(classify(v, z, model.friction),
                                                                       model.friction))
                 records.append(IterationRecord(k, res, alpha, its, n_open, n_stick, n_slip,
-                                               float(self.ksp.getTolerances()[0]), linear_residual))
+                                               eta, linear_residual))
                 if self.comm.rank == 0:
                     logger.info("it %3d  |y|/|y0| = %.3e  step %.4g  krylov %4d  open/stick/slip %d/%d/%d",
                                 k, res / res0, alpha, its, n_open, n_stick, n_slip)

@@ -360,3 +360,6 @@ def test_adaptive_tolerance_reaches_the_same_solution(model_factory):
     comm = MPI.COMM_WORLD
     diff = np.sqrt(comm.allreduce(np.sum((adaptive.displacement - fixed.displacement) ** 2)))
     assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(fixed.displacement**2)))
+    checks = physics_residuals(model, adaptive.displacement)
+    for name, tol in PHYSICS_TOL.items():
+        assert checks[name] <= tol, (name, checks[name])
