@@ -77,7 +77,8 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     snorm = np.hypot(slip[:, 0], slip[:, 1])
     smax = _gmax(comm, snorm)
     sliding = snorm > 1e-6 * smax if smax > 0 else np.zeros_like(snorm, dtype=bool)
-    mismatch = t[sliding] + F * lam[sliding, None] * slip[sliding] / snorm[sliding, None]
+    Fn = np.broadcast_to(np.asarray(F, dtype=np.float64), lam.shape)
+    mismatch = t[sliding] + (Fn * lam)[sliding, None] * slip[sliding] / snorm[sliding, None]
     out["slip_direction"] = _gmax(comm, np.hypot(mismatch[:, 0], mismatch[:, 1])) / max(lam_scale, tiny)
 
     # Global balance with the clamped reactions from an assembly without boundary conditions.

@@ -16,14 +16,16 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-import numpy as np
+import dolfinx.fem
 
+from fenics_coulomb.builder import build_problem
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver
+from fenics_coulomb.model import ContactModel
 from fenics_coulomb.output import summary, write_convergence_csv, write_summary, write_xdmf
+from fenics_coulomb.records import SolveResult
 from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES
+from fenics_coulomb.settings import PRECONDITIONERS
 
 logger = logging.getLogger("fenics_coulomb")
 
@@ -42,29 +44,29 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
         "with the prefix -coulomb_, e.g. -coulomb_ksp_monitor -coulomb_pc_type gamg.",
     )
     p.add_argument("--scene", default=None, help="scene file (TOML), e.g. demos/scenes/d3_L2.toml")
-    p.add_argument("--lev", type=int, help=f"discretization level of the cuboid (>= 0; default {d.lev})")
+    p.add_argument("--lev", type=int, help=f"discretization level of the cuboid (>= 0; default {d.body.lev})")
     p.add_argument("--gap", help=f"gap profile {', '.join(GAP_PROFILES)} or an expression in x1, x2 "
-                   f"(default {d.gap})")
-    p.add_argument("--load", help=f"load case {', '.join(LOAD_CASES)} (default {d.load})")
+                   f"(default {d.body.gap})")
+    p.add_argument("--load", help=f"load case {', '.join(LOAD_CASES)} (default {d.load.case})")
     p.add_argument("--load-scale", type=float, help="factor on the tractions (default 1)")
-    p.add_argument("--young", type=float, help=f"Young's modulus E in GPa (default {d.young})")
-    p.add_argument("--poisson", type=float, help=f"Poisson ratio (default {d.poisson})")
-    p.add_argument("--friction", type=float, help=f"Coulomb coefficient F (default {d.friction})")
+    p.add_argument("--young", type=float, help=f"Young's modulus E in GPa (default {d.material.young})")
+    p.add_argument("--poisson", type=float, help=f"Poisson ratio (default {d.material.poisson})")
+    p.add_argument("--friction", type=float, help=f"Coulomb coefficient F (default {d.friction.coefficient})")
     p.add_argument("--variant", help="Newton step: 4a (S*Q, (5.4)) or 4b (SQ); default 4a")
-    p.add_argument("--tol", type=float, help=f"relative GMRES residual per Newton step (default {d.tol})")
-    p.add_argument("--rtol", type=float, help=f"stop at |y| <= rtol |y0| (default {d.rtol})")
+    p.add_argument("--tol", type=float, help=f"relative GMRES residual per Newton step (default {d.solver.tol})")
+    p.add_argument("--rtol", type=float, help=f"stop at |y| <= rtol |y0| (default {d.solver.rtol})")
     p.add_argument("--accuracy", type=float,
                    help="relative displacement error to reach instead of --rtol (e.g. 1e-6); "
                    "mapped to rtol by the measured speed-accuracy table (docs/tradeoff)")
     p.add_argument("--adaptive-tol", action=argparse.BooleanOptionalAction, default=None,
                    help="safeguarded Eisenstat-Walker forcing terms <= --tol (superlinear tail, fewer Newton "
                    f"steps); --no-adaptive-tol keeps every GMRES solve at --tol, as the paper (default "
-                   f"{'on' if d.adaptive_tol else 'off'})")
-    p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.max_it})")
-    p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.pc})")
+                   f"{'on' if d.solver.adaptive_tol else 'off'})")
+    p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.solver.max_it})")
+    p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.solver.pc})")
     p.add_argument("--gamma-scale", type=float,
                    help="γ = scale × power-method estimate of λ_max(A); the paper uses 1 "
-                   f"(default {d.gamma_scale})")
+                   f"(default {d.solver.gamma_scale})")
     p.add_argument(
         "--start",
         help="'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d), 'undeformed' (ũ = 0) or the "
@@ -118,56 +120,33 @@ def prepare_output(comm: MPI.Comm, out: str) -> Path:
 
 
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
-    """Solve the scene described by ``args``; return the exit status."""
+    """Flags → scene → problem → solve → output; return the exit status."""
     t0 = time.perf_counter()
     scene = scene_from_args(args)
     out = prepare_output(comm, args.out)
-
-    body = scene.build_body(comm)
-    model = ContactModel(body, Material(scene.young, scene.poisson), scene.friction, scene.traction_table(),
-                         body_force=(scene.body_force[0], scene.body_force[1], scene.body_force[2]))
-    t_model = time.perf_counter() - t0
-    logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s)", body.description, model.n,
-                model.p, scene.friction, comm.size)
-    solver = SCDNewtonSolver(model, scene.settings())
-    status = 0
-    try:
-        result = None
-        if model.p == 0 or scene.predictor:
-            result = solver.solve_linear()
-            if model.p == 0:
-                logger.info("no contact boundary: one linear solve")
-            elif result.converged and solver.is_separated(result):
-                logger.info("the linear solution does not reach the obstacle: it is the solution")
-            else:
-                logger.info("the linear solution penetrates the obstacle: SCD semismooth* Newton")
-                result = None
-        if result is None:
-            result = solver.solve(initial_displacement(scene.start, model))
-    except SolverError as err:
-        result = err.result
-        status = EXIT_DIVERGED
-        logger.error("fenics-coulomb: the solve did not converge: %s", err)
-    t_write = time.perf_counter()
-    write_xdmf(out / "solution.xdmf", model, result)
-    data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(scene.settings()),
-                                   "body": body.description})
-    data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-    write_convergence_csv(out / "convergence.csv", result, comm)
-    if not args.no_plots:
-        from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence, plot_deformed
-
-        label = scene.name if args.scene else f"{scene.gap}/{scene.load}, lev {scene.lev}"
-        plot_deformed(model.V, result.displacement, model.contact.coordinates,
-                      result.displacement[model.contact.local_dofs], result.states, out / "deformed.png",
-                      f"Deformed body, {label}")
-        gathered = gather_contact(comm, model.contact.coordinates, result.states)
-        if gathered is not None:
-            plot_convergence({label: result.residual_history}, out / "convergence.png",
-                             f"Convergence, {label}")
-            plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
-    data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
-    write_summary(out / "summary.json", data, comm)
+    built = build_problem(scene, comm)
+    with built.problem as problem:
+        model = problem.model
+        t_model = time.perf_counter() - t0
+        logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s)", built.body.description,
+                    problem.n, problem.p, scene.friction.coefficient, comm.size)
+        status = 0
+        try:
+            _, result = problem.solve(start_function(scene.start, problem.V))
+        except SolverError as err:
+            result = err.result
+            status = EXIT_DIVERGED
+            logger.error("fenics-coulomb: the solve did not converge: %s", err)
+        t_write = time.perf_counter()
+        write_xdmf(out / "solution.xdmf", model, result)
+        data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
+                                       "body": built.body.description})
+        data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+        write_convergence_csv(out / "convergence.csv", result, comm)
+        if not args.no_plots:
+            write_figures(out, model, result, scene.label)
+        data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
+        write_summary(out / "summary.json", data, comm)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
@@ -178,20 +157,32 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{'' if args.no_plots else ', convergence.png, contact_states.png, deformed.png'})",
             flush=True,
         )
-    solver.destroy()
-    model.destroy()
     return status
 
 
-def initial_displacement(start: str, model: ContactModel) -> np.ndarray | None:
-    """ũ⁽⁰⁾ on the owned DOFs for a start setting (None means ũ = 0)."""
-    if start == "undeformed":
-        return None
+def write_figures(out: Path, model: ContactModel, result: SolveResult, label: str) -> None:
+    """The PNG figures: deformed body, convergence history, contact states (collective)."""
+    from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence, plot_deformed
+
+    plot_deformed(model.V, result.displacement, model.contact.coordinates,
+                  result.displacement[model.contact.local_dofs], result.states, out / "deformed.png",
+                  f"Deformed body, {label}")
+    gathered = gather_contact(model.comm, model.contact.coordinates, result.states)
+    if gathered is not None:
+        plot_convergence({label: result.residual_history}, out / "convergence.png", f"Convergence, {label}")
+        plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
+
+
+def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function | None:
+    """The start ũ⁽⁰⁾ of a start setting: None (the paper's u⁽⁰⁾ = 0), zero, or an earlier run's solution."""
     if start == "zero":
-        return -model.shift.getArray(readonly=True).copy()
+        return None
+    u0 = dolfinx.fem.Function(V)
+    if start == "undeformed":
+        return u0
     from fenics_coulomb.output import read_displacement
 
-    comm = model.V.mesh.comm
+    comm = V.mesh.comm
     message = ""
     if comm.rank == 0:
         try:
@@ -205,7 +196,9 @@ def initial_displacement(start: str, model: ContactModel) -> np.ndarray | None:
             message = f"--start {start!r}: no displacement from an earlier run can be read ({err})"
     message = comm.bcast(message, root=0)
     check_all(comm, not message, message)
-    return read_displacement(Path(start), model.V)
+    u0.x.petsc_vec.array[:] = read_displacement(Path(start), V)
+    u0.x.scatter_forward()
+    return u0
 
 
 def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb") -> int:

@@ -1,9 +1,10 @@
 """The contact-node extractor: contact facets' DOFs as per-node 3-blocks (u1, u2 tangential, u3 normal).
 
-The rigid obstacle is the half-space x3 <= 0 with outer normal e3, so for a node the normal component is
-u3 and the tangential components are (u1, u2); the initial gap of a node is its height x3. A contact node
-is a vertex of the contact boundary that is not clamped; every node is owned by exactly one rank, which
-holds its block of three DOFs in its owned part of the PETSc vectors.
+The rigid obstacle (:mod:`fenics_coulomb.obstacle`) is the half-space x3 <= 0 with outer normal e3, so for
+a node the normal component is u3 and the tangential components are (u1, u2); the initial gap of a node is
+the obstacle's signed distance of it. A contact node is a vertex of the contact boundary none of whose
+components carries a Dirichlet condition; every node is owned by exactly one rank, which holds its block of
+three DOFs in its owned part of the PETSc vectors.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
+
+from fenics_coulomb.obstacle import Plane
 
 
 def boundary_blocks(
@@ -58,23 +61,25 @@ class ContactMap:
         V: dolfinx.fem.FunctionSpace,
         facet_tags: dolfinx.mesh.MeshTags,
         contact_tags: list[int],
-        dirichlet_tags: list[int],
+        excluded: npt.NDArray[np.int32],
+        obstacle: Plane | None = None,
     ) -> ContactMap:
-        """Extract the contact nodes of ``V`` on the facets with ``contact_tags``, minus clamped nodes.
+        """Extract the contact nodes of ``V`` on the facets with ``contact_tags``, minus excluded nodes.
 
         Args:
             V: Vector P1 function space (block size 3).
             facet_tags: Boundary markers of the mesh.
             contact_tags: Tags of the contact boundary.
-            dirichlet_tags: Tags of the clamped boundary (their nodes are not contact nodes).
+            excluded: Local DOF-block indices that are never contact nodes (nodes with a Dirichlet condition
+                on any component).
+            obstacle: The rigid obstacle (default: the plane x3 = 0).
         """
         bs = V.dofmap.index_map_bs
         if bs != 3:
             raise ValueError(f"contact needs a 3D vector space (block size 3), got block size {bs}")
         imap = V.dofmap.index_map
         candidates = boundary_blocks(V, facet_tags, contact_tags)
-        clamped = boundary_blocks(V, facet_tags, dirichlet_tags)
-        blocks = np.setdiff1d(candidates, clamped)
+        blocks = np.setdiff1d(candidates, excluded)
         blocks = blocks[blocks < imap.size_local].astype(np.int32)
         offsets = np.arange(3, dtype=np.int32)
         local_dofs = (bs * blocks[:, None] + offsets).astype(np.int32)
@@ -87,6 +92,6 @@ class ContactMap:
             local_dofs=local_dofs,
             global_dofs=global_dofs,
             coordinates=np.ascontiguousarray(coordinates),
-            gap=np.ascontiguousarray(coordinates[:, 2]),
+            gap=(obstacle or Plane()).gap(coordinates),
             num_global=num_global,
         )

@@ -31,7 +31,7 @@ Array = npt.NDArray[np.float64]
 
 
 def _slip_quantities(
-    v: Array, z: Array, friction: float
+    v: Array, z: Array, friction: float | Array
 ) -> tuple[Array, Array, Array, Array]:
     """Return (n, a, b, s) of the sliding formulas for every node (garbage where not sliding)."""
     s = np.hypot(v[:, 0], v[:, 1])
@@ -48,17 +48,16 @@ def _slip_quantities(
     return n, a, b, s
 
 
-def _split(sets: npt.NDArray[np.int8], friction: float) -> tuple[npt.NDArray[np.bool_], ...]:
+def _split(sets: npt.NDArray[np.int8], friction: float | Array) -> tuple[npt.NDArray[np.bool_], ...]:
     """Boolean masks (slide, stick) of the nodes that use the sliding and the sticking subspaces."""
     slide = sets == SET_M1
     rest = (sets == SET_M3P) | (sets == SET_M3M)
-    if friction == 0.0:
-        return slide | rest, np.zeros_like(rest)
-    return slide, rest
+    frictionless = np.broadcast_to(np.asarray(friction) == 0.0, sets.shape)
+    return slide | (rest & frictionless), rest & ~frictionless
 
 
 def _blocks(
-    v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float, adjoint: bool
+    v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float | Array, adjoint: bool
 ) -> tuple[Array, Array]:
     """The pair (W*, U*) (``adjoint``) or (X, Y) node-wise; see the module docstring.
 
@@ -72,7 +71,8 @@ def _blocks(
     first[~(slide | stick)] = np.eye(3)
     second[stick] = np.eye(3)
 
-    n, a, b, _ = _slip_quantities(v[slide], z[slide], friction)
+    F = np.broadcast_to(np.asarray(friction, dtype=np.float64), (m,))[slide]
+    n, a, b, _ = _slip_quantities(v[slide], z[slide], F)
     nn = n[:, :, None] * n[:, None, :]
     eye2 = np.eye(2)
     f = np.zeros((n.shape[0], 3, 3))
@@ -81,19 +81,19 @@ def _blocks(
     g[:, :2, :2] = b[:, None, None] * (eye2 - nn)
     g[:, 2, 2] = 1.0
     if adjoint:
-        f[:, 2, :2] = friction * n
+        f[:, 2, :2] = F[:, None] * n
     else:
-        g[:, :2, 2] = -friction * n
+        g[:, :2, 2] = -F[:, None] * n
     first[slide] = f
     second[slide] = g
     return first, second
 
 
-def sstar_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float) -> tuple[Array, Array]:
+def sstar_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float | Array) -> tuple[Array, Array]:
     """Return (W*, U*), shape (m, 3, 3) each, with rge(W*, U*) ∈ S*Q̃(v, z) node-wise."""
     return _blocks(v, z, sets, friction, adjoint=True)
 
 
-def s_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float) -> tuple[Array, Array]:
+def s_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float | Array) -> tuple[Array, Array]:
     """Return (X, Y), shape (m, 3, 3) each, with rge(X, Y) ∈ SQ̃(v, z) node-wise."""
     return _blocks(v, z, sets, friction, adjoint=False)

@@ -37,13 +37,13 @@ OPEN, STICK, SLIP = 0, 1, 2
 STATE_NAMES = ("open", "stick", "slip")
 
 
-def resolvent(w: Array, gamma: float, friction: float) -> tuple[Array, Array]:
+def resolvent(w: Array, gamma: float, friction: float | Array) -> tuple[Array, Array]:
     """Evaluate v = (γI + Q̃)⁻¹(w) node-wise and the matching z = w − γv ∈ Q̃(v).
 
     Args:
         w: Arguments, shape (m, 3).
         gamma: γ > 0.
-        friction: Coulomb coefficient F >= 0.
+        friction: Coulomb coefficient F >= 0 (a number or one per node).
 
     Returns:
         (v, z), both of shape (m, 3).
@@ -64,7 +64,7 @@ def resolvent(w: Array, gamma: float, friction: float) -> tuple[Array, Array]:
     return v, z
 
 
-def classify(v: Array, z: Array, friction: float) -> npt.NDArray[np.int8]:
+def classify(v: Array, z: Array, friction: float | Array) -> npt.NDArray[np.int8]:
     """Return the set of (6.9) each graph point (v, z) ∈ gph Q̃ belongs to (SET_* codes).
 
     The points come from :func:`resolvent`, whose zeros are exact, so the tests are exact comparisons.
@@ -88,7 +88,7 @@ def classify(v: Array, z: Array, friction: float) -> npt.NDArray[np.int8]:
     return sets
 
 
-def contact_states(sets: npt.NDArray[np.int8], friction: float) -> npt.NDArray[np.int8]:
+def contact_states(sets: npt.NDArray[np.int8], friction: float | Array) -> npt.NDArray[np.int8]:
     """Map the sets of (6.9) to user-facing states: OPEN (L, M2, M4), STICK (M3±), SLIP (M1).
 
     Without friction there is no sticking: a pressed node at rest (M3−, the only M3 set when F = 0)
@@ -96,5 +96,8 @@ def contact_states(sets: npt.NDArray[np.int8], friction: float) -> npt.NDArray[n
     """
     states = np.full(sets.shape, OPEN, dtype=np.int8)
     states[sets == SET_M1] = SLIP
-    states[(sets == SET_M3P) | (sets == SET_M3M)] = SLIP if friction == 0.0 else STICK
+    rest = (sets == SET_M3P) | (sets == SET_M3M)
+    frictionless = np.broadcast_to(np.asarray(friction) == 0.0, sets.shape)
+    states[rest & frictionless] = SLIP
+    states[rest & ~frictionless] = STICK
     return states

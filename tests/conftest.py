@@ -10,10 +10,13 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import numpy as np
 import pytest
 
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.scene import create_cuboid, paper_tractions
+from fenics_coulomb import ContactProblem
+from fenics_coulomb.builder import build_problem
+from fenics_coulomb.config import Scene
+from fenics_coulomb.scene import paper_tractions  # noqa: F401  (re-exported for the tests)
 
 
 @pytest.fixture(autouse=True)
@@ -36,30 +39,55 @@ def mpi_tmp_path() -> Iterator[Path]:
         shutil.rmtree(path, ignore_errors=True)
 
 
-def make_model(
-    lev: int = 1,
-    gap: str = "d3",
-    load: str = "L2",
-    friction: float = 0.23,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-    scale: float = 1.0,
-    material: Material | None = None,
-) -> ContactModel:
-    """A Section 7 scene as a ContactModel."""
-    body = create_cuboid(comm, lev, gap)
-    return ContactModel(body, material or Material(), friction, paper_tractions(load, scale))
+def make_problem(lev: int = 1, gap: str = "d3", load: str = "L2", comm: MPI.Comm = MPI.COMM_WORLD,
+                 scene: Scene | None = None, **overrides) -> ContactProblem:
+    """A Section 7 case (or ``scene``) as a ContactProblem; ``overrides`` are scene settings (config.FLAGS)."""
+    scene = (scene or Scene()).override(**({"lev": lev, "gap": gap, "load": load} if scene is None else {}),
+                                        **overrides)
+    return build_problem(scene, comm).problem
 
 
 @pytest.fixture
-def model_factory() -> Iterator:
-    """Build models and destroy them after the test."""
-    created: list[ContactModel] = []
+def problem_factory() -> Iterator:
+    """Build problems (make_problem's arguments) and destroy them after the test."""
+    created: list[ContactProblem] = []
 
-    def factory(*args, **kwargs) -> ContactModel:
-        m = make_model(*args, **kwargs)
-        created.append(m)
-        return m
+    def factory(*args, **kwargs) -> ContactProblem:
+        problem = make_problem(*args, **kwargs)
+        created.append(problem)
+        return problem
 
     yield factory
-    for m in created:
-        m.destroy()
+    for problem in created:
+        problem.destroy()
+
+
+def global_norm(x: np.ndarray, comm: MPI.Comm = MPI.COMM_WORLD) -> float:
+    """‖x‖ over the owned entries of all ranks."""
+    return float(np.sqrt(comm.allreduce(float(np.dot(np.ravel(x), np.ravel(x))), op=MPI.SUM)))
+
+
+def sort_by_coordinates(x: np.ndarray, vals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Sort nodes by their coordinates, rounded so that round-off does not change the order."""
+    key = np.round(x, 9)
+    order = np.lexsort((key[:, 2], key[:, 1], key[:, 0]))
+    return x[order], vals[order]
+
+
+def gather_by_coordinates(V, values: np.ndarray, comm: MPI.Comm | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(coordinates, values) of all owned blocks of V on all ranks, sorted by coordinates."""
+    comm = comm or V.mesh.comm
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    vals = np.asarray(values)[: 3 * n].reshape(n, 3)
+    return sort_by_coordinates(np.concatenate(comm.allgather(x)), np.concatenate(comm.allgather(vals)))
+
+
+def read_solution(out: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(coordinates, displacement) of a command-line run's solution.h5, sorted by coordinates."""
+    import h5py
+
+    with h5py.File(out / "solution.h5", "r") as h5:
+        x = h5["Mesh/mesh/geometry"][:]
+        u = h5["Function/displacement/0"][:]
+    return sort_by_coordinates(x, u)

@@ -1,0 +1,113 @@
+"""From a scene (pure data) to the forms, the boundary conditions and a :class:`ContactProblem`.
+
+This is the only place where the command line's model is built; the scene's material is isotropic (the
+Lamé operator in UFL), its Dirichlet boundaries are clamped (u = 0), its loads are constant tractions per
+boundary and a constant body force.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem
+import numpy as np
+import ufl
+
+from fenics_coulomb.config import Scene, read_gmsh
+from fenics_coulomb.errors import check_all
+from fenics_coulomb.materials import Material, epsilon, sigma
+from fenics_coulomb.problem import ContactProblem
+from fenics_coulomb.scene import GAP_PROFILES, Body, GapFunction, create_cuboid
+
+#: 2×2×2 Gauss points (degree 2), the standard rule for trilinear hexahedra and exact for linear tetrahedra;
+#: UFL's estimate for the non-affine hexahedra of Ω(d) would be far more expensive.
+QUADRATURE_DEGREE = 2
+
+
+def build_body(scene: Scene, comm: MPI.Comm) -> Body:
+    """Create the mesh and its named boundary tags (collective)."""
+    spec = scene.body
+    if spec.shape == "cuboid":
+        gap: str | GapFunction = spec.gap if spec.gap in GAP_PROFILES else spec.gap_function()
+        body = create_cuboid(comm, spec.lev, gap)
+    else:
+        assert spec.mesh is not None  # validate() requires it for shape = "mesh"
+        msh, facet_tags = read_gmsh(spec.mesh, comm)
+        present = np.unique(np.concatenate(comm.allgather(np.unique(facet_tags.values))))
+        missing = [f"{n} = {t}" for n, t in scene.boundaries.items() if t not in present]
+        check_all(comm, not missing, f"mesh {spec.mesh!r} has no facets tagged {', '.join(missing)}")
+        cells = msh.topology.index_map(msh.topology.dim).size_global
+        body = Body(mesh=msh, facet_tags=facet_tags, boundaries=dict(scene.boundaries),
+                    description=f"mesh {Path(spec.mesh).name} ({cells} cells)")
+    body.dirichlet = list(spec.clamped)
+    body.contact = list(spec.contact)
+    return body
+
+
+def isotropic_forms(
+    V: dolfinx.fem.FunctionSpace,
+    material: Material,
+    facet_tags: dolfinx.mesh.MeshTags,
+    tractions: dict[int, tuple[float, float, float]],
+    body_force: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> tuple[ufl.Form, ufl.Form]:
+    """The Lamé bilinear form and the load form (constant tractions per facet tag, constant body force)."""
+    msh = V.mesh
+    mu, lmbda = material.lame
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=facet_tags)
+    dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": QUADRATURE_DEGREE})
+    mu_c = dolfinx.fem.Constant(msh, PETSc.ScalarType(mu))
+    lmbda_c = dolfinx.fem.Constant(msh, PETSc.ScalarType(lmbda))
+    a = ufl.inner(sigma(u, mu_c, lmbda_c), epsilon(v)) * dx
+    f = dolfinx.fem.Constant(msh, np.asarray(body_force, dtype=PETSc.ScalarType))
+    L = ufl.inner(f, v) * ufl.dx
+    for tag, value in tractions.items():
+        L = L + ufl.inner(dolfinx.fem.Constant(msh, np.asarray(value, dtype=PETSc.ScalarType)), v) * ds(tag)
+    return a, L
+
+
+def clamp(V: dolfinx.fem.FunctionSpace, body: Body) -> dolfinx.fem.DirichletBC:
+    """u = 0 on the body's Dirichlet boundaries; InputError on every rank if they hold no node."""
+    fdim = body.mesh.topology.dim - 1
+    tags = [body.tag(name) for name in body.dirichlet]
+    facets = np.hstack([body.facet_tags.find(t) for t in tags]).astype(np.int32)
+    dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
+    count = body.mesh.comm.allreduce(int(np.sum(dofs < V.dofmap.index_map.size_local)), op=MPI.SUM)
+    check_all(body.mesh.comm, count > 0, f"the clamped boundary {body.dirichlet} has no nodes")
+    return dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V)
+
+
+@dataclass
+class Built:
+    """A scene made concrete: the body, the forms (a, L), the boundary conditions and the problem (which
+    owns the PETSc objects: destroy it, or use it as a context manager)."""
+
+    body: Body
+    forms: tuple[ufl.Form, ufl.Form]
+    bcs: list[dolfinx.fem.DirichletBC]
+    problem: ContactProblem
+
+
+def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_prefix: str = "coulomb_",
+                  petsc_options: dict[str, Any] | None = None) -> Built:
+    """Turn a scene into its body, forms, boundary conditions and ContactProblem (collective)."""
+    scene.validate()
+    body = build_body(scene, comm)
+    material = scene.material.material()
+    tractions = {body.tag(name): value for name, value in scene.traction_table().items()}
+    force = scene.load.body_force
+    V = dolfinx.fem.functionspace(body.mesh, ("Lagrange", 1, (body.mesh.geometry.dim,)))
+    a, L = isotropic_forms(V, material, body.facet_tags, tractions, (force[0], force[1], force[2]))
+    bcs = [clamp(V, body)]
+    contact = (body.facet_tags, [body.tag(name) for name in body.contact])
+    problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
+                             settings=scene.solver, petsc_options_prefix=petsc_options_prefix,
+                             petsc_options=petsc_options)
+    return Built(body, (a, L), bcs, problem)

@@ -1,0 +1,114 @@
+"""The Newton system's KSP and the choice of its preconditioner.
+
+GMRES, right preconditioned, stopped on the unpreconditioned relative residual; the preconditioner is
+chosen by name (:data:`~fenics_coulomb.settings.PRECONDITIONERS`). Everything is under the solver's options
+prefix, so ``-<prefix>ksp_*`` / ``-<prefix>pc_*`` options tune it.
+"""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.la
+import numpy as np
+
+#: pc = "auto" takes GAMG from this many unknowns on and ILU (the paper's) below (docs/ratio, docs/table2:
+#: ILU is the faster up to lev 6 (27 744 unknowns), GAMG from lev 7 (79 488) on, and its Krylov count
+#: stays level-independent where ILU's grows).
+AUTO_GAMG_UNKNOWNS = 50_000
+#: GAMG's level smoother (Chebyshev) sweeps unless -<prefix>mg_levels_ksp_max_it says otherwise: one sweep
+#: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
+#: against 105 s).
+GAMG_SMOOTHER_SWEEPS = 1
+
+
+def resolve_pc(pc: str, num_unknowns: int) -> str:
+    """The preconditioner to use: ``auto`` resolved by the global number of unknowns."""
+    if pc != "auto":
+        return pc
+    return "gamg" if num_unknowns >= AUTO_GAMG_UNKNOWNS else "ilu"
+
+
+def default_options(pc: str) -> dict[str, object]:
+    """Options (without prefix) the preconditioner ``pc`` sets unless the user gave them."""
+    if pc in ("gamg", "gamg-newton"):
+        return {"mg_levels_ksp_max_it": GAMG_SMOOTHER_SWEEPS}
+    return {}
+
+
+def rigid_body_modes(V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
+    """The six rigid-body modes of V as an orthonormal PETSc near-nullspace (for GAMG).
+
+    They depend on the space only (the kernel of any elastic operator without supports).
+    """
+    imap = V.dofmap.index_map
+    bs = V.dofmap.index_map_bs
+    length = imap.size_local * bs
+    basis = [dolfinx.la.vector(imap, bs=bs, dtype=PETSc.ScalarType) for _ in range(6)]
+    b = [np.asarray(v.array) for v in basis]
+    dofs = [V.sub(i).dofmap.list.flatten() for i in range(3)]
+    for i in range(3):
+        b[i][dofs[i]] = 1.0
+    x = V.tabulate_dof_coordinates()
+    dofs_block = V.dofmap.list.flatten()
+    x0, x1, x2 = x[dofs_block, 0], x[dofs_block, 1], x[dofs_block, 2]
+    b[3][dofs[0]] = -x1
+    b[3][dofs[1]] = x0
+    b[4][dofs[0]] = x2
+    b[4][dofs[2]] = -x0
+    b[5][dofs[2]] = x1
+    b[5][dofs[1]] = -x2
+    dolfinx.la.orthonormalize(basis)
+    vecs = [PETSc.Vec().createWithArray(v[:length], bsize=bs, comm=V.mesh.comm) for v in b]
+    return PETSc.NullSpace().create(vectors=vecs)
+
+
+def create_ksp(
+    comm: MPI.Comm,
+    M: PETSc.Mat,
+    A: PETSc.Mat,
+    V: dolfinx.fem.FunctionSpace,
+    pc_name: str,
+    prefix: str,
+    tol: float,
+    restart: int,
+    max_it: int,
+) -> tuple[PETSc.KSP, PETSc.NullSpace | None]:
+    """Create the KSP of the Newton matrix M (stiffness A) with the preconditioner ``pc_name``.
+
+    ``gamg`` preconditions with A, which never changes: PETSc sets the AMG hierarchy up at the first solve
+    and reuses it for every Newton matrix (only the contact rows differ from A). ``gamg-newton`` builds it on
+    M every step. Both get the rigid-body near-nullspace of V. Call ``ksp.setFromOptions()`` afterwards.
+
+    Returns:
+        The KSP and the near-nullspace it uses (the caller destroys both), or None.
+    """
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(M, A if pc_name == "gamg" else M)
+    ksp.setType(PETSc.KSP.Type.GMRES)
+    ksp.setGMRESRestart(restart)
+    ksp.setPCSide(PETSc.PC.Side.RIGHT)
+    ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+    ksp.setTolerances(rtol=tol, atol=0.0, max_it=max_it)
+    pc = ksp.getPC()
+    parallel = comm.size > 1
+    nullspace = None
+    if pc_name == "ilu":
+        pc.setType("bjacobi" if parallel else "ilu")
+    elif pc_name == "lu":
+        pc.setType("lu")
+        if parallel:
+            pc.setFactorSolverType("mumps")
+    elif pc_name in ("gamg", "gamg-newton"):
+        pc.setType("gamg")
+        nullspace = rigid_body_modes(V)
+        (A if pc_name == "gamg" else M).setNearNullSpace(nullspace)
+    elif pc_name == "hypre":
+        pc.setType("hypre")
+        pc.setHYPREType("boomeramg")
+    else:
+        pc.setType(pc_name)
+    return ksp, nullspace

@@ -1,0 +1,226 @@
+"""``ContactProblem``: a DOLFINx-style contact problem, in the manner of ``dolfinx.fem.petsc.LinearProblem``.
+
+::
+
+    problem = ContactProblem(a, L, bcs=[bc], contact=(facet_tags, [BOTTOM]), friction=0.23,
+                             petsc_options_prefix="coulomb_", petsc_options={"ksp_rtol": 0.1})
+    uh, result = problem.solve()
+
+The problem owns the algebraic model (:class:`~fenics_coulomb.model.ContactModel`: A, l̃, d, l, the contact
+nodes) and the SCD semismooth* Newton solver (:class:`~fenics_coulomb.newton.SCDNewtonSolver`: the Newton
+matrix, its KSP). Every PETSc object it creates carries the options prefix; ``petsc_options`` are set under
+it only while the solver reads them and removed again.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem
+import numpy as np
+import numpy.typing as npt
+import ufl
+
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.model import ContactModel, Friction
+from fenics_coulomb.newton import SCDNewtonSolver
+from fenics_coulomb.obstacle import Plane
+from fenics_coulomb.records import SolveResult
+from fenics_coulomb.settings import SolverSettings
+
+logger = logging.getLogger(__name__)
+
+
+def interpolate_displacement(
+    u_from: dolfinx.fem.Function, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6
+) -> npt.NDArray[np.float64]:
+    """Interpolate a (possibly non-matching) vector field onto V; return V's owned DOF values (collective).
+
+    Nodes up to ``padding`` outside the other mesh take the value of the closest cell.
+    """
+    u = dolfinx.fem.Function(V)
+    tdim = V.mesh.topology.dim
+    cells = np.arange(V.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
+    if u_from.function_space.mesh is V.mesh:
+        u.interpolate(u_from)
+    else:
+        data = dolfinx.fem.create_interpolation_data(V, u_from.function_space, cells, padding=padding)
+        u.interpolate_nonmatching(u_from, cells, data)
+    u.x.scatter_forward()
+    return np.asarray(u.x.petsc_vec.getArray(readonly=True)).copy()
+
+
+class ContactProblem:
+    """Static contact of a linear-elastic body with a rigid obstacle under Coulomb friction.
+
+    Solved by the SCD semismooth* Newton method of the reference paper. Use as a context manager or call
+    :meth:`destroy` (collective) when done.
+
+    Args:
+        a: Bilinear UFL form of linear elasticity on a vector P1/Q1 space (any material: isotropic,
+            orthotropic, several materials, springs); the solver only uses its assembled matrix.
+        L: Linear UFL form (tractions, body forces), or None.
+        bcs: Dirichlet conditions, including non-zero values and single components. A node with any
+            constrained component is never a contact node.
+        contact: The facet tags and the markers of the contact boundary.
+        friction: Coulomb coefficient: a number or a scalar field (a Function, interpolated at the nodes).
+        obstacle: The rigid obstacle; default the plane x3 = 0 (half-space x3 <= 0).
+        settings: Solver settings (a :class:`~fenics_coulomb.settings.SolverSettings` or a dict of its
+            fields), including the predictor and the no-contact shortcut.
+        petsc_options_prefix: Options prefix of every PETSc object of the problem (required, non-empty).
+        petsc_options: PETSc options (without prefix) of the Newton systems' KSP and preconditioner.
+        form_compiler_options: FFCx options.
+        jit_options: JIT options.
+
+    Raises:
+        InputError: for bad input (on every rank, before the first collective call where possible).
+    """
+
+    def __init__(
+        self,
+        a: ufl.Form,
+        L: ufl.Form | None,
+        bcs: Sequence[dolfinx.fem.DirichletBC] = (),
+        contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None = None,
+        friction: Friction = 0.0,
+        obstacle: Plane | None = None,
+        settings: SolverSettings | dict[str, Any] | None = None,
+        *,
+        petsc_options_prefix: str,
+        petsc_options: dict[str, Any] | None = None,
+        form_compiler_options: dict | None = None,
+        jit_options: dict | None = None,
+    ) -> None:
+        self._model: ContactModel | None = None
+        self._solver: SCDNewtonSolver | None = None
+        if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
+            raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
+        if isinstance(settings, dict):
+            unknown = set(settings) - set(SolverSettings.__dataclass_fields__)
+            if unknown:
+                raise InputError(f"unknown solver setting(s) {sorted(unknown)}")
+            settings = SolverSettings(**settings)
+        self.settings = settings or SolverSettings()
+        self.settings.validate()
+        if contact is None:
+            raise InputError("contact: give the facet tags and the markers of the contact boundary")
+        t0 = time.perf_counter()
+        self._model = ContactModel(a, L, bcs, contact, friction, obstacle, petsc_options_prefix,
+                                   form_compiler_options, jit_options)
+        self._model_time = time.perf_counter() - t0
+        self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
+        self.petsc_options_prefix = petsc_options_prefix
+        self.u = dolfinx.fem.Function(self._model.V, name="displacement")
+
+    # -- access ------------------------------------------------------------------------------------
+    @property
+    def model(self) -> ContactModel:
+        """The algebraic model (A, l̃, d, l, contact nodes)."""
+        assert self._model is not None, "the problem was destroyed"
+        return self._model
+
+    @property
+    def solver(self) -> SCDNewtonSolver:
+        """The SCD semismooth* Newton solver (Newton matrix, KSP)."""
+        assert self._solver is not None, "the problem was destroyed"
+        return self._solver
+
+    @property
+    def V(self) -> dolfinx.fem.FunctionSpace:
+        """The displacement space."""
+        return self.model.V
+
+    @property
+    def A(self) -> PETSc.Mat:
+        """The stiffness matrix with the Dirichlet rows and columns of a scaled identity."""
+        return self.model.A
+
+    @property
+    def n(self) -> int:
+        """Unknowns after removing the Dirichlet DOFs (global)."""
+        return self.model.n
+
+    @property
+    def p(self) -> int:
+        """Contact nodes (global)."""
+        return self.model.p
+
+    # -- solving -----------------------------------------------------------------------------------
+    def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:
+        """ũ⁽⁰⁾ on the owned DOFs: the paper's u⁽⁰⁾ = 0 of the shifted unknown (ũ = −d) by default, or
+        ``u0`` (on any mesh, interpolated); the Dirichlet values are imposed on either (collective)."""
+        model = self.model
+        if u0 is None:
+            start = -model.shift.getArray(readonly=True).copy()
+        else:
+            start = interpolate_displacement(u0, model.V)
+        if model.bcs:
+            g = dolfinx.fem.Function(model.V)
+            g.x.array[:] = np.nan
+            for bc in model.bcs:
+                bc.set(g.x.array)
+            owned = g.x.array[: start.size]
+            prescribed = ~np.isnan(owned)
+            start[prescribed] = owned[prescribed]
+        return start
+
+    def solve(self, u0: dolfinx.fem.Function | None = None) -> tuple[dolfinx.fem.Function, SolveResult]:
+        """Solve from ``u0`` (default: the paper's u⁽⁰⁾ = 0 of the shifted unknown).
+
+        With the ``predictor`` setting (or no contact node and ``no_contact_shortcut``) the linear problem is
+        solved first; if it does not reach the obstacle it is the solution (one linear solve).
+
+        Returns:
+            The physical displacement (a Function on the problem's space, owned by the problem: copy it to
+            keep it across solves) and the result (iterations, histories, contact states and forces).
+
+        Raises:
+            SolverError: when the method does not converge; ``error.result`` holds the last iterate and
+                :attr:`u` its displacement.
+        """
+        model, solver, settings = self.model, self.solver, self.settings
+        start = self.initial_displacement(u0)
+        if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
+            result = solver.solve_linear()
+            if model.p == 0:
+                logger.info("no contact boundary: one linear solve")
+                return self._finish(result), result
+            if result.converged and solver.is_separated(result):
+                logger.info("the linear solution does not reach the obstacle: it is the solution")
+                return self._finish(result), result
+            logger.info("the linear solution penetrates the obstacle: SCD semismooth* Newton")
+        try:
+            result = solver.solve(start)
+        except Exception as err:
+            if getattr(err, "result", None) is not None:
+                self._finish(err.result)  # type: ignore[attr-defined]
+            raise
+        return self._finish(result), result
+
+    def _finish(self, result: SolveResult) -> dolfinx.fem.Function:
+        result.timings["model"] = self._model_time
+        self.u.x.petsc_vec.array[:] = result.displacement
+        self.u.x.scatter_forward()
+        return self.u
+
+    # -- cleanup -----------------------------------------------------------------------------------
+    def destroy(self) -> None:
+        """Destroy every PETSc object of the problem (collective)."""
+        if self._solver is not None:
+            self._solver.destroy()
+            self._solver = None
+        if self._model is not None:
+            self._model.destroy()
+            self._model = None
+
+    def __enter__(self) -> ContactProblem:
+        return self
+
+    def __exit__(self, *args: object) -> None:
+        self.destroy()

@@ -1,0 +1,116 @@
+"""Settings of the SCD semismooth* Newton solver: one dataclass, the single place every knob is defined.
+
+The ``[solver]`` section of a scene file, the command-line flags and :class:`fenics_coulomb.ContactProblem`
+all fill this one dataclass (the TOML keys are its field names).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from fenics_coulomb.errors import InputError
+
+PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
+VARIANTS = ("4a", "4b")
+
+#: Bound on the measured ratio (relative displacement error)/rtol over docs/tradeoff (all pc, tol, forcing
+#: rules and levels): about twice the largest seen, 189 (ILU, fixed tol 0.5, lev 6; 86 with Eisenstat–Walker).
+ERROR_PER_RTOL = 400.0
+
+
+def rtol_for_accuracy(accuracy: float) -> float:
+    """The residual reduction that gives a relative displacement error <= ``accuracy`` (the solver's error,
+    not the discretization's), from the measured speed–accuracy table docs/tradeoff."""
+    return max(accuracy / ERROR_PER_RTOL, 1e-15)
+
+
+def _number(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise InputError(f"{name} = {value!r}: must be a finite number")
+    return float(value)
+
+
+@dataclass
+class SolverSettings:
+    """Settings of the SCD semismooth* Newton solver and of the problem's solve policy.
+
+    Attributes:
+        variant: Newton step "4a" (S*Q, system (5.4)) or "4b" (SQ).
+        tol: Relative unpreconditioned GMRES residual that ends each linear solve (paper: 0.1). A
+            ``ksp_rtol`` among the problem's PETSc options (or ``-<prefix>ksp_rtol``) replaces it.
+        rtol: Stop when ‖ŷ‖ <= rtol·min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖) (paper: rtol·‖ŷ⁽⁰⁾‖ with rtol = 1e-12). The
+            default 1e-8 is chosen from docs/tradeoff: relative displacement errors ≤ 4e-7 with tol 0.1
+            (≤ 8e-7 for every measured tol and pc), every contact state right, 13–41 % faster than 1e-12,
+            and far below the discretization error (3.5e-3 at lev 6).
+        accuracy: A relative displacement error to reach instead of ``rtol`` (mapped by
+            :func:`rtol_for_accuracy`); None uses ``rtol``.
+        max_it: Newton iterations before giving up.
+        pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.preconditioner.AUTO_GAMG_UNKNOWNS`
+            unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (smoothed
+            aggregation on the stiffness matrix A with the rigid-body near-nullspace, set up once and reused by
+            every Newton step), gamg-newton (on the Newton matrix, set up every step), hypre, lu, jacobi, none.
+        power_iterations: Power-method iterations on A for γ (paper: 5).
+        gamma: Fixed γ instead of the power-method estimate.
+        gamma_scale: Factor on the power-method estimate of λ_max(A). The paper uses γ ≈ λ_max(A)
+            (factor 1); the default 0.01 is measured to need far fewer Newton iterations and to keep them
+            nearly level-independent (docs/table2: 14–18 iterations for lev 4–7 against 20–82), while 0.001
+            is too small (some cases stall).
+        gmres_restart: GMRES restart length.
+        ksp_max_it: Maximal Krylov iterations per Newton step.
+        line_search_steps: Number of step lengths tried before the line search fails.
+        adaptive_tol: Safeguarded Eisenstat–Walker forcing terms η_k <= tol instead of the fixed tol.
+        predictor: First solve the linear problem; if it does not reach the obstacle it is the solution.
+        no_contact_shortcut: Without contact nodes, solve the linear problem once instead of Newton.
+    """
+
+    variant: str = "4a"
+    tol: float = 0.1
+    rtol: float = 1e-8
+    accuracy: float | None = None
+    max_it: int = 100
+    pc: str = "auto"
+    power_iterations: int = 5
+    gamma: float | None = None
+    gamma_scale: float = 0.01
+    gmres_restart: int = 100
+    ksp_max_it: int = 2000
+    line_search_steps: int = 20
+    adaptive_tol: bool = False
+    predictor: bool = False
+    no_contact_shortcut: bool = True
+
+    @property
+    def reduction(self) -> float:
+        """The residual reduction in force: ``rtol``, or the one that meets ``accuracy``."""
+        return self.rtol if self.accuracy is None else rtol_for_accuracy(self.accuracy)
+
+    def validate(self) -> None:
+        """Raise InputError naming the first bad value (pure: the same on every rank)."""
+        if self.variant not in VARIANTS:
+            raise InputError(f"variant {self.variant!r}: choose one of {list(VARIANTS)}")
+        tol = _number("tol", self.tol)
+        if not 0.0 < tol < 1.0:
+            raise InputError(f"tol = {self.tol!r}: the linear-solve tolerance must lie in (0, 1)")
+        rtol = _number("rtol", self.rtol)
+        if not 0.0 < rtol < 1.0:
+            raise InputError(f"rtol = {self.rtol!r}: the residual reduction must lie in (0, 1)")
+        if self.accuracy is not None:
+            acc = _number("accuracy", self.accuracy)
+            if not 1e-13 <= acc < 1.0:
+                raise InputError(f"accuracy = {acc!r}: a relative displacement error in [1e-13, 1)")
+        if self.pc not in PRECONDITIONERS:
+            raise InputError(f"preconditioner {self.pc!r}: choose one of {list(PRECONDITIONERS)}")
+        if self.variant == "4b" and self.pc == "hypre":
+            raise InputError("preconditioner 'hypre' cannot apply its transpose, which variant 4b needs")
+        if self.gamma is not None and not (_number("gamma", self.gamma) > 0.0):
+            raise InputError(f"gamma = {self.gamma!r}: must be finite and > 0")
+        if not _number("gamma_scale", self.gamma_scale) > 0.0:
+            raise InputError(f"gamma_scale = {self.gamma_scale!r}: must be finite and > 0")
+        for name in ("max_it", "power_iterations", "gmres_restart", "ksp_max_it", "line_search_steps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise InputError(f"{name} = {value!r}: must be an integer >= 1")
+        for name in ("adaptive_tol", "predictor", "no_contact_shortcut"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name} = {getattr(self, name)!r}: must be true or false")

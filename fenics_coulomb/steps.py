@@ -1,0 +1,118 @@
+r"""The two Newton steps of Section 5 as strategies: variant 4a (S*Q, system (5.4)) and 4b (SQ).
+
+Both overwrite the contact rows of the Newton matrix M (a copy of A) by Bⁱ Aⁱ + Cⁱ and differ in the
+blocks, the right-hand side, whether M or Mᵀ is solved, and how Δu is read off the solution:
+
+(4a) with rge(Y*, X*) ∈ S*Q(d̂, z) (blocks W*ⁱ, U*ⁱ on contact nodes, I and 0 elsewhere), system (5.4)
+         (Y*ᵀ A + X*ᵀ) Δu = −(Y*ᵀ ŷ₁ + X*ᵀ ŷ₂);
+(4b) with rge(X, Y) ∈ SQ(d̂, z) (blocks Xⁱ, Yⁱ; I and 0 elsewhere)
+         (A X + Y) p = A ŷ₂ − ŷ₁,   Δu = X p − ŷ₂,
+     solved as the transposed system of Xᵀ A + Yᵀ, which has the row structure of (5.4), for the
+     correction q = p − ŷ₂ (so that the inexact solve errs relative to Δu, not to p).
+
+Units: Q̃ maps displacements to forces. The blocks are taken for Q̃/γ (forces measured in units of
+γ·length, so the sliding bases' s + t/γ and the rows' A·Δu + γ·U*ᵀΔu are consistent), and the rows are
+multiplied by γ. This selects the same Newton iterate as the paper's bases (exact solves) but makes the
+inexact GMRES solves independent of the units of E and the loads.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.derivatives import s_blocks, sstar_blocks
+
+Array = npt.NDArray[np.float64]
+Friction = float | Array
+
+
+class NewtonOperators(Protocol):
+    """What a step needs from the driver: γ, the contact DOFs, A, the Newton matrix and work vectors."""
+
+    gamma: float
+    cdofs: npt.NDArray[np.int32]
+    A: PETSc.Mat
+    M: PETSc.Mat
+    b: PETSc.Vec
+    w: PETSc.Vec
+    Adu: PETSc.Vec
+
+
+class NewtonStep(Protocol):
+    """A variant of the Newton step (see the module docstring)."""
+
+    name: str
+
+    def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
+             gamma: float) -> tuple[Array, Array]:
+        """The blocks (Bⁱ, Cⁱ) of the new contact rows Bⁱ Aⁱ + Cⁱ."""
+
+    def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
+        """Fill ``ops.b``."""
+
+    def linear_solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        """Solve the Newton system (or its transpose)."""
+
+    def direction(self, x: Array, e: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
+        """Δu from the linear solve's solution ``x``."""
+
+
+class SStarStep:
+    """Variant 4a: the adjoint blocks (W*, U*) ∈ S*Q̃, system (5.4) solved for Δu directly."""
+
+    name = "4a"
+
+    def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
+             gamma: float) -> tuple[Array, Array]:
+        W, U = sstar_blocks(v, z / gamma, sets, friction)
+        return np.swapaxes(W, 1, 2), gamma * np.swapaxes(U, 1, 2)
+
+    def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
+        gamma, cd = ops.gamma, ops.cdofs
+        b = -gamma * e
+        b[cd] = -gamma * (np.einsum("iab,ib->ia", left, e[cd]) + np.einsum("iab,ib->ia", right, e[cd]) / gamma)
+        ops.b.array[:] = b
+
+    def linear_solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        ksp.solve(b, x)
+
+    def direction(self, x: Array, e: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
+        return x
+
+
+class SStep:
+    """Variant 4b: the blocks (X, Y) ∈ SQ̃, the transposed system solved for q = p − ŷ₂."""
+
+    name = "4b"
+
+    def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
+             gamma: float) -> tuple[Array, Array]:
+        X, Y = s_blocks(v, z / gamma, sets, friction)
+        return np.swapaxes(X, 1, 2), gamma * np.swapaxes(Y, 1, 2)
+
+    def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
+        # (A X + Y) p = A ŷ₂ − ŷ₁ with ŷ₂ = e, ŷ₁ = γ e. Near the solution Δu = X p − e is much smaller than
+        # p ≈ e, so an inexact p would swamp Δu: solve for q = p − e instead, with
+        # (A X + Y) q = A e − γ e − (A X + Y) e, whose size is that of Δu (and tol then means the same as in 4a).
+        ops.w.array[:] = e
+        ops.A.mult(ops.w, ops.b)
+        ops.b.axpy(-ops.gamma, ops.w)
+        ops.M.multTranspose(ops.w, ops.Adu)
+        ops.b.axpy(-1.0, ops.Adu)
+
+    def linear_solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
+        ksp.solveTranspose(b, x)
+
+    def direction(self, x: Array, e: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
+        p = x + e
+        du = p - e
+        du[cdofs] = np.einsum("iba,ib->ia", left, p[cdofs]) - e[cdofs]  # Xⁱ p = (leftⁱ)ᵀ p
+        return du
+
+
+STEPS: dict[str, type[SStarStep] | type[SStep]] = {"4a": SStarStep, "4b": SStep}

@@ -1,0 +1,80 @@
+r"""The stopping rule of the Newton iteration.
+
+Stop when ‖ŷ‖ ≤ rtol·min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖), or when ‖ŷ‖ reaches the round-off level of the
+displacements (a start that already solves the problem, e.g. zero load from ũ = 0, stops at once).
+
+The load's own residual scale ‖ŷ(ũ = 0)‖ = √(1+γ²)/γ·‖l̃‖ (no contact at ũ = 0): ‖ŷ⁽⁰⁾‖ of the paper's start
+is dominated by γ·d when the load is small, and a reduction relative to it alone would accept a field that
+does not resolve the load. The reduction is therefore taken relative to min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖): the
+paper's rule for ordinary loads (‖ŷ⁽⁰⁾‖ is then below the bound), a load-relative rule when the start's
+misfit dwarfs the load.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from fenics_coulomb.errors import SolverError
+
+#: The reduction is measured relative to min(‖ŷ⁽⁰⁾‖, LOAD_GUARD·‖ŷ(ũ = 0)‖).
+LOAD_GUARD = 100.0
+
+
+@dataclass(frozen=True)
+class StoppingRule:
+    """When the Newton iteration ends.
+
+    Attributes:
+        rtol: The residual reduction asked for.
+        max_it: Newton iterations allowed.
+        initial: ‖ŷ⁽⁰⁾‖.
+        target: rtol·min(‖ŷ⁽⁰⁾‖, LOAD_GUARD·‖ŷ(ũ = 0)‖).
+        floor: The round-off level of ‖ŷ‖.
+    """
+
+    rtol: float
+    max_it: int
+    initial: float
+    target: float
+    floor: float
+
+    @classmethod
+    def create(cls, rtol: float, max_it: int, initial: float, start_norm: float, load_norm: float,
+               gamma: float) -> StoppingRule:
+        """The rule for a solve.
+
+        Args:
+            rtol: Residual reduction.
+            max_it: Newton iterations allowed.
+            initial: ‖ŷ⁽⁰⁾‖.
+            start_norm: √(1+γ²)·‖u⁽⁰⁾‖ of the start (shifted unknown).
+            load_norm: √(1+γ²)·‖l̃‖.
+            gamma: γ of the approximation step.
+        """
+        # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖: u − d̂ cannot be resolved below the rounding error of
+        # the displacements involved (start, shift d, and the load's displacement scale ‖l̃‖/γ).
+        floor = 100.0 * np.finfo(np.float64).eps * (start_norm + load_norm / gamma)
+        target = rtol * min(initial, LOAD_GUARD * load_norm / gamma)
+        return cls(rtol, max_it, initial, target, floor)
+
+    @property
+    def threshold(self) -> float:
+        """The residual norm that ends the iteration."""
+        return max(self.target, self.floor)
+
+    def satisfied(self, residual: float) -> bool:
+        """Whether ‖ŷ‖ = ``residual`` ends the iteration successfully."""
+        return residual <= self.threshold
+
+    def check(self, iteration: int, residual: float) -> None:
+        """Raise SolverError when the iteration must stop without success."""
+        if not math.isfinite(residual):
+            what = "the initial residual is" if iteration == 0 else f"the residual in iteration {iteration} is"
+            raise SolverError(f"{what} not finite ({residual})", "non_finite")
+        if iteration >= self.max_it:
+            raise SolverError(
+                f"no convergence after {iteration} Newton iterations: |y|/|y0| = {residual / self.initial:.3e} "
+                f"> rtol = {self.rtol:g}", "max_iterations")
