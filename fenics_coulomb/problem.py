@@ -116,7 +116,12 @@ class ContactProblem:
         self._model_time = time.perf_counter() - t0
         self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
         self.petsc_options_prefix = petsc_options_prefix
+        #: The physical displacement of the last solve.
         self.u = dolfinx.fem.Function(self._model.V, name="displacement")
+        #: Unknowns after removing the Dirichlet DOFs (global).
+        self.n: int = self._model.n
+        #: Contact nodes (global).
+        self.p: int = self._model.p
 
     # -- access ------------------------------------------------------------------------------------
     @property
@@ -140,16 +145,6 @@ class ContactProblem:
     def A(self) -> PETSc.Mat:
         """The stiffness matrix with the Dirichlet rows and columns of a scaled identity."""
         return self.model.A
-
-    @property
-    def n(self) -> int:
-        """Unknowns after removing the Dirichlet DOFs (global)."""
-        return self.model.n
-
-    @property
-    def p(self) -> int:
-        """Contact nodes (global)."""
-        return self.model.p
 
     # -- solving -----------------------------------------------------------------------------------
     def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:

@@ -12,12 +12,12 @@ from fenics_coulomb.scene import GAP_PROFILES, cells_per_direction, create_cuboi
 
 
 @pytest.mark.parametrize("lev", range(9))
-def test_sizes(lev, model_factory):
+def test_sizes(lev, problem_factory):
     """p = n_x1·(n_x2+1) contact nodes and n = 3·n_x1·(n_x2+1)·(n_x3+1) unknowns (global counts)."""
     n1, n2, n3 = cells_per_direction(lev)
     assert (n1, n2, n3) == (int(np.ceil(4 * 2 ** (lev / 2) - 1e-9)), int(np.ceil(2 * 2 ** (lev / 2) - 1e-9)),
                             int(np.ceil(2 * 2 ** (lev / 2) - 1e-9)))
-    model = model_factory(lev, "d1", "L1")
+    model = problem_factory(lev, "d1", "L1").model
     assert model.p == n1 * (n2 + 1)
     assert model.n == 3 * n1 * (n2 + 1) * (n3 + 1)
     assert (model.p, model.n) == expected_sizes(lev)
@@ -36,9 +36,9 @@ def test_known_sizes():
 
 
 @pytest.mark.parametrize("gap", sorted(GAP_PROFILES))
-def test_bottom_follows_gap(gap, model_factory):
+def test_bottom_follows_gap(gap, problem_factory):
     """Contact nodes sit at height d(x1, x2); the shift d holds α in the normal component only."""
-    model = model_factory(2, gap, "L1")
+    model = problem_factory(2, gap, "L1").model
     c = model.contact
     d = GAP_PROFILES[gap](c.coordinates[:, 0], c.coordinates[:, 1])
     assert np.allclose(c.gap, d, rtol=0, atol=1e-14)
@@ -53,9 +53,9 @@ def test_bottom_follows_gap(gap, model_factory):
     assert np.isclose(x[:, 2].max(initial=1.0), 1.0)
 
 
-def test_shifted_load(model_factory):
+def test_shifted_load(problem_factory):
     """l = l̃ + A d, so that A u − l = A ũ − l̃ for u = ũ + d (the paper prints l̃ − A d)."""
-    model = model_factory(1, "d3", "L2")
+    model = problem_factory(1, "d3", "L2").model
     A = model.A
     rng = np.random.default_rng(1 + MPI.COMM_WORLD.rank)
     ut, r1 = A.createVecs()
@@ -73,10 +73,10 @@ def test_shifted_load(model_factory):
         v.destroy()
 
 
-def test_total_load(model_factory):
+def test_total_load(problem_factory):
     """The applied resultant of L2 is P_T·|top| + P_R·|right|; on Ω(d2) the right face x1 = 2 spans
     d2(2, x2) = 0.0025 < x3 < 1, so |right| = 0.9975 and |top| = 2."""
-    model = model_factory(1, "d2", "L2")
+    model = problem_factory(1, "d2", "L2").model
     assert np.allclose(model.total_load(), [-0.17 * 0.9975, -0.1 * 0.9975, -1.0 * 2.0], rtol=1e-12)
 
 

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 from reference import tresca_fixed_point
 
+from conftest import gather_by_coordinates, global_norm, make_problem, read_solution
+
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.expression import parse_gap_expression
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import SCDNewtonSolver
 from fenics_coulomb.scene import gap_d3
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -36,12 +36,13 @@ def write(tmp: Path, name: str, text: str) -> Path:
 def test_shipped_scenes_parse(path):
     scene = Scene.from_toml(path)
     assert scene.name == path.stem
-    scene.settings().validate()
+    scene.solver.validate()
 
 
 def test_section7_scene_matches_paper_data():
     scene = Scene.from_toml(ROOT / "demos" / "scenes" / "d2_L1.toml")
-    assert (scene.gap, scene.load, scene.friction, scene.young, scene.poisson) == ("d2", "L1", 0.23, 70.0, 0.334)
+    assert (scene.body.gap, scene.load.case, scene.friction.coefficient, scene.material.young,
+            scene.material.poisson) == ("d2", "L1", 0.23, 70.0, 0.334)
     assert scene.traction_table() == {"top": (0.0, 0.0, -1.0), "right": (-0.2, 0.0, 0.0)}
 
 
@@ -104,38 +105,23 @@ def test_flags_override_scene(mpi_tmp_path):
                  "--no-plots"]) == 0
     MPI.COMM_WORLD.barrier()
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["scene"]["friction"] == 0.1 and summary["scene"]["gap"] == "d2"
-    assert summary["scene"]["lev"] == 1 and summary["p"] == 6 * 4
-
-
-def solve_scene(scene: Scene, start: str | None = None, **overrides):
-    scene = scene.override(**overrides)
-    comm = MPI.COMM_WORLD
-    model = ContactModel(scene.build_body(comm), Material(scene.young, scene.poisson), scene.friction,
-                         scene.traction_table())
-    solver = SCDNewtonSolver(model, scene.settings())
-    init = None if (start or scene.start) == "undeformed" else -model.shift.getArray(readonly=True).copy()
-    result = solver.solve(init)
-    solver.destroy()
-    return model, result
+    assert summary["scene"]["friction"]["coefficient"] == 0.1 and summary["scene"]["body"]["gap"] == "d2"
+    assert summary["scene"]["body"]["lev"] == 1 and summary["p"] == 6 * 4
 
 
 def test_frictionless_matches_signorini_reference():
     """F = 0 solves the Signorini problem: compared with a projected-gradient QP solve (one Tresca solve
     with zero slip bound), and no node sticks."""
-    scene = Scene.from_toml(ROOT / "demos" / "scenes" / "wavy_frictionless.toml").override(lev=0)
-    comm = MPI.COMM_SELF
-    model = ContactModel(scene.build_body(comm), Material(), 0.0, scene.traction_table())
-    solver = SCDNewtonSolver(model, scene.override(pc="lu", tol=1e-13, rtol=1e-12).settings())
-    result = solver.solve(-model.shift.getArray(readonly=True).copy())
-    solver.destroy()
+    scene = Scene.from_toml(ROOT / "demos" / "scenes" / "wavy_frictionless.toml")
+    with make_problem(scene=scene, comm=MPI.COMM_SELF, lev=0, pc="lu", tol=1e-13, rtol=1e-12) as problem:
+        _, result = problem.solve()
+        model = problem.model
+        A = model.A.convert("dense").getDenseArray().copy()
+        load = model.load.getArray(readonly=True).copy()
     assert result.converged and not np.any(result.states == 1)
-    A = model.A.convert("dense").getDenseArray().copy()
-    ref = tresca_fixed_point(A, model.load.getArray(readonly=True).copy(), model.contact.local_dofs,
-                             model.contact.gap, 0.0)
+    ref = tresca_fixed_point(A, load, model.contact.local_dofs, model.contact.gap, 0.0)
     assert np.linalg.norm(result.displacement - ref) <= 1e-7 * np.linalg.norm(ref)
     assert np.allclose(result.tangential_force, 0.0)
-    model.destroy()
 
 
 def test_no_contact_shortcut_equals_full_model(mpi_tmp_path):
@@ -146,21 +132,13 @@ def test_no_contact_shortcut_equals_full_model(mpi_tmp_path):
     MPI.COMM_WORLD.barrier()
     summary = json.loads((out / "summary.json").read_text())
     assert summary["newton_iterations"] == 1 and summary["state_counts"]["open"] == summary["p"]
-    model, full = solve_scene(Scene.from_toml(path), rtol=1e-13)
-    assert full.converged
-    import h5py
-
-    with h5py.File(out / "solution.h5", "r") as h5:
-        x = h5["Mesh/mesh/geometry"][:]
-        u = h5["Function/displacement/0"][:]
-    n = model.V.dofmap.index_map.size_local
-    mine = np.concatenate(MPI.COMM_WORLD.allgather(np.round(model.V.tabulate_dof_coordinates()[:n], 9)))
-    vals = np.concatenate(MPI.COMM_WORLD.allgather(full.displacement.reshape(-1, 3)))
-    order_a = np.lexsort(np.round(x, 9).T[::-1])
-    order_b = np.lexsort(mine.T[::-1])
-    assert np.allclose(np.round(x, 9)[order_a], mine[order_b])
-    assert np.linalg.norm(u[order_a] - vals[order_b]) <= 1e-8 * np.linalg.norm(vals)
-    model.destroy()
+    with make_problem(scene=Scene.from_toml(path), rtol=1e-13, predictor=False) as problem:
+        _, full = problem.solve()
+        assert full.converged and not full.linear and full.iterations > 1
+        x_full, u_full = gather_by_coordinates(problem.V, full.displacement)
+    x, u = read_solution(out)
+    assert np.allclose(x, x_full, atol=1e-9)
+    assert np.linalg.norm(u - u_full) <= 1e-8 * np.linalg.norm(u_full)
 
 
 def test_no_contact_boundary_is_one_linear_solve(mpi_tmp_path):
@@ -175,16 +153,16 @@ def test_no_contact_boundary_is_one_linear_solve(mpi_tmp_path):
 def test_non_box_mesh_physics():
     """The tetrahedral roller (meshes/roller.msh) against the plane: the physics checks hold."""
     scene = Scene.from_toml(ROOT / "demos" / "scenes" / "roller.toml")
-    model, result = solve_scene(scene, rtol=1e-12)
+    with make_problem(scene=scene, rtol=1e-12) as problem:
+        _, result = problem.solve()
+        checks = physics_residuals(problem.model, result.displacement)
     assert result.converged
-    counts = result.state_counts(MPI.COMM_WORLD)
-    assert counts["slip"] > 0 and counts["open"] > 0 and sum(counts.values()) == model.p
-    checks = physics_residuals(model, result.displacement)
+    counts = result.counts
+    assert counts["slip"] > 0 and counts["open"] > 0 and sum(counts.values()) == problem.p
     for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone",
                 "reaction_balance"):
         assert checks[key] < 1e-8, (key, checks[key])
     assert checks["slip_direction"] < 1e-5
-    model.destroy()
 
 
 def test_start_from_coarser_solution(mpi_tmp_path):
@@ -206,22 +184,13 @@ def test_start_from_coarser_solution(mpi_tmp_path):
 
 
 @pytest.mark.parametrize("accuracy", [1e-4, 1e-8])
-def test_accuracy_instead_of_rtol(accuracy, model_factory):
+def test_accuracy_instead_of_rtol(accuracy, problem_factory):
     """A scene may ask for a displacement accuracy; the solve meets it against a tight reference."""
-    from conftest import make_model  # noqa: F401  (model_factory builds the scene's model)
-
-    scene = Scene(lev=3, gap="d3", load="L2", accuracy=accuracy)
-    model = model_factory(3, "d3", "L2")
-    tight = SCDNewtonSolver(model, Scene(lev=3, rtol=1e-14, tol=1e-3).settings())
-    ref = tight.solve(-model.shift.getArray(readonly=True).copy())
-    tight.destroy()
-    solver = SCDNewtonSolver(model, scene.settings())
-    result = solver.solve(-model.shift.getArray(readonly=True).copy())
-    solver.destroy()
-    comm = MPI.COMM_WORLD
-    err = np.sqrt(comm.allreduce(np.sum((result.displacement - ref.displacement) ** 2)))
-    assert err <= accuracy * np.sqrt(comm.allreduce(np.sum(ref.displacement**2)))
-    assert scene.settings().rtol < accuracy
+    _, ref = problem_factory(3, "d3", "L2", rtol=1e-14, tol=1e-3).solve()
+    problem = problem_factory(3, "d3", "L2", accuracy=accuracy)
+    _, result = problem.solve()
+    assert global_norm(result.displacement - ref.displacement) <= accuracy * global_norm(ref.displacement)
+    assert problem.settings.reduction < accuracy
 
 
 @pytest.mark.parametrize("value", ["0", "1.5", "-1e-3", "nan"])

@@ -7,50 +7,36 @@ import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 from mpi4py import MPI
 from petsc4py import PETSc
 
-import h5py
 import numpy as np
 import pytest
-from conftest import make_model, paper_tractions
+from conftest import gather_by_coordinates, make_problem, read_solution
 from reference import tresca_fixed_point
 
 from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings, forcing_term
+from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.resolvent import SLIP, STICK
-from fenics_coulomb.scene import create_cuboid
+from fenics_coulomb.settings import SolverSettings
 
 TIGHT = dict(rtol=1e-12)
 
 
-def solve(model, start="zero", **kwargs):
-    solver = SCDNewtonSolver(model, SolverSettings(**{**TIGHT, **kwargs}))
-    try:
-        init = -model.shift.getArray(readonly=True).copy() if start == "zero" else None
-        return solver.solve(init)
-    finally:
-        solver.destroy()
+def solve(problem_factory, *case, start="zero", **settings):
+    """Build a case with the given settings (rtol 1e-12 unless given) and solve it; return (model, result)."""
+    problem = problem_factory(*case, start=start, **{**TIGHT, **settings})
+    _, result = problem.solve(None if start == "zero" else zero_start(problem))
+    return problem.model, result
 
 
-def gather_by_coordinates(model, values):
-    """(coordinates, values) of all owned blocks on all ranks, sorted by coordinates."""
-    comm = model.V.mesh.comm
-    n = model.V.dofmap.index_map.size_local
-    x = model.V.tabulate_dof_coordinates()[:n]
-    vals = np.asarray(values).reshape(n, 3)
-    x = np.concatenate(comm.allgather(x))
-    vals = np.concatenate(comm.allgather(vals))
-    return sort_by_coordinates(x, vals)
+def zero_start(problem):
+    """ũ⁽⁰⁾ = 0 (the undeformed body) as a Function."""
+    import dolfinx.fem
 
-
-def sort_by_coordinates(x, vals):
-    """Sort nodes by their coordinates, rounded so that round-off does not change the order."""
-    key = np.round(x, 9)
-    order = np.lexsort((key[:, 2], key[:, 1], key[:, 0]))
-    return x[order], vals[order]
+    return dolfinx.fem.Function(problem.V)
 
 
 PHYSICS_TOL = {
@@ -62,10 +48,9 @@ PHYSICS_TOL = {
 @pytest.mark.parametrize("variant", ["4a", "4b"])
 @pytest.mark.parametrize("load", ["L1", "L2"])
 @pytest.mark.parametrize("gap", ["d1", "d2", "d3"])
-def test_physics(gap, load, variant, model_factory):
+def test_physics(gap, load, variant, problem_factory):
     """Equilibrium, Signorini, Coulomb and global balance hold at the computed solution."""
-    model = model_factory(2, gap, load)
-    result = solve(model, variant=variant)
+    model, result = solve(problem_factory, 2, gap, load, variant=variant)
     assert result.converged
     checks = physics_residuals(model, result.displacement)
     for key, tol in PHYSICS_TOL.items():
@@ -86,23 +71,21 @@ def test_physics(gap, load, variant, model_factory):
     assert np.allclose(result.displacement[model.contact.local_dofs[stick, 2]], -model.contact.gap[stick])
 
 
-def test_variants_agree(model_factory):
+def test_variants_agree(problem_factory):
     """Newton steps 4a (S*Q) and 4b (SQ) reach the same solution (1e-8 relative)."""
-    model = model_factory(3, "d3", "L2")
-    ua = solve(model, variant="4a").displacement
-    ub = solve(model, variant="4b").displacement
+    ua = solve(problem_factory, 3, "d3", "L2", variant="4a")[1].displacement
+    ub = solve(problem_factory, 3, "d3", "L2", variant="4b")[1].displacement
     comm = MPI.COMM_WORLD
     diff = np.sqrt(comm.allreduce(np.sum((ua - ub) ** 2)))
     norm = np.sqrt(comm.allreduce(np.sum(ua**2)))
     assert diff <= 1e-8 * norm
 
 
-def test_exact_newton_iterates_coincide(model_factory):
+def test_exact_newton_iterates_coincide(problem_factory):
     """With exact linear solves, 4a and 4b give the same iterates (x̂ − C_Lᵀŷ for L and L*), hence the same
     residual history; the final iterations converge superlinearly."""
-    model = model_factory(2, "d3", "L2")
-    ra = solve(model, variant="4a", pc="lu", tol=1e-13)
-    rb = solve(model, variant="4b", pc="lu", tol=1e-13)
+    ra = solve(problem_factory, 2, "d3", "L2", variant="4a", pc="lu", tol=1e-13)[1]
+    rb = solve(problem_factory, 2, "d3", "L2", variant="4b", pc="lu", tol=1e-13)[1]
     assert ra.iterations == rb.iterations
     ha, hb = np.array(ra.residual_history), np.array(rb.residual_history)
     assert np.allclose(ha[ha > 1e-9 * ha[0]], hb[ha > 1e-9 * ha[0]], rtol=1e-6)
@@ -110,7 +93,7 @@ def test_exact_newton_iterates_coincide(model_factory):
     assert rates[-1] < 1e-2 and rates[-1] < rates[0]
 
 
-def test_serial_equals_parallel(model_factory):
+def test_serial_equals_parallel(problem_factory):
     """The solution on COMM_WORLD equals the one computed on one rank (1e-8 relative).
 
     Under ``mpirun -n 2`` every rank also solves on COMM_SELF; in a serial session the parallel run is a
@@ -118,14 +101,12 @@ def test_serial_equals_parallel(model_factory):
     """
     comm = MPI.COMM_WORLD
     lev, gap, load = 2, "d3", "L2"
-    model = model_factory(lev, gap, load)
-    result = solve(model)
-    x, u = gather_by_coordinates(model, result.displacement)
+    model, result = solve(problem_factory, lev, gap, load)
+    x, u = gather_by_coordinates(model.V, result.displacement)
     if comm.size > 1:
-        single = make_model(lev, gap, load, comm=MPI.COMM_SELF)
-        ref = solve(single)
-        xs, us = gather_by_coordinates(single, ref.displacement)
-        single.destroy()
+        with make_problem(lev, gap, load, comm=MPI.COMM_SELF, **TIGHT) as single:
+            _, ref = single.solve()
+            xs, us = gather_by_coordinates(single.V, ref.displacement)
     else:
         mpirun = shutil.which("mpirun")
         assert mpirun is not None
@@ -138,65 +119,53 @@ def test_serial_equals_parallel(model_factory):
             subprocess.run(cmd, check=True, env=env, capture_output=True, timeout=300)
             summary = json.loads(open(f"{out}/summary.json").read())
             assert summary["converged"] and summary["ranks"] == 2
-            with h5py.File(f"{out}/solution.h5", "r") as h5:
-                xs = h5["Mesh/mesh/geometry"][:]
-                us = h5["Function/displacement/0"][:]
-        xs, us = sort_by_coordinates(xs, us)
+            xs, us = read_solution(Path(out))
     assert np.allclose(x, xs, atol=1e-12)
     assert np.linalg.norm(u - us) <= 1e-8 * np.linalg.norm(u)
 
 
 def test_matches_independent_solver():
     """A tiny scene (lev 0, 108 unknowns) against the Tresca fixed-point/FISTA solver on dense matrices."""
-    model = make_model(0, "d3", "L2", comm=MPI.COMM_SELF)
-    try:
-        result = solve(model, pc="lu", tol=1e-13)
+    with make_problem(0, "d3", "L2", comm=MPI.COMM_SELF, pc="lu", tol=1e-13, **TIGHT) as problem:
+        _, result = problem.solve()
+        model = problem.model
         assert result.converged
         A = model.A.convert("dense").getDenseArray().copy()
         load = model.load.getArray(readonly=True).copy()
         ref = tresca_fixed_point(A, load, model.contact.local_dofs, model.contact.gap, model.friction)
         assert np.linalg.norm(result.displacement - ref) <= 1e-7 * np.linalg.norm(ref)
-    finally:
-        model.destroy()
 
 
 @pytest.mark.parametrize("case", ["far_obstacle", "pulled_away"])
-def test_no_contact_is_one_linear_solve(case):
+def test_no_contact_is_one_linear_solve(case, problem_factory):
     """If the body cannot reach the obstacle, one Newton step from ũ = 0 solves A ũ = l̃ exactly."""
     comm = MPI.COMM_WORLD
-    if case == "far_obstacle":
-        body = create_cuboid(comm, 2, lambda x1, x2: 0.3 + 0.0 * x1)
-        tractions = paper_tractions("L1", scale=0.1)  # bends the cantilever by about 0.03 < 0.3
-    else:
-        body = create_cuboid(comm, 2, "d3")
-        tractions = paper_tractions("L2", scale=-1.0)  # the top is pulled up
-    model = ContactModel(body, Material(), 0.23, tractions)
-    try:
-        result = solve(model, start="undeformed", pc="lu", tol=1e-14)
-        assert result.converged and result.iterations == 1
-        assert result.state_counts(comm) == {"open": model.p, "stick": 0, "slip": 0}
-        ksp = PETSc.KSP().create(comm)
-        ksp.setOptionsPrefix("test_linear_")
-        ksp.setOperators(model.A)
-        ksp.setType("preonly")
-        ksp.getPC().setType("lu")
-        if comm.size > 1:
-            ksp.getPC().setFactorSolverType("mumps")
-        x = model.A.createVecRight()
-        ksp.solve(model.load, x)
-        ref = x.getArray(readonly=True)
-        diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref) ** 2)))
-        assert diff <= 1e-10 * x.norm()
-        ksp.destroy()
-        x.destroy()
-    finally:
-        model.destroy()
+    if case == "far_obstacle":  # bends the cantilever by about 0.03 < 0.3
+        case_args = dict(gap="0.3 + 0*x1", load="L1", load_scale=0.1)
+    else:  # the top is pulled up
+        case_args = dict(gap="d3", load="L2", load_scale=-1.0)
+    model, result = solve(problem_factory, 2, start="undeformed", pc="lu", tol=1e-14, **case_args)
+    assert result.converged and result.iterations == 1
+    assert result.state_counts(comm) == {"open": model.p, "stick": 0, "slip": 0}
+    ksp = PETSc.KSP().create(comm)
+    ksp.setOptionsPrefix("test_linear_")
+    ksp.setOperators(model.A)
+    ksp.setType("preonly")
+    ksp.getPC().setType("lu")
+    if comm.size > 1:
+        ksp.getPC().setFactorSolverType("mumps")
+    x = model.A.createVecRight()
+    ksp.solve(model.load, x)
+    ref = x.getArray(readonly=True)
+    diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref) ** 2)))
+    assert diff <= 1e-10 * x.norm()
+    ksp.destroy()
+    x.destroy()
 
 
-def test_zero_load_is_immediate(model_factory):
+def test_zero_load_is_immediate(problem_factory):
     """Zero load from ũ = 0: the residual is zero at the start (ũ = 0 is the solution)."""
-    model = model_factory(1, "d3", "L2", scale=0.0)
-    result = solve(model, start="undeformed")
+    _, result = solve(problem_factory, 1, "d3", "L2", load_scale=0.0, start="undeformed")
     assert result.converged and result.iterations == 0
     assert np.all(result.displacement == 0.0)
 
@@ -204,14 +173,11 @@ def test_zero_load_is_immediate(model_factory):
 @pytest.mark.parametrize("lev", [2, 3, 4, 5, 6])
 @pytest.mark.parametrize("load", ["L1", "L2"])
 @pytest.mark.parametrize("gap", ["d1", "d2", "d3"])
-def test_section7_cases_converge(gap, load, lev, model_factory):
+def test_section7_cases_converge(gap, load, lev, problem_factory):
     """All six cases converge from the paper's u⁽⁰⁾ = 0 with the default settings (tol 0.1, ILU)."""
-    model = model_factory(lev, gap, load)
-    solver = SCDNewtonSolver(model)
-    try:
-        result = solver.solve(-model.shift.getArray(readonly=True).copy())
-    finally:
-        solver.destroy()
+    problem = problem_factory(lev, gap, load)
+    model = problem.model
+    _, result = problem.solve()
     assert result.converged
     rtol = SolverSettings().rtol
     assert result.residual_history[-1] <= rtol * result.residual_history[0]
@@ -220,11 +186,10 @@ def test_section7_cases_converge(gap, load, lev, model_factory):
     assert checks["penetration"] < 1e3 * rtol and checks["cone"] < 1e3 * rtol and checks["equilibrium"] < 1e3 * rtol
 
 
-def test_gamma_does_not_change_the_solution(model_factory):
+def test_gamma_does_not_change_the_solution(problem_factory):
     """γ only steers the iteration: the paper's γ ≈ λ_max(A) and the default 0.01·λ_max give one solution."""
-    model = model_factory(3, "d2", "L1")
-    r1 = solve(model, gamma_scale=1.0)
-    r2 = solve(model, gamma_scale=0.01)
+    r1 = solve(problem_factory, 3, "d2", "L1", gamma_scale=1.0)[1]
+    r2 = solve(problem_factory, 3, "d2", "L1", gamma_scale=0.01)[1]
     assert r1.converged and r2.converged
     assert np.isclose(r1.gamma, 100 * r2.gamma)
     comm = MPI.COMM_WORLD
@@ -235,15 +200,14 @@ def test_gamma_does_not_change_the_solution(model_factory):
 
 @pytest.mark.parametrize("variant", ["4a", "4b"])
 @pytest.mark.parametrize("pc", ["gamg", "gamg-newton", "hypre", "lu", "jacobi"])
-def test_preconditioners_reach_the_same_solution(pc, variant, model_factory):
+def test_preconditioners_reach_the_same_solution(pc, variant, problem_factory):
     """Every selectable preconditioner solves the Newton systems to the same contact solution."""
     if pc == "hypre" and variant == "4b":
         with pytest.raises(Exception, match="hypre"):
             SolverSettings(pc=pc, variant=variant).validate()
         return
-    model = model_factory(2, "d3", "L1")
-    ref = solve(model, variant="4a")
-    result = solve(model, pc=pc, variant=variant)
+    ref = solve(problem_factory, 2, "d3", "L1", variant="4a")[1]
+    result = solve(problem_factory, 2, "d3", "L1", pc=pc, variant=variant)[1]
     assert result.converged
     comm = MPI.COMM_WORLD
     diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref.displacement) ** 2)))
@@ -251,47 +215,39 @@ def test_preconditioners_reach_the_same_solution(pc, variant, model_factory):
 
 
 @pytest.mark.parametrize("threshold, expected", [(10**9, "ilu"), (0, "gamg")])
-def test_auto_preconditioner_follows_the_problem_size(threshold, expected, model_factory, monkeypatch):
+def test_auto_preconditioner_follows_the_problem_size(threshold, expected, problem_factory, monkeypatch):
     """pc = auto takes ILU below AUTO_GAMG_UNKNOWNS unknowns and GAMG from there on, and says so."""
-    import fenics_coulomb.newton as newton
+    import fenics_coulomb.preconditioner as preconditioner
 
-    monkeypatch.setattr(newton, "AUTO_GAMG_UNKNOWNS", threshold)
-    model = model_factory(2, "d3", "L1")
-    solver = SCDNewtonSolver(model, SolverSettings(pc="auto"))
-    try:
-        assert solver.pc == expected
-        parallel = MPI.COMM_WORLD.size > 1
-        assert solver.ksp.getPC().getType() == {"ilu": "bjacobi" if parallel else "ilu", "gamg": "gamg"}[expected]
-    finally:
-        solver.destroy()
+    monkeypatch.setattr(preconditioner, "AUTO_GAMG_UNKNOWNS", threshold)
+    solver = problem_factory(2, "d3", "L1", pc="auto").solver
+    assert solver.pc == expected
+    parallel = MPI.COMM_WORLD.size > 1
+    assert solver.ksp.getPC().getType() == {"ilu": "bjacobi" if parallel else "ilu", "gamg": "gamg"}[expected]
 
 
-def test_gamg_is_set_up_once_on_the_stiffness_matrix(model_factory):
+def test_gamg_is_set_up_once_on_the_stiffness_matrix(problem_factory):
     """gamg preconditions every Newton matrix with one hierarchy built on A, with one Chebyshev sweep per
     level unless the user asks otherwise, and leaves no option of its own behind."""
-    model = model_factory(3, "d3", "L2")
     opts = PETSc.Options()
-    solver = SCDNewtonSolver(model, SolverSettings(pc="gamg", rtol=1e-10))
-    try:
+    with make_problem(3, "d3", "L2", pc="gamg", rtol=1e-10) as problem:
+        solver = problem.solver
         _, P = solver.ksp.getOperators()
-        assert P.handle == model.A.handle
+        assert P.handle == problem.A.handle
         PETSc.Log.begin()
         setups = PETSc.Log.Event("PCSetUp").getPerfInfo()["count"]
-        result = solver.solve(-model.shift.getArray(readonly=True).copy())
+        _, result = problem.solve()
         assert result.converged and result.iterations >= 3
         assert PETSc.Log.Event("PCSetUp").getPerfInfo()["count"] - setups == 1
         assert P.getNearNullSpace().handle != 0
         assert solver.ksp.getPC().getMGSmoother(1).getTolerances()[3] == 1
-    finally:
-        solver.destroy()
-    assert not opts.hasName("coulomb_mg_levels_ksp_max_it")
+        assert not opts.hasName("coulomb_mg_levels_ksp_max_it")
     opts["coulomb_mg_levels_ksp_max_it"] = 3
-    solver = SCDNewtonSolver(model, SolverSettings(pc="gamg"))
     try:
-        solver.solve(-model.shift.getArray(readonly=True).copy())
-        assert solver.ksp.getPC().getMGSmoother(1).getTolerances()[3] == 3
+        with make_problem(3, "d3", "L2", pc="gamg") as problem:
+            problem.solve()
+            assert problem.solver.ksp.getPC().getMGSmoother(1).getTolerances()[3] == 3
     finally:
-        solver.destroy()
         del opts["coulomb_mg_levels_ksp_max_it"]
 
 
@@ -314,13 +270,13 @@ def test_forcing_term(tol, history, eta_prev, target, expected):
     assert forcing_term(tol, history, eta_prev, target) == pytest.approx(expected, rel=1e-12)
 
 
-def test_adaptive_forcing_reaches_the_linear_solves(model_factory):
+def test_adaptive_forcing_reaches_the_linear_solves(problem_factory):
     """With adaptive_tol every GMRES solve gets the term of forcing_term (tightening below tol in the tail)
     and meets it; with the fixed rule every solve gets tol. The reached residual is recomputed here from the
     Newton matrix, the right-hand side and the solution, independently of the KSP's own estimate."""
-    model = model_factory(3, "d3", "L2")
     for adaptive in (False, True):
-        solver = SCDNewtonSolver(model, SolverSettings(rtol=1e-12, adaptive_tol=adaptive))
+        problem = problem_factory(3, "d3", "L2", rtol=1e-12, adaptive_tol=adaptive)
+        solver = problem.solver
         seen: list[tuple[float, float]] = []
 
         def after_solve(ksp, b, x, seen=seen):
@@ -331,10 +287,7 @@ def test_adaptive_forcing_reaches_the_linear_solves(model_factory):
             r.destroy()
 
         solver.ksp.setPostSolve(after_solve)
-        try:
-            result = solver.solve(-model.shift.getArray(readonly=True).copy())
-        finally:
-            solver.destroy()
+        _, result = problem.solve()
         assert result.converged and len(seen) == result.iterations == len(result.records)
         etas = np.array([eta for eta, _ in seen])
         reached = np.array([rel for _, rel in seen])
@@ -351,11 +304,10 @@ def test_adaptive_forcing_reaches_the_linear_solves(model_factory):
             assert np.all(etas == 0.1)
 
 
-def test_adaptive_tolerance_reaches_the_same_solution(model_factory):
+def test_adaptive_tolerance_reaches_the_same_solution(problem_factory):
     """Eisenstat–Walker forcing terms change the path, not the solution, and cut Newton iterations."""
-    model = model_factory(4, "d3", "L2")
-    fixed = solve(model, adaptive_tol=False)
-    adaptive = solve(model, adaptive_tol=True)
+    _, fixed = solve(problem_factory, 4, "d3", "L2", adaptive_tol=False)
+    model, adaptive = solve(problem_factory, 4, "d3", "L2", adaptive_tol=True)
     assert adaptive.converged and adaptive.iterations <= fixed.iterations
     comm = MPI.COMM_WORLD
     diff = np.sqrt(comm.allreduce(np.sum((adaptive.displacement - fixed.displacement) ** 2)))
