@@ -1,4 +1,4 @@
-"""Shared helpers of the benchmark scripts: build and solve a Section 7 case, record numbers."""
+"""Shared helpers of the benchmark scripts: build and solve a Section 7 case through the API, record numbers."""
 
 from __future__ import annotations
 
@@ -12,58 +12,63 @@ from typing import Any
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import numpy as np
 
-from fenics_coulomb.errors import SolverError
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import SCDNewtonSolver, SolveResult, SolverSettings
+from fenics_coulomb import ContactProblem, SolveResult, SolverError, SolverSettings
+from fenics_coulomb.builder import build_problem
+from fenics_coulomb.config import Scene
 from fenics_coulomb.output import software_versions
-from fenics_coulomb.scene import create_cuboid, paper_tractions
 
 CASES = [(g, ld) for g in ("d1", "d2", "d3") for ld in ("L1", "L2")]
 
 
 @dataclass
 class Run:
-    """A solved case: the model (owns PETSc objects), the result and timings."""
+    """A solved case: the problem (owns PETSc objects), the result and timings."""
 
-    model: ContactModel
+    problem: ContactProblem
     result: SolveResult
     model_s: float
     solve_s: float
 
+    @property
+    def model(self):  # noqa: ANN201  (the problem's ContactModel)
+        return self.problem.model
+
     def destroy(self) -> None:
-        self.model.destroy()
+        self.problem.destroy()
 
 
-def build(comm: MPI.Comm, lev: int, gap: str, load: str, friction: float = 0.23) -> tuple[ContactModel, float]:
-    """Assemble a case; return the model and the wall time (max over ranks)."""
+def build(comm: MPI.Comm, lev: int, gap: str, load: str, friction: float = 0.23,
+          **overrides: Any) -> tuple[ContactProblem, float]:
+    """Build a case (scene settings as overrides); return the problem and the wall time (max over ranks)."""
     t0 = time.perf_counter()
-    body = create_cuboid(comm, lev, gap)
-    model = ContactModel(body, Material(), friction, paper_tractions(load))
-    return model, comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    scene = Scene().override(lev=lev, gap=gap, load=load, friction=friction, **overrides)
+    problem = build_problem(scene, comm).problem
+    return problem, comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
 
 
-def solve(model: ContactModel, settings: SolverSettings, start: np.ndarray | None = None) -> tuple[SolveResult, float]:
-    """Solve from ũ⁽⁰⁾ = start (default: the paper's origin of the shifted unknown)."""
-    comm = model.V.mesh.comm
+def solve(problem: ContactProblem, settings: SolverSettings,
+          start: dolfinx.fem.Function | None = None) -> tuple[SolveResult, float]:
+    """Solve with ``settings`` (a new solver on the same model) from ``start`` (default: the paper's u⁽⁰⁾ = 0 of
+    the shifted unknown); return the result, converged or not, and the wall time including the solver set-up."""
+    comm = problem.V.mesh.comm
     comm.barrier()
     t0 = time.perf_counter()
-    solver = SCDNewtonSolver(model, settings)
-    init = -model.shift.getArray(readonly=True).copy() if start is None else start
+    problem.set_solver(settings)
     try:
-        result = solver.solve(init)
+        _, result = problem.solve(start)
     except SolverError as err:
         result = err.result
-    solver.destroy()
     return result, comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
 
 
 def run_case(comm: MPI.Comm, lev: int, gap: str, load: str, settings: SolverSettings,
-             start: np.ndarray | None = None) -> Run:
-    model, t_model = build(comm, lev, gap, load)
-    result, t_solve = solve(model, settings, start)
-    return Run(model, result, t_model, t_solve)
+             start: dolfinx.fem.Function | None = None) -> Run:
+    problem, t_model = build(comm, lev, gap, load)
+    result, t_solve = solve(problem, settings, start)
+    return Run(problem, result, t_model, t_solve)
 
 
 def peak_rss_mib(comm: MPI.Comm) -> float:

@@ -16,15 +16,14 @@ from typing import Any
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import numpy as np
 
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import SCDNewtonSolver
+from fenics_coulomb.builder import build_problem
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import norm, write_table
 
 CHECKS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",
@@ -49,13 +48,12 @@ def cases(lev: int) -> list[tuple[str, dict[str, Any]]]:
 
 
 def run_one(comm: MPI.Comm, scene: Scene, second_start: bool) -> dict[str, Any]:
-    model = ContactModel(scene.build_body(comm), Material(scene.young, scene.poisson), scene.friction,
-                         scene.traction_table())
-    row: dict[str, Any] = {"n": model.n}
-    solver = SCDNewtonSolver(model, scene.settings())
-    init = None if scene.start == "undeformed" else -model.shift.getArray(readonly=True).copy()
+    problem = build_problem(scene, comm).problem
+    model = problem.model
+    row: dict[str, Any] = {"n": problem.n}
+    undeformed = dolfinx.fem.Function(problem.V)
     try:
-        result = solver.solve(init)
+        _, result = problem.solve(undeformed if scene.start == "undeformed" else None)
     except SolverError as err:
         result = err.result
     row.update(converged=result.converged, reason=result.reason, newton=result.iterations,
@@ -68,14 +66,13 @@ def run_one(comm: MPI.Comm, scene: Scene, second_start: bool) -> dict[str, Any]:
     row["second_start_diff"] = ""
     if second_start and result.converged:
         try:
-            other = solver.solve(None)
+            _, other = problem.solve(undeformed)
             diff = norm(comm, other.displacement - result.displacement) / max(norm(comm, result.displacement),
                                                                              1e-300)
             row["second_start_diff"] = diff
         except SolverError as err:
             row["second_start_diff"] = f"failed: {err.reason}"
-    solver.destroy()
-    model.destroy()
+    problem.destroy()
     return row
 
 
@@ -87,7 +84,7 @@ def main() -> int:
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     gap, load = args.case.split("/")
-    base = Scene(lev=args.lev, gap=gap, load=load)
+    base = Scene().override(lev=args.lev, gap=gap, load=load)
     rows = []
     for label, overrides in cases(args.lev):
         scene = base.override(**overrides)

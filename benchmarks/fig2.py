@@ -14,9 +14,8 @@ from mpi4py import MPI
 import numpy as np
 
 from fenics_coulomb.figures import STATE_COLOURS, gather_contact
-from fenics_coulomb.newton import SolverSettings
+from fenics_coulomb.settings import SolverSettings
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import CASES, run_case
 
 

@@ -12,10 +12,9 @@ from pathlib import Path
 from mpi4py import MPI
 from petsc4py import PETSc
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import build, solve, write_table
 
-from fenics_coulomb.newton import SolverSettings
+from fenics_coulomb.settings import SolverSettings
 
 
 def main() -> int:
@@ -28,7 +27,7 @@ def main() -> int:
     comm = MPI.COMM_WORLD
     gap, load = args.case.split("/")
     opts = PETSc.Options()
-    key = f"{SolverSettings.prefix}mg_levels_ksp_max_it"
+    key = "coulomb_mg_levels_ksp_max_it"
     rows = []
     for lev in args.levels:
         model, _ = build(comm, lev, gap, load)

@@ -18,10 +18,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fenics_coulomb.newton import SolverSettings
+from fenics_coulomb.settings import SolverSettings
 from fenics_coulomb.output import software_versions
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import CASES, peak_rss_mib, run_case
 
 

@@ -12,10 +12,8 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fenics_coulomb.newton import SolverSettings
-from fenics_coulomb.output import displacement_function, interpolate_displacement
+from fenics_coulomb.settings import SolverSettings
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import CASES, build, solve, write_table
 
 
@@ -30,26 +28,26 @@ def main() -> int:
     settings = SolverSettings(rtol=1e-12, pc=args.pc, tol=args.tol)
     rows = []
     for gap, load in CASES:
-        previous = None  # (model, displacement) of the previous level
+        previous = None  # the previous level's problem (holding its solution) and the solution
         for lev in args.levels:
             model, _ = build(comm, lev, gap, load)
             zero, t_zero = solve(model, settings)
+            u_zero = model.u.copy()
             row = {"case": f"{gap}/{load}", "lev": lev, "p": model.p, "n": model.n,
                    "newton_zero": zero.iterations, "krylov_zero": zero.krylov_iterations, "time_zero_s": t_zero}
             if previous is not None:
                 old_model, old_u = previous
-                start = interpolate_displacement(displacement_function(old_model.V, old_u), model.V)
-                nested, t_nested = solve(model, settings, start)
+                nested, t_nested = solve(model, settings, old_u)
                 old_model.destroy()
                 row.update(newton_nested=nested.iterations, krylov_nested=nested.krylov_iterations,
                            time_nested_s=t_nested,
                            krylov_reduction_pct=100.0 * (1 - nested.krylov_iterations / zero.krylov_iterations),
                            same_states=nested.state_counts(comm) == zero.state_counts(comm))
-                u = nested.displacement
+                u = model.u.copy()
             else:
                 row.update(newton_nested="", krylov_nested="", time_nested_s="", krylov_reduction_pct="",
                            same_states="")
-                u = zero.displacement
+                u = u_zero
             previous = (model, u)
             rows.append(row)
             if comm.rank == 0:

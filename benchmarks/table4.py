@@ -12,9 +12,8 @@ from pathlib import Path
 from mpi4py import MPI
 
 from fenics_coulomb.figures import plot_convergence
-from fenics_coulomb.newton import SolverSettings
+from fenics_coulomb.settings import SolverSettings
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import build, peak_rss_mib, solve, write_table
 
 

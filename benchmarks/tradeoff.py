@@ -23,13 +23,12 @@ from mpi4py import MPI
 
 import numpy as np
 
-from fenics_coulomb.newton import SolverSettings
-from fenics_coulomb.output import displacement_function, interpolate_displacement
+from fenics_coulomb.settings import SolverSettings
+from fenics_coulomb.problem import interpolate_displacement
 
-sys.path.insert(0, str(Path(__file__).parent))
 from common import build, norm, solve, write_table
 
-TIGHT = SolverSettings(rtol=1e-14, tol=1e-3, max_iterations=200)
+TIGHT = SolverSettings(rtol=1e-14, tol=1e-3, max_it=200)
 
 
 def main() -> int:
@@ -56,7 +55,7 @@ def main() -> int:
         model, _ = build(comm, lev, gap, load)
         ref, _t_ref = solve(model, TIGHT)
         ref_norm = norm(comm, ref.displacement)
-        on_fine = interpolate_displacement(displacement_function(model.V, ref.displacement), fine_model.V)
+        on_fine = interpolate_displacement(model.u, fine_model.V)
         disc = norm(comm, on_fine - fine.displacement) / fine_norm
         for pc in args.pcs:
             for forcing in args.forcing:

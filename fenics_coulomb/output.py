@@ -33,6 +33,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.newton import SolveResult
+from fenics_coulomb.problem import interpolate_displacement
 
 logger = logging.getLogger(__name__)
 
@@ -111,19 +112,6 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float =
     u_old.x.array.reshape(-1, 3)[blocks] = values[old.geometry.input_global_indices[nodes]]
     u_old.x.scatter_forward()
     return interpolate_displacement(u_old, V, padding)
-
-
-def interpolate_displacement(
-    u_from: dolfinx.fem.Function, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6
-) -> npt.NDArray[np.float64]:
-    """Interpolate a (possibly non-matching) vector field onto V; return V's owned DOF values (collective)."""
-    u = dolfinx.fem.Function(V)
-    tdim = V.mesh.topology.dim
-    cells = np.arange(V.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
-    data = dolfinx.fem.create_interpolation_data(V, u_from.function_space, cells, padding=padding)
-    u.interpolate_nonmatching(u_from, cells, data)
-    u.x.scatter_forward()
-    return np.asarray(u.x.petsc_vec.getArray(readonly=True)).copy()
 
 
 def displacement_function(V: dolfinx.fem.FunctionSpace, owned: npt.NDArray[np.float64]) -> dolfinx.fem.Function:

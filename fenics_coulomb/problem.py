@@ -56,6 +56,18 @@ def interpolate_displacement(
     return np.asarray(u.x.petsc_vec.getArray(readonly=True)).copy()
 
 
+def _settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSettings:
+    """Validated settings from a SolverSettings, a dict of its fields or None (the defaults)."""
+    if isinstance(settings, dict):
+        unknown = set(settings) - set(SolverSettings.__dataclass_fields__)
+        if unknown:
+            raise InputError(f"unknown solver setting(s) {sorted(unknown)}")
+        settings = SolverSettings(**settings)
+    settings = settings or SolverSettings()
+    settings.validate()
+    return settings
+
+
 class ContactProblem:
     """Static contact of a linear-elastic body with a rigid obstacle under Coulomb friction.
 
@@ -101,13 +113,7 @@ class ContactProblem:
         self._solver: SCDNewtonSolver | None = None
         if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
             raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
-        if isinstance(settings, dict):
-            unknown = set(settings) - set(SolverSettings.__dataclass_fields__)
-            if unknown:
-                raise InputError(f"unknown solver setting(s) {sorted(unknown)}")
-            settings = SolverSettings(**settings)
-        self.settings = settings or SolverSettings()
-        self.settings.validate()
+        self.settings = _settings(settings)
         if contact is None:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         t0 = time.perf_counter()
@@ -145,6 +151,15 @@ class ContactProblem:
     def A(self) -> PETSc.Mat:
         """The stiffness matrix with the Dirichlet rows and columns of a scaled identity."""
         return self.model.A
+
+    def set_solver(self, settings: SolverSettings | dict[str, Any] | None = None,
+                   petsc_options: dict[str, Any] | None = None) -> None:
+        """Replace the solver (settings and PETSc options) on the same assembled model (collective)."""
+        settings = _settings(settings)
+        self.solver.destroy()
+        self._solver = None
+        self.settings = settings
+        self._solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)
 
     # -- solving -----------------------------------------------------------------------------------
     def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:
