@@ -15,7 +15,7 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 
-from fenics_coulomb import ContactProblem, SolveResult, SolverError, SolverSettings
+from fenics_coulomb import ContactProblem, SolverError, SolveResult, SolverSettings
 from fenics_coulomb.builder import build_problem
 from fenics_coulomb.config import Scene
 from fenics_coulomb.output import software_versions
@@ -33,7 +33,7 @@ class Run:
     solve_s: float
 
     @property
-    def model(self):  # noqa: ANN201  (the problem's ContactModel)
+    def model(self):
         return self.problem.model
 
     def destroy(self) -> None:

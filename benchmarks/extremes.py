@@ -18,13 +18,12 @@ from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
+from common import norm, write_table
 
+from fenics_coulomb.builder import build_problem
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.builder import build_problem
-
-from common import norm, write_table
 
 CHECKS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",
           "reaction_balance")

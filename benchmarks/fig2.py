@@ -12,11 +12,10 @@ from pathlib import Path
 from mpi4py import MPI
 
 import numpy as np
+from common import CASES, run_case
 
 from fenics_coulomb.figures import STATE_COLOURS, gather_contact
 from fenics_coulomb.settings import SolverSettings
-
-from common import CASES, run_case
 
 
 def main() -> int:

@@ -14,16 +14,14 @@ import time
 from pathlib import Path
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import dolfinx.fem.petsc
+from common import build, peak_rss_mib, solve, write_table
 
 from fenics_coulomb.builder import build_body, clamp, isotropic_forms
 from fenics_coulomb.config import Scene
 from fenics_coulomb.preconditioner import rigid_body_modes
 from fenics_coulomb.settings import SolverSettings
-
-from common import build, peak_rss_mib, solve, write_table
 
 
 def linear_elastic(comm: MPI.Comm, lev: int, gap: str, load: str) -> tuple[float, int]:

@@ -18,10 +18,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fenics_coulomb.settings import SolverSettings
-from fenics_coulomb.output import software_versions
-
 from common import CASES, peak_rss_mib, run_case
+
+from fenics_coulomb.output import software_versions
+from fenics_coulomb.settings import SolverSettings
 
 
 def row_of(comm: MPI.Comm, lev: int, gap: str, load: str, settings: SolverSettings) -> dict:

@@ -12,9 +12,9 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fenics_coulomb.settings import SolverSettings
-
 from common import CASES, build, solve, write_table
+
+from fenics_coulomb.settings import SolverSettings
 
 
 def main() -> int:

@@ -11,10 +11,10 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+from common import build, peak_rss_mib, solve, write_table
+
 from fenics_coulomb.figures import plot_convergence
 from fenics_coulomb.settings import SolverSettings
-
-from common import build, peak_rss_mib, solve, write_table
 
 
 def main() -> int:

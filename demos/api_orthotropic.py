@@ -73,7 +73,7 @@ def half_roller(comm: MPI.Comm, h: float) -> tuple[dolfinx.mesh.Mesh, dolfinx.me
         gmsh.model.addPhysicalGroup(3, [v[1] for v in volumes], 1)
         groups: dict[int, list[int]] = {TOP: [], SYMMETRY: [], CURVED: []}
         for _, surface in gmsh.model.getEntities(2):
-            x, y, z = gmsh.model.occ.getCenterOfMass(2, surface)
+            _, y, z = gmsh.model.occ.getCenterOfMass(2, surface)
             if np.isclose(z, TOP_Z):
                 groups[TOP].append(surface)
             elif np.isclose(y, 0.0):

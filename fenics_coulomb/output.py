@@ -138,28 +138,11 @@ def software_versions() -> dict[str, str]:
 
 
 def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Global summary of a solve (collective; identical on all ranks)."""
+    """Global summary of a solve (collective; identical on all ranks): the result's own summary, the software
+    versions and ``extra``."""
     comm = model.V.mesh.comm
-    timings = {key: comm.allreduce(value, op=MPI.MAX) for key, value in result.timings.items()}
-    data: dict[str, Any] = {
-        "n": model.n,
-        "p": model.p,
-        "converged": result.converged,
-        "reason": result.reason,
-        "newton_iterations": result.iterations,
-        "krylov_iterations": result.krylov_iterations,
-        "residual_history": result.residual_history,
-        "step_lengths": [rec.step_length for rec in result.records],
-        "krylov_history": [rec.krylov_iterations for rec in result.records],
-        "forcing_history": [rec.forcing for rec in result.records],
-        "wall_time_s": timings.get("total", 0.0),
-        "state_counts": result.state_counts(comm),
-        "gamma": result.gamma,
-        "preconditioner": result.pc,
-        "timings_s": timings,
-        "ranks": comm.size,
-        "versions": software_versions(),
-    }
+    data = result.summary(comm)
+    data["versions"] = software_versions()
     if extra:
         data.update(extra)
     return data

@@ -62,15 +62,24 @@ class NewtonStep(Protocol):
         """Δu from the linear solve's solution ``x``."""
 
 
-class SStarStep:
-    """Variant 4a: the adjoint blocks (W*, U*) ∈ S*Q̃, system (5.4) solved for Δu directly."""
+class _Rows:
+    """The new contact rows from a pair of node blocks of Q̃/γ (see the module docstring for the units)."""
 
-    name = "4a"
+    @staticmethod
+    def blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction) -> tuple[Array, Array]:
+        raise NotImplementedError
 
     def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
              gamma: float) -> tuple[Array, Array]:
-        W, U = sstar_blocks(v, z / gamma, sets, friction)
-        return np.swapaxes(W, 1, 2), gamma * np.swapaxes(U, 1, 2)
+        first, second = self.blocks(v, z / gamma, sets, friction)
+        return np.swapaxes(first, 1, 2), gamma * np.swapaxes(second, 1, 2)
+
+
+class SStarStep(_Rows):
+    """Variant 4a: the adjoint blocks (W*, U*) ∈ S*Q̃, system (5.4) solved for Δu directly."""
+
+    name = "4a"
+    blocks = staticmethod(sstar_blocks)
 
     def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
         gamma, cd = ops.gamma, ops.cdofs
@@ -85,15 +94,11 @@ class SStarStep:
         return x
 
 
-class SStep:
+class SStep(_Rows):
     """Variant 4b: the blocks (X, Y) ∈ SQ̃, the transposed system solved for q = p − ŷ₂."""
 
     name = "4b"
-
-    def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
-             gamma: float) -> tuple[Array, Array]:
-        X, Y = s_blocks(v, z / gamma, sets, friction)
-        return np.swapaxes(X, 1, 2), gamma * np.swapaxes(Y, 1, 2)
+    blocks = staticmethod(s_blocks)
 
     def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
         # (A X + Y) p = A ŷ₂ − ŷ₁ with ŷ₂ = e, ŷ₁ = γ e. Near the solution Δu = X p − e is much smaller than

@@ -14,7 +14,6 @@ from mpi4py import MPI
 import dolfinx.fem
 import numpy as np
 import pytest
-
 from conftest import global_norm, make_problem
 
 from fenics_coulomb.checks import physics_residuals

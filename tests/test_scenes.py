@@ -9,9 +9,8 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from reference import tresca_fixed_point
-
 from conftest import gather_by_coordinates, global_norm, make_problem, read_solution
+from reference import tresca_fixed_point
 
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
