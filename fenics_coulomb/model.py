@@ -162,10 +162,12 @@ class ContactModel:
         )
         self.friction = self._friction_at_contact_nodes(friction)
         self.shift = self.A.createVecRight()
+        self.shift.setOptionsPrefix(f"{prefix}shift_")
         self.shift.set(0.0)
         self.shift.array[self.contact.local_dofs[:, 2]] = gap
         # l = l̃ + A d (see the module docstring for the derivation).
         self.rhs = self.A.createVecRight()
+        self.rhs.setOptionsPrefix(f"{prefix}rhs_")
         self.A.mult(self.shift, self.rhs)
         self.rhs.axpy(1.0, self.load)
 

@@ -129,6 +129,8 @@ class SCDNewtonSolver:
         self.u, self.r = self.A.createVecs()
         self.b, self.x = self.A.createVecs()
         self.Adu, self.w = self.A.createVecs()
+        for name in ("u", "r", "b", "x", "Adu", "w"):
+            getattr(self, name).setOptionsPrefix(f"{prefix}{name}_")
         self.timings["setup"] = time.perf_counter() - t0
 
     @contextlib.contextmanager

@@ -256,3 +256,33 @@ def test_start_from_a_coarser_function():
         assert result.converged
         assert result.residual_history[0] < 0.5 * ref.residual_history[0]
         assert global_norm(uh.x.petsc_vec.array - u_ref) <= 1e-8 * global_norm(u_ref)
+
+
+@pytest.mark.parametrize("predictor", [False, True])
+def test_predictor_and_no_contact_shortcut(predictor):
+    """With the predictor, a body lifted off the plane is solved by one linear solve (the same solution as the
+    Newton method); without contact nodes the shortcut is taken unless switched off."""
+    comm = MPI.COMM_WORLD
+
+    def lifted(V, msh):
+        return top_and_side_bcs(V, msh, push=0.005, shear=0.0)
+
+    with pressed_block(comm, lifted, settings={"rtol": 1e-12, "predictor": predictor}) as problem:
+        uh, result = problem.solve()
+        assert result.converged and result.linear == predictor
+        assert result.counts == {"open": problem.p, "stick": 0, "slip": 0} and problem.p > 0
+        u = uh.x.petsc_vec.array.copy()
+    with pressed_block(comm, lifted, settings={"rtol": 1e-12, "predictor": not predictor}) as other:
+        assert global_norm(other.solve()[0].x.petsc_vec.array - u) <= 1e-8 * global_norm(u)
+
+    msh = dolfinx.mesh.create_box(comm, [np.zeros(3), np.ones(3)], [2, 2, 2], dolfinx.mesh.CellType.hexahedron)
+    msh.topology.create_connectivity(2, 3)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    left = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[0], 0.0))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(left).astype(np.int32), np.full(left.size, 1, np.int32))
+    bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, left), V)
+    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -0.1])), ufl.TestFunction(V)) * ufl.dx
+    with ContactProblem(lame_form(V), L, [bc], (tags, [2]), 0.3, settings={"no_contact_shortcut": not predictor},
+                        petsc_options_prefix="free_") as free:
+        _, result = free.solve()
+        assert free.p == 0 and result.converged and result.linear == (not predictor)
