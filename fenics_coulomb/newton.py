@@ -118,7 +118,8 @@ class SCDNewtonSolver:
         self.cdofs = model.contact.local_dofs
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0])
-        self._options = {**default_options(self.pc), **(petsc_options or {})}
+        self._user_options = dict(petsc_options or {})
+        self._default_options = {k: v for k, v in default_options(self.pc).items() if k not in self._user_options}
         self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, model.V, self.pc, prefix, settings.tol,
                                                settings.gmres_restart, settings.ksp_max_it)
         with self.petsc_options():
@@ -138,19 +139,20 @@ class SCDNewtonSolver:
         """Put the solver's options into PETSc's database under its prefix for the duration (options the
         database already holds win over the solver's defaults), then remove what was put there."""
         opts = PETSc.Options()
-        added = []
-        user = set(self._options) - set(default_options(self.pc))
-        for key, value in self._options.items():
+        added: dict[str, object] = {}
+        for key, value in (*self._default_options.items(), *self._user_options.items()):
             name = f"{self.prefix}{key}"
-            if key in user or not opts.hasName(name):
-                if not opts.hasName(name):
-                    added.append(name)
+            if key in self._user_options or not opts.hasName(name):
+                added[name] = opts.getString(name) if opts.hasName(name) else None
                 opts[name] = value
         try:
             yield
         finally:
-            for name in added:
-                opts.delValue(name)
+            for name, previous in added.items():  # restore what the database held before
+                if previous is None:
+                    opts.delValue(name)
+                else:
+                    opts[name] = previous
 
     # -- the approximation step -------------------------------------------------------------------
     def approximation_step(self, u: Array, r: Array) -> Iterate:

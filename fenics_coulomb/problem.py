@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.errors import InputError
+from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model import ContactModel, Friction
 from fenics_coulomb.newton import SCDNewtonSolver
 from fenics_coulomb.obstacle import Plane
@@ -199,19 +199,23 @@ class ContactProblem:
         if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
             result = solver.solve_linear()
             if model.p == 0:
-                logger.info("no contact boundary: one linear solve")
+                self._log("no contact boundary: one linear solve")
                 return self._finish(result), result
             if result.converged and solver.is_separated(result):
-                logger.info("the linear solution does not reach the obstacle: it is the solution")
+                self._log("the linear solution does not reach the obstacle: it is the solution")
                 return self._finish(result), result
-            logger.info("the linear solution penetrates the obstacle: SCD semismooth* Newton")
+            self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
             result = solver.solve(start)
-        except Exception as err:
-            if getattr(err, "result", None) is not None:
-                self._finish(err.result)  # type: ignore[attr-defined]
+        except SolverError as err:
+            if err.result is not None:
+                self._finish(err.result)
             raise
         return self._finish(result), result
+
+    def _log(self, message: str) -> None:
+        if self.model.comm.rank == 0:
+            logger.info(message)
 
     def _finish(self, result: SolveResult) -> dolfinx.fem.Function:
         result.timings["model"] = self._model_time
