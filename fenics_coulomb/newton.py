@@ -34,7 +34,13 @@ from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.power_method import power_iteration
-from fenics_coulomb.preconditioner import create_ksp, default_options, resolve_pc
+from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditioner re-exported)
+    DETERMINISTIC_PTAP,
+    choose_preconditioner,
+    create_ksp,
+    default_options,
+    resolve_pc,
+)
 from fenics_coulomb.records import IterationRecord, SolveResult, global_state_counts
 from fenics_coulomb.resolvent import classify, contact_states, resolvent
 from fenics_coulomb.settings import SolverSettings
@@ -117,7 +123,8 @@ class SCDNewtonSolver:
         self.rows = ContactRows(self.A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
-        self.pc = resolve_pc(settings.pc, self.A.getSize()[0])
+        self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
+                             model.V.mesh.topology.cell_type.name)
         self._user_options = dict(petsc_options or {})
         self._default_options = {k: v for k, v in default_options(self.pc).items() if k not in self._user_options}
         self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, model.V, self.pc, prefix, settings.tol,
@@ -137,7 +144,9 @@ class SCDNewtonSolver:
     @contextlib.contextmanager
     def petsc_options(self) -> Iterator[None]:
         """Put the solver's options into PETSc's database under its prefix for the duration (options the
-        database already holds win over the solver's defaults), then remove what was put there."""
+        database already holds win over the solver's defaults), then restore the database. With GAMG on
+        several ranks also the unprefixed :data:`~fenics_coulomb.preconditioner.DETERMINISTIC_PTAP` (PETSc
+        creates the Galerkin products without a prefix), unless the user gave it."""
         opts = PETSc.Options()
         added: dict[str, object] = {}
         for key, value in (*self._default_options.items(), *self._user_options.items()):
@@ -145,6 +154,10 @@ class SCDNewtonSolver:
             if key in self._user_options or not opts.hasName(name):
                 added[name] = opts.getString(name) if opts.hasName(name) else None
                 opts[name] = value
+        key, value = DETERMINISTIC_PTAP  # unprefixed by necessity, scoped to the solver's own calls
+        if self.pc in ("gamg", "gamg-newton") and self.comm.size > 1 and not opts.hasName(key):
+            added[key] = None
+            opts[key] = value
         try:
             yield
         finally:
@@ -256,9 +269,24 @@ class SCDNewtonSolver:
 
     def stopping_rule(self, first: Iterate) -> StoppingRule:
         """The stopping rule for a solve starting at ``first``."""
+        shift = self.model.shift.getArray(readonly=True)
         load = self.norm(self.model.load.getArray(readonly=True))
         return StoppingRule.create(self.settings.reduction, self.settings.max_it, first.residual,
-                                   self.norm(first.u), load, self.gamma)
+                                   self.norm(shift), self.norm(first.u - shift), load, self.gamma)
+
+    def zero_if_converged(self, it: Iterate, rule: StoppingRule) -> Iterate:
+        """ũ = 0 (u = d, residual −l̃) instead of ``it`` when the rule holds there: for a zero or tiny load ũ = 0
+        is the solution, which the iteration from ũ⁽⁰⁾ would only approach at the linear solves' rate."""
+        shift = np.array(self.model.shift.getArray(readonly=True), dtype=np.float64)
+        if rule.satisfied(it.residual) or not math.isfinite(it.residual) or not self.comm.allreduce(
+                bool(np.any(it.u != shift)), op=MPI.LOR):
+            return it
+        zero = self.approximation_step(shift, -self.model.load.getArray(readonly=True))
+        if not rule.satisfied(zero.residual):
+            return it
+        if self.comm.rank == 0:
+            logger.info("ũ = 0 meets the stopping rule (|y| = %.3e): the load is below round-off", it.residual)
+        return zero
 
     def solve(self, initial_displacement: Array | None = None) -> SolveResult:
         """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0).
@@ -270,6 +298,7 @@ class SCDNewtonSolver:
         self._steps = 0
         it = self.start(initial_displacement)
         rule = self.stopping_rule(it)
+        it = self.zero_if_converged(it, rule)
         history = [it.residual]
         records: list[IterationRecord] = []
         eta = self.tol

@@ -1,7 +1,9 @@
 r"""The stopping rule of the Newton iteration.
 
-Stop when ‖ŷ‖ ≤ rtol·min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖), or when ‖ŷ‖ reaches the round-off level of the
-displacements (a start that already solves the problem, e.g. zero load from ũ = 0, stops at once).
+Stop when ‖ŷ‖ ≤ rtol·min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖), or when ‖ŷ‖ reaches the round-off level of the problem's
+scales, 100·ε·√(1+γ²)·(‖d‖ + ‖ũ⁽⁰⁾‖ + ‖l̃‖/γ) with d the gaps, ũ⁽⁰⁾ the start and l̃ the load (not of the start
+alone, which is 0 for the paper's start under a zero load). The driver also tries the rule at ũ = 0 before
+the first step: a zero load (or one below round-off) stops at once with ũ = 0.
 
 The load's own residual scale ‖ŷ(ũ = 0)‖ = √(1+γ²)/γ·‖l̃‖ (no contact at ũ = 0): ‖ŷ⁽⁰⁾‖ of the paper's start
 is dominated by γ·d when the load is small, and a reduction relative to it alone would accept a field that
@@ -21,6 +23,8 @@ from fenics_coulomb.errors import SolverError
 
 #: The reduction is measured relative to min(‖ŷ⁽⁰⁾‖, LOAD_GUARD·‖ŷ(ũ = 0)‖).
 LOAD_GUARD = 100.0
+#: ‖ŷ‖ below ROUNDOFF_FACTOR·ε·(the problem's displacement and residual scales) counts as converged.
+ROUNDOFF_FACTOR = 100.0
 
 
 @dataclass(frozen=True)
@@ -42,21 +46,23 @@ class StoppingRule:
     floor: float
 
     @classmethod
-    def create(cls, rtol: float, max_it: int, initial: float, start_norm: float, load_norm: float,
-               gamma: float) -> StoppingRule:
+    def create(cls, rtol: float, max_it: int, initial: float, shift_norm: float, start_norm: float,
+               load_norm: float, gamma: float) -> StoppingRule:
         """The rule for a solve.
 
         Args:
             rtol: Residual reduction.
             max_it: Newton iterations allowed.
             initial: ‖ŷ⁽⁰⁾‖.
-            start_norm: √(1+γ²)·‖u⁽⁰⁾‖ of the start (shifted unknown).
+            shift_norm: √(1+γ²)·‖d‖ (the gaps).
+            start_norm: √(1+γ²)·‖ũ⁽⁰⁾‖ of the start.
             load_norm: √(1+γ²)·‖l̃‖.
             gamma: γ of the approximation step.
         """
-        # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖: u − d̂ cannot be resolved below the rounding error of
-        # the displacements involved (start, shift d, and the load's displacement scale ‖l̃‖/γ).
-        floor = 100.0 * np.finfo(np.float64).eps * (start_norm + load_norm / gamma)
+        # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖, from the problem's displacement scales and never from the
+        # start iterate alone (from the paper's start under a tiny load that would be ~0, and the iteration
+        # would chase ‖ŷ‖ → 0 to the iteration limit): the gaps d, the start ũ⁽⁰⁾ and the load's scale ‖l̃‖/γ.
+        floor = ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma)
         target = rtol * min(initial, LOAD_GUARD * load_norm / gamma)
         return cls(rtol, max_it, initial, target, floor)
 
