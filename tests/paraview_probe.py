@@ -53,9 +53,9 @@ def main(path, reader, screenshot=None):
     source.UpdatePipeline()
     report = {"reader": source.GetXMLName(), "blocks": describe(servermanager.Fetch(source))}
     if screenshot:
-        warp = ps.WarpByVector(Input=source)
-        warp.Vectors = ["POINTS", "displacement"]
+        warp = ps.WarpByVector(Input=source)  # the default vector array, as a user's Apply takes it
         warp.UpdatePipeline()
+        report["warp_vectors"] = list(warp.Vectors)
         report["warped"] = describe(servermanager.Fetch(warp))
         view = ps.GetActiveViewOrCreate("RenderView")
         view.ViewSize = [640, 400]

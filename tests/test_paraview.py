@@ -100,6 +100,7 @@ def test_default_reader_shows_all_fields_on_the_deformed_body(two_rank_run, tmp_
     assert block["arrays"]["contact_state"]["range"] == [min(present), max(present)]
     assert int(np.sum(states >= 0)) == summary["p"]
     # Warp By Vector moves the body: its bounds are those of x + u, the bottom ends on the obstacle x3 = 0
+    assert report["warp_vectors"] == ["POINTS", "displacement"]
     (warped,) = report["warped"]
     deformed = data["x"] + data["displacement"]
     bounds = np.ravel(np.column_stack([deformed.min(axis=0), deformed.max(axis=0)]))
