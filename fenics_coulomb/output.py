@@ -41,8 +41,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
-import dolfinx.fem
 import dolfinx.cpp.io
+import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
