@@ -202,8 +202,37 @@ def report(rows: list[dict[str, Any]], out: Path) -> None:
              "with other users: `load_*` is the 1-minute load average before/after the run; times are "
              "indicative, iteration counts are the robust quantity. Runs with `oversubscribed` = True had "
              "more ranks than cores.", ""]
+    # summary per body, ν, rank count and preconditioner
+    lines += ["## Summary", "",
+              "Per body, ν, rank count and preconditioner over the measured sizes: runs, robust runs (converged, "
+              f"every linear solve within one GMRES restart cycle of {SolverSettings.gmres_restart}), the largest "
+              "Krylov count of one Newton step, the Newton iterations and the total Krylov iterations; timeouts "
+              "(runs ended after `--timeout` s on the loaded machine, inconclusive) are left out of the ranges.", "",
+              "| body | ν | ranks | pc | unknowns | runs | robust | timeouts | largest Krylov / step | Newton "
+              "| Krylov |",
+              "|" + "---|" * 11]
+    summary: dict[tuple, list[dict[str, Any]]] = {}
+    for r in rows:
+        summary.setdefault((r["body"], r["poisson"], r["ranks"], r["pc"]), []).append(r)
+
+    def span(values: list[int]) -> str:
+        if not values:
+            return ""
+        return f"{min(values)}–{max(values)}" if min(values) != max(values) else str(values[0])
+
+    for (body, nu, ranks, pc), group in summary.items():
+        done = [r for r in group if str(r["n"]).strip()]
+        lines.append(
+            f"| {body} | {nu} | {ranks} | {pc} | {span([int(r['n']) for r in done])} | {len(group)} | "
+            f"{sum(robust(r) is True for r in group)} | {sum(str(r['exit']) == 'timeout' for r in group)} | "
+            f"{span([int(r['max_krylov']) for r in done])} | "
+            f"{span([int(r['newton']) for r in done])} | {span([int(r['krylov']) for r in done])} |")
+    lines += ["", "## All runs", ""]
     lines += ["| " + " | ".join(FIELDS) + " |", "|" + "---|" * len(FIELDS)]
-    lines += ["| " + " | ".join(str(r[k]) for k in FIELDS) + " |" for r in rows]
+    def shown(r: dict[str, Any], k: str) -> str:
+        return f"{float(r[k]):.1f}" if k.startswith("load_") else str(r[k])
+
+    lines += ["| " + " | ".join(shown(r, k) for k in FIELDS) + " |" for r in rows]
     # per group: which preconditioner is robust, which is faster, and what the auto rule picks
     groups: dict[tuple, dict[str, dict[str, Any]]] = {}
     for r in rows:
@@ -256,12 +285,13 @@ def report(rows: list[dict[str, Any]], out: Path) -> None:
             y = int(r["max_krylov"]) if str(r["max_krylov"]).strip() else SolverSettings.ksp_max_it
             ax.scatter(int(r["n"]), y, marker=markers.get(r["body"], "x"), color=colors.get(r["pc"], "k"),
                        facecolors="none" if float(r["poisson"]) < 0.4 else colors.get(r["pc"], "k"))
-        ax.axhline(SolverSettings.ksp_max_it, color="k", lw=0.8, ls="--")
+        ax.axhline(SolverSettings.ksp_max_it, color="k", lw=0.8, ls="--")  # the KSP limit
+        ax.axhline(SolverSettings.gmres_restart, color="k", lw=0.8, ls=":")  # one GMRES restart cycle
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("unknowns")
         ax.set_title(f"{ranks} rank{'s' if ranks > 1 else ''}")
-    axes[0].set_ylabel("largest Krylov count of one Newton step")
+    axes[0].set_ylabel("largest Krylov count of one Newton step\n(dashed: KSP limit, dotted: GMRES restart)")
     from matplotlib.lines import Line2D
 
     handles = [Line2D([], [], marker=m, ls="", color="gray", label=b) for b, m in markers.items()]

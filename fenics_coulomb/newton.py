@@ -74,8 +74,8 @@ def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str) -> str:
     """The preconditioner that ``pc = "auto"`` stands for, chosen from the measurements in docs/pc-auto.
 
     GAMG (on A, with the rigid-body near-nullspace) kept every linear solve of every measured case within one
-    GMRES restart cycle (at most 14 iterations per Newton step; hexahedral cuboid lev 2-7, tetrahedral hemisphere
-    and roller 2 000-85 000 unknowns, ν 0.3 and 0.45, 1 and 2 ranks). ILU's counts grow with the mesh size, the
+    GMRES restart cycle (at most 18 iterations per Newton step; hexahedral cuboid lev 2-7, tetrahedral hemisphere
+    and roller 2 058-63 900 unknowns, ν 0.3 and 0.45, 1, 2 and 4 ranks). ILU's counts grow with the mesh size, the
     rank count and ν, and on tetrahedra they are several times larger from the smallest meshes on (roller, 7 617
     unknowns, ν = 0.45: up to 81 per step on 1 rank against GAMG's 13, and GAMG the faster); with ν = 0.3 and
     25 000 unknowns a tetrahedral hemisphere ran into the 2000-iteration limit with ILU (issue 11). So ILU is
