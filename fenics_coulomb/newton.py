@@ -77,8 +77,9 @@ def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str) -> str:
     GMRES restart cycle (at most 18 iterations per Newton step; hexahedral cuboid lev 2-7, tetrahedral hemisphere
     and roller 2 058-63 900 unknowns, ν 0.3 and 0.45, 1, 2 and 4 ranks). ILU's counts grow with the mesh size, the
     rank count and ν, and on tetrahedra they are several times larger from the smallest meshes on (roller, 7 617
-    unknowns, ν = 0.45: up to 81 per step on 1 rank against GAMG's 13, and GAMG the faster); with ν = 0.3 and
-    25 000 unknowns a tetrahedral hemisphere ran into the 2000-iteration limit with ILU (issue 11). So ILU is
+    unknowns, ν = 0.45: up to 81 per step on 1 rank against GAMG's 17, and GAMG the faster) and exceed a restart
+    cycle in 9 of the 58 measured groups, all tetrahedral (up to 466 per step); with ν = 0.3 and 25 000
+    unknowns a tetrahedral hemisphere ran into the 2000-iteration limit with ILU (issue 11). So ILU is
     kept only where it is measured robust and at least as fast: hexahedra below AUTO_GAMG_UNKNOWNS unknowns on
     at most AUTO_ILU_MAX_RANKS ranks.
 
