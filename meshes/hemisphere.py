@@ -13,8 +13,9 @@ apex. Physical groups (facet tags):
 
 Run inside the environment:  container/run python3 meshes/hemisphere.py --size 0.1 --out out/hemisphere.msh
 (``--size`` is the largest element edge; the smallest is half of it; ``--grading`` refines the mesh
-toward the apex: the size at the apex is ``size/grading``). Sizes 0.18, 0.11, 0.08, 0.06 give 3 531, 10 683, 21 834, 41 913 unknowns
-(benchmarks/pc_auto.py, docs/pc-auto); the apex disc is tested at its default 0.05 R.
+toward the apex: the size at the apex is ``size/grading``). Sizes 0.18, 0.11, 0.08, 0.06 give 3 531,
+10 683, 21 834, 41 913 unknowns (benchmarks/pc_auto.py, docs/pc-auto); the apex disc is tested at its
+default 0.05 R.
 """
 
 from __future__ import annotations
