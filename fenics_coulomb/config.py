@@ -24,7 +24,7 @@ Precedence: built-in defaults < scene file < command-line flags. Example (``demo
     variant = "4a"
     tol = 0.1
     rtol = 1e-12            # the paper's reduction (default 1e-8)
-    pc = "auto"              # ilu below 50 000 unknowns, gamg above
+    pc = "auto"              # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
     start = "zero"
 """
 
