@@ -73,7 +73,8 @@ def main() -> int:
     table = args.out / "repeatability.csv"
     keys = ["label", "case", "ranks", "run", "newton", "krylov", "history", "displacement"]
     rows = list(csv.DictReader(table.open())) if table.exists() else []
-    rows = [r for r in rows if r["label"] != args.label]
+    chosen = [name for i, (name, _, _) in enumerate(CASES) if not args.cases or i in args.cases]
+    rows = [r for r in rows if r["label"] != args.label or r["case"] not in chosen]
     for i, (name, ranks, case) in enumerate(CASES):
         if args.cases and i not in args.cases:
             continue
