@@ -24,6 +24,7 @@ that already solves the problem, e.g. zero load from ũ = 0, stops at once).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import time
@@ -67,6 +68,13 @@ AUTO_ILU_MAX_RANKS = 2
 #: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
 #: against 105 s).
 GAMG_SMOOTHER_SWEEPS = 1
+#: PETSc's default parallel triple product P^T A P (GAMG's Galerkin coarse matrices) adds the off-process
+#: contributions in the order the messages arrive, so the coarse matrices, and every later bit, can differ
+#: from run to run on 3 and more ranks (docs/partition). The "allatonce" algorithm sums them in a fixed order.
+#: PETSc creates these product matrices without an options prefix, so the option can only be given
+#: unprefixed: the solver sets it for the duration of its own KSP solves (where GAMG sets up) and removes
+#: it afterwards; a value the user gave is left alone.
+DETERMINISTIC_PTAP = ("matptap_via", "allatonce")
 VARIANTS = ("4a", "4b")
 
 
@@ -441,6 +449,21 @@ class SCDNewtonSolver:
         ksp.setFromOptions()
         return ksp
 
+    @contextlib.contextmanager
+    def _deterministic_setup(self) -> Iterator[None]:
+        """Within: GAMG's set-up (at a KSP solve) forms its Galerkin products in a fixed summation order
+        (:data:`DETERMINISTIC_PTAP`), so that the same run on the same ranks gives the same bits."""
+        key, value = DETERMINISTIC_PTAP
+        opts = PETSc.Options()
+        scoped = self.pc in ("gamg", "gamg-newton") and self.comm.size > 1 and not opts.hasName(key)
+        if scoped:
+            opts.setValue(key, value)
+        try:
+            yield
+        finally:
+            if scoped:
+                opts.delValue(key)
+
     # -- the approximation step -------------------------------------------------------------------
     def _approximate(self, u: Array, r: Array) -> tuple[Array, Array, Array]:
         """Return (e, v, z): e = u − d̂ on all owned DOFs, (v, z) = (d̂ⁱ, zⁱ) on contact nodes."""
@@ -499,10 +522,11 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         self._du.set(0.0)
         try:
-            if self.settings.variant == "4a":
-                self.ksp.solve(self._b, self._du)
-            else:
-                self.ksp.solveTranspose(self._b, self._du)
+            with self._deterministic_setup():
+                if self.settings.variant == "4a":
+                    self.ksp.solve(self._b, self._du)
+                else:
+                    self.ksp.solveTranspose(self._b, self._du)
         except PETSc.Error as err:  # e.g. a -coulomb_ksp_type that cannot do what is asked of it
             detail = str(err).strip().splitlines()
             raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
@@ -668,7 +692,8 @@ class SCDNewtonSolver:
         tol = self.ksp.getTolerances()
         self.ksp.setTolerances(rtol=self.settings.rtol)
         self._du.set(0.0)
-        self.ksp.solve(model.load, self._du)
+        with self._deterministic_setup():
+            self.ksp.solve(model.load, self._du)
         self.ksp.setTolerances(rtol=tol[0])
         its = int(self.ksp.getIterationNumber())
         reason = int(self.ksp.getConvergedReason())
