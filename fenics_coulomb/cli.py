@@ -68,6 +68,7 @@ class ArgumentParser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         if MPI.COMM_WORLD.rank == 0:
             print(f"{self.prog}: error: {message} (see --help)", file=sys.stderr, flush=True)
+        _finish_together(MPI.COMM_WORLD)
         sys.exit(EXIT_INPUT)
 
 
@@ -369,6 +370,7 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
     except InputError as err:
         if comm.rank == 0:
             print(f"{prog}: error: {err}", file=sys.stderr, flush=True)
+        _finish_together(comm)
         return EXIT_INPUT
     except (KeyboardInterrupt, Interrupted) as err:  # any rank interrupted ends all ranks, none hangs
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
@@ -384,6 +386,12 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
     finally:
         for signum, handler in handlers.items():
             signal.signal(signum, handler)
+
+
+def _finish_together(comm: MPI.Comm) -> None:
+    """Synchronize the ranks before a non-zero exit: mpirun ends the job at the first non-zero exit, and a
+    rank that is still starting up or finalizing then prints PMIx errors after the one-line message."""
+    comm.Barrier()
 
 
 def _raise_on_termination() -> dict[int, object]:

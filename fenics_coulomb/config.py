@@ -84,7 +84,7 @@ ATTRIBUTE_KINDS: dict[str, str] = {
     "accuracy": "number?", "line_search_steps": "int", "adaptive_tol": "bool",
 }
 _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
-              "names": "a list of boundary names (strings)", "vector": "a list of 3 finite numbers"}
+              "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite"}
 
 #: Largest scene file read (a scene is a few hundred bytes; /dev/zero or a mesh given by mistake is refused).
 MAX_SCENE_BYTES = 1 << 20
