@@ -15,9 +15,9 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
 from mpi4py import MPI
 
+import numpy as np
 from dolfinx import cpp as _cpp
 
 sys.path.insert(0, str(Path(__file__).parent))

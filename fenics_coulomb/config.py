@@ -61,6 +61,91 @@ SECTIONS: dict[str, tuple[str, ...]] = {
 }
 
 
+#: The type of every key of every section: "str", "int", "number" (int or float), "bool", "names" (a list of
+#: strings), "vector" (a list of 3 numbers). The free tables [boundaries] (name = integer tag) and
+#: [tractions] (name = vector) are listed under the key "*".
+KINDS: dict[str, dict[str, str]] = {
+    "body": {"shape": "str", "lev": "int", "gap": "str", "mesh": "str", "clamped": "names", "contact": "names",
+             "name": "str"},
+    "boundaries": {"*": "int"},
+    "material": {"young": "number", "poisson": "number"},
+    "friction": {"coefficient": "number"},
+    "load": {"case": "str", "scale": "number", "body_force": "vector"},
+    "tractions": {"*": "vector"},
+    "solver": {"variant": "str", "tol": "number", "rtol": "number", "pc": "str", "start": "str", "max_it": "int",
+               "gamma_scale": "number", "predictor": "bool", "accuracy": "number", "line_search_steps": "int",
+               "adaptive_tol": "bool"},
+}
+#: The kind of every Scene attribute (None allowed where the attribute is optional).
+ATTRIBUTE_KINDS: dict[str, str] = {
+    "name": "str", "shape": "str", "lev": "int", "gap": "str", "mesh": "str?", "clamped": "names",
+    "contact": "names", "young": "number", "poisson": "number", "friction": "number", "load": "str?",
+    "load_scale": "number", "body_force": "vector", "variant": "str", "tol": "number", "rtol": "number",
+    "pc": "str", "start": "str", "max_it": "int", "gamma_scale": "number", "predictor": "bool",
+    "accuracy": "number?", "line_search_steps": "int", "adaptive_tol": "bool",
+}
+_KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
+              "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite"}
+
+#: Largest scene file read (a scene is a few hundred bytes; /dev/zero or a mesh given by mistake is refused).
+MAX_SCENE_BYTES = 1 << 20
+#: Physically sensible ranges: Young's modulus in GPa (1 Pa to 10^18 Pa), the factor on the power-method
+#: estimate of λ_max(A) for γ (the paper: 1; outside these bounds the approximation step's d̂ = u − r/γ is
+#: either u to machine precision or dominated by r), and the magnitude of tractions and body forces (GPa)
+#: times the load scale. Within them every derived quantity (displacements ~ load/E, residuals ~ E·u, their
+#: squared norms) stays far inside the float64 range.
+YOUNG_RANGE = (1e-9, 1e9)
+GAMMA_SCALE_RANGE = (1e-6, 1e6)
+MAX_LOAD = 1e12
+#: Largest level of the cuboid accepted at all (lev 40 has ~10^13 unknowns); the memory check in the CLI
+#: refuses far smaller ones on an ordinary machine.
+MAX_LEV = 40
+
+
+def check_kind(where: str, value: Any, kind: str) -> None:
+    """Raise InputError ``"<where> = <value>: must be ..."`` unless ``value`` is of ``kind`` (see KINDS)."""
+    optional = kind.endswith("?")
+    kind = kind.rstrip("?")
+    if optional and value is None:
+        return
+
+    def is_number(v: Any) -> bool:
+        return not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)
+
+    ok = {
+        "str": lambda v: isinstance(v, str),
+        "int": lambda v: isinstance(v, int) and not isinstance(v, bool),
+        "number": is_number,
+        "bool": lambda v: isinstance(v, bool),
+        "names": lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v),
+        "vector": lambda v: isinstance(v, list) and len(v) == 3 and all(is_number(c) for c in v),
+    }[kind](value)
+    if not ok:
+        raise InputError(f"{where} = {value!r}: must be {_KIND_TEXT[kind]}")
+
+
+def read_scene_text(path: Path) -> str:
+    """The text of a scene file; InputError for anything but a readable UTF-8 regular file of sensible size."""
+    name = str(path)
+    try:
+        if path.is_dir():
+            raise InputError(f"scene file {name!r} is a directory")
+        if path.exists() and not path.is_file():
+            raise InputError(f"scene file {name!r} is not a regular file")
+        with path.open("rb") as f:
+            data = f.read(MAX_SCENE_BYTES + 1)
+    except OSError as err:
+        raise InputError(f"scene file {name!r}: {err.strerror or err}") from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise InputError(f"scene file {name!r} is larger than {MAX_SCENE_BYTES // 1024} KiB: not a scene (TOML)")
+    if b"\0" in data:
+        raise InputError(f"scene file {name!r} is a binary file, not a scene (TOML)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"scene file {name!r} is not UTF-8 text, not a scene (TOML)") from None
+
+
 #: Bound on the measured ratio (relative displacement error)/rtol over docs/tradeoff (all pc, tol, forcing
 #: rules and levels): about twice the largest seen, 189 (ILU, fixed tol 0.5, lev 6; 86 with Eisenstat–Walker).
 ERROR_PER_RTOL = 400.0
@@ -100,6 +185,20 @@ def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mes
     return msh, facet_tags
 
 
+def check_gap_values(text: str, gap: GapFunction) -> None:
+    """Evaluate a gap expression on a grid over the cuboid's bottom (no communication): InputError if it fails
+    or leaves [0, 1) there, so that a bad expression is refused before the mesh is built."""
+    x1, x2 = np.meshgrid(np.linspace(0.0, 2.0, 41), np.linspace(0.0, 1.0, 21))
+    try:
+        values = np.asarray(gap(x1.ravel(), x2.ravel()), dtype=np.float64)
+    except (ArithmeticError, ValueError, TypeError) as err:
+        raise InputError(f"gap expression {text!r} cannot be evaluated: {err}") from None
+    bad = ~np.isfinite(values) | (values < 0.0) | (values >= 1.0)
+    if np.any(bad):
+        raise InputError(f"gap expression {text!r} takes the value {values[bad][0]!r} outside [0, 1) "
+                         "on the cuboid's bottom (the body would invert)")
+
+
 @dataclass
 class Scene:
     """A contact scene; see the module docstring for the TOML layout."""
@@ -136,11 +235,10 @@ class Scene:
     def from_toml(cls, path: str | Path) -> Scene:
         """Read a scene file; raise InputError naming any unreadable file, bad key or bad value."""
         path = Path(path)
+        text = read_scene_text(path)
         try:
-            data = tomllib.loads(path.read_text())
-        except OSError as err:
-            raise InputError(f"scene file {str(path)!r}: {err.strerror or err}") from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as err:
             raise InputError(f"scene file {str(path)!r} does not parse: {err}") from None
         scene = cls(name=path.stem)
         for section, value in data.items():
@@ -150,10 +248,12 @@ class Scene:
             if not isinstance(value, dict):
                 raise InputError(f"scene file {str(path)!r}: [{section}] must be a table")
             allowed = SECTIONS[section]
-            for key in value:
+            for key, item in value.items():
                 if allowed and key not in allowed:
                     raise InputError(f"scene file {str(path)!r}: unknown key {key!r} in [{section}] "
                                      f"(allowed: {', '.join(allowed)})")
+                kinds = KINDS[section]
+                check_kind(f"[{section}] {key}", item, kinds.get(key, kinds.get("*", "")))
         body = data.get("body", {})
         mapping = {"shape": "shape", "lev": "lev", "gap": "gap", "mesh": "mesh", "clamped": "clamped",
                    "contact": "contact", "name": "name"}
@@ -206,12 +306,20 @@ class Scene:
                 raise InputError(f"{name} = {value!r}: must be a finite number")
             return float(value)
 
+        for attr, kind in ATTRIBUTE_KINDS.items():
+            check_kind(attr, getattr(self, attr), kind)
+        if not isinstance(self.boundaries, dict):
+            raise InputError(f"boundaries = {self.boundaries!r}: must be a table of names = integer tags")
+        if self.tractions is not None and not isinstance(self.tractions, dict):
+            raise InputError(f"tractions = {self.tractions!r}: must be a table of names = [3 numbers]")
         if self.shape not in ("cuboid", "mesh"):
             raise InputError(f"body shape {self.shape!r}: choose 'cuboid' or 'mesh'")
-        if isinstance(self.lev, bool) or not isinstance(self.lev, int) or self.lev < 0:
-            raise InputError(f"lev = {self.lev!r}: must be an integer >= 0")
+        if isinstance(self.lev, bool) or not isinstance(self.lev, int) or not 0 <= self.lev <= MAX_LEV:
+            raise InputError(f"lev = {self.lev!r}: must be an integer in [0, {MAX_LEV}]")
         if self.shape == "cuboid":
-            self.gap_function()  # raises for an unknown name or a rejected expression
+            gap = self.gap_function()  # raises for an unknown name or a rejected expression
+            if self.gap not in GAP_PROFILES:
+                check_gap_values(self.gap, gap)
             for name in (*self.clamped, *self.contact, *(self.tractions or {})):
                 if name not in FACE_NAMES:
                     raise InputError(f"boundary {name!r} does not exist on the cuboid "
@@ -235,6 +343,9 @@ class Scene:
         if not isinstance(self.contact, list):
             raise InputError(f"contact = {self.contact!r}: must be a list of boundary names")
         Material(number("young", self.young), number("poisson", self.poisson)).validate()
+        if not YOUNG_RANGE[0] <= self.young <= YOUNG_RANGE[1]:
+            raise InputError(f"Young's modulus E = {self.young!r} GPa: must lie in [{YOUNG_RANGE[0]:g}, "
+                             f"{YOUNG_RANGE[1]:g}] GPa (1 Pa to 1e18 Pa)")
         validate_friction(number("friction", self.friction))
         if self.load is not None and self.load not in LOAD_CASES:
             raise InputError(f"load case {self.load!r}: choose one of {sorted(LOAD_CASES)}")
@@ -248,6 +359,14 @@ class Scene:
             raise InputError(f"body_force = {self.body_force!r}: must be 3 numbers")
         for c in self.body_force:
             number("body_force", c)
+        largest = max([abs(float(c)) for v in (self.tractions or {}).values() for c in v] + [1.0]) \
+            * abs(float(self.load_scale))
+        if largest > MAX_LOAD or max(abs(float(c)) for c in self.body_force) > MAX_LOAD:
+            raise InputError(f"load scale = {self.load_scale!r}: tractions and body forces (times the scale) must "
+                             f"stay below {MAX_LOAD:g} GPa in magnitude")
+        if not GAMMA_SCALE_RANGE[0] <= self.gamma_scale <= GAMMA_SCALE_RANGE[1]:
+            raise InputError(f"gamma_scale = {self.gamma_scale!r}: must lie in [{GAMMA_SCALE_RANGE[0]:g}, "
+                             f"{GAMMA_SCALE_RANGE[1]:g}] (the paper uses 1)")
         if not (self.start in ("zero", "undeformed") or Path(self.start).suffix in (".xdmf", ".h5")):
             raise InputError(f"start {self.start!r}: 'zero', 'undeformed' or a solution.xdmf of an earlier run")
         if self.start not in ("zero", "undeformed") and not Path(self.start).with_suffix(".h5").is_file():

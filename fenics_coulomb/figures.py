@@ -8,18 +8,12 @@ no contact blue, sliding yellow, sticking red;
 ``contact_state`` is categorical: the figures colour it with :data:`STATE_COLOURS` (one colour per state, never a
 continuous map). User text (scene names) is shown literally: matplotlib's math text is not parsed in it. A
 figure that cannot be drawn is a logged warning (:func:`write_figures`), never a lost result; a virtual X
-server started for pyvista is stopped again (:func:`virtual_display`).
+server started for pyvista is stopped again (:func:`fenics_coulomb.display.virtual_display`).
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
-import os
-import select
-import shutil
-import subprocess
-from collections.abc import Iterator
 from pathlib import Path
 
 from mpi4py import MPI
@@ -27,71 +21,13 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
+from fenics_coulomb.display import virtual_display
 from fenics_coulomb.resolvent import OPEN, SLIP, STICK
 
 logger = logging.getLogger(__name__)
 
 #: Categorical colours of the contact states (label, matplotlib colour), as in the paper's Fig. 2.
 STATE_COLOURS = {OPEN: ("no contact", "tab:blue"), SLIP: ("sliding", "gold"), STICK: ("sticking", "tab:red")}
-
-
-def _wait_for_display(display: str, timeout: float = 10.0) -> bool:
-    """Wait until an X client can connect to ``display`` (Xvfb reports its number before it serves)."""
-    import ctypes
-    import ctypes.util
-    import time
-
-    name = ctypes.util.find_library("X11")
-    if name is None:
-        return True
-    xlib = ctypes.cdll.LoadLibrary(name)
-    xlib.XOpenDisplay.restype = ctypes.c_void_p
-    xlib.XOpenDisplay.argtypes = [ctypes.c_char_p]
-    xlib.XCloseDisplay.argtypes = [ctypes.c_void_p]
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        connection = xlib.XOpenDisplay(display.encode())
-        if connection:
-            xlib.XCloseDisplay(connection)
-            return True
-        time.sleep(0.05)
-    return False
-
-
-@contextlib.contextmanager
-def virtual_display(size: tuple[int, int] = (1280, 1024)) -> Iterator[str | None]:
-    """Provide an X display for VTK: the current ``DISPLAY`` if set, else a private Xvfb that is stopped again
-    on exit (the server picks a free display number itself via ``-displayfd``, so concurrent runs never
-    collide). Yields the display name (None if no X server could be started: VTK may still render off screen).
-    """
-    if os.environ.get("DISPLAY") or shutil.which("Xvfb") is None:
-        yield os.environ.get("DISPLAY")
-        return
-    read_fd, write_fd = os.pipe()
-    proc = subprocess.Popen(
-        ["Xvfb", "-displayfd", str(write_fd), "-screen", "0", f"{size[0]}x{size[1]}x24", "-nolisten", "tcp",
-         "-noreset"],
-        pass_fds=(write_fd,), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
-    )
-    os.close(write_fd)
-    display = None
-    try:
-        ready, _, _ = select.select([read_fd], [], [], 10.0)
-        number = os.read(read_fd, 64).decode().strip() if ready else ""
-        if number.isdigit() and _wait_for_display(f":{number}"):
-            display = f":{number}"
-            os.environ["DISPLAY"] = display
-        yield display
-    finally:
-        os.close(read_fd)
-        if display is not None and os.environ.get("DISPLAY") == display:
-            del os.environ["DISPLAY"]
-        proc.terminate()
-        try:
-            proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
 
 
 def _pyplot():  # type: ignore[no-untyped-def]

@@ -40,11 +40,11 @@ from __future__ import annotations
 
 import typing
 
-import numpy as np
-import numpy.typing as npt
 from mpi4py import MPI
 
 import dolfinx
+import numpy as np
+import numpy.typing as npt
 from dolfinx import cpp as _cpp
 
 __all__ = ["box_partitioner", "create_partitioner", "partition_cells", "recursive_bisection"]
@@ -106,7 +106,7 @@ def _fetch(comm: MPI.Comm, local: npt.NDArray, queries: npt.NDArray[np.int64]) -
     answers = np.ascontiguousarray(local.reshape(local.shape[0], width)[requests - offsets[rank]])
     values = np.empty((uq.size, width), dtype=local.dtype)
     comm.Alltoallv([answers, recv_counts * width], [values, send_counts * width])
-    return values.reshape((uq.size,) + local.shape[1:])[inverse]
+    return values.reshape((uq.size, *local.shape[1:]))[inverse]
 
 
 class _Bisection:
@@ -120,7 +120,7 @@ class _Bisection:
 
     def __call__(self, comm: MPI.Comm, nparts: int, cell_types: list, cells: list) -> _cpp.graph.AdjacencyList_int32:
         mids = []
-        for cell_type, c in zip(cell_types, cells):
+        for cell_type, c in zip(cell_types, cells, strict=True):
             nv = _cpp.mesh.cell_num_vertices(cell_type)
             c = np.asarray(c, dtype=np.int64).reshape(-1, nv)
             xv = self._coordinates(comm, c.ravel())

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-import pytest
 from mpi4py import MPI
 
 import dolfinx.mesh
+import numpy as np
+import pytest
 
 from fenics_coulomb.config import read_gmsh
 from fenics_coulomb.partition import recursive_bisection
