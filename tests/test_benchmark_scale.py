@@ -180,3 +180,19 @@ def test_pair_rows_and_markdown():
     assert paired[0]["n_per_rank"] == 104544 and paired[0]["load1"] == 2.0
     lines = scale.markdown_table(paired, [("lev", "lev"), ("time_ratio", "ratio"), ("missing", "x")])
     assert lines[0] == "| lev | ratio | x |" and lines[2] == "| 8 | 1.50 | – |"
+
+
+def test_efficiencies():
+    def entry(ranks, n, contact, linear):
+        return {"ranks": ranks, "n": n, "c_wall_s": contact, "l_wall_s": linear}
+
+    strong = scale.efficiencies([entry(1, 1000, 10.0, 4.0), entry(2, 1000, 6.0, 2.0), entry(2, 1000, 5.0, 3.0)],
+                                weak=False)
+    assert strong[("c", 1)] == 1.0 and strong[("l", 1)] == 1.0
+    assert strong[("c", 2)] == pytest.approx(10.0 / (2 * 5.0))  # the fastest repeat counts
+    assert strong[("l", 2)] == pytest.approx(1.0)
+    # weak: twice the unknowns per rank in twice the time is perfect; equal time for 1.5x per rank is 1.5
+    weak = scale.efficiencies([entry(1, 1000, 10.0, 4.0), entry(2, 4000, 20.0, 4.0)], weak=True)
+    assert weak[("c", 2)] == pytest.approx(1.0) and weak[("l", 2)] == pytest.approx(2.0)
+    weak = scale.efficiencies([entry(1, 1000, 10.0, 4.0), entry(2, 3000, 10.0, 4.0)], weak=True)
+    assert weak[("c", 2)] == pytest.approx(1.5)
