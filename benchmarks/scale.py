@@ -401,6 +401,9 @@ def write_markdown(path: Path, study: str, rows: Sequence[dict[str, Any]], meta:
             e["c_eff"] = eff.get(("c", e["ranks"]), float("nan"))
             e["l_eff"] = eff.get(("l", e["ranks"]), float("nan"))
         columns += [("c_eff", "contact efficiency"), ("l_eff", "linear efficiency")]
+        lines += ["Efficiency from the job wall times (fastest repeat), r0 the smallest rank count: " + (
+            "(T(r0)/m(r0)) / (T(r)/m(r)) with m the unknowns per rank (time per unknown per rank; the "
+            "pairs' m differ)." if study == "weak" else "T(r0)·r0 / (T(r)·r)."), ""]
     lines += markdown_table(paired, columns)
     lines += ["", "Phases (s, max over ranks; contact: setup = γ estimate + solver construction, solve = the "
               "Newton iterations including the GAMG setup in the first one; linear: setup = near-nullspace + "
