@@ -386,6 +386,8 @@ def write_markdown(path: Path, study: str, rows: Sequence[dict[str, Any]], meta:
              f"load average seen around the configuration's two jobs (the machine has {meta['cores']} cores "
              "available to this process).", "",
              f"Command: `{meta['command']}`  ", f"Machine: `{json.dumps(meta['machine'])}`", ""]
+    if meta.get("note"):
+        lines += [f"**Note:** {meta['note']}", ""]
     columns = [("lev", "lev"), ("ranks", "ranks"), ("n", "unknowns"), ("n_per_rank", "per rank"),
                ("c_wall_s", "contact wall s"), ("c_newton", "Newton"), ("c_krylov", "Krylov"),
                ("c_rss_sum_MiB", "contact RSS MiB"), ("c_rss_max_over_mean", "max/mean"),
@@ -472,6 +474,12 @@ def plot(path: Path, study: str, rows: Sequence[dict[str, Any]], case: str) -> N
             fig.suptitle(f"Strong scaling, {case}, lev {data[0]['lev']} ({data[0]['n']} unknowns)")
         else:
             fig.suptitle(f"Weak scaling, {case}: " + ", ".join(f"lev {e['lev']} on {e['ranks']}" for e in data))
+    for ax in axes:  # readable log axes: ticks at 1, 2, 5 × 10^k labelled as plain numbers
+        for axis, scale_name in ((ax.yaxis, ax.get_yscale()), (ax.xaxis, ax.get_xscale() if study == "levels" else "")):
+            if scale_name == "log":
+                axis.set_major_locator(matplotlib.ticker.LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+                axis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+                axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
