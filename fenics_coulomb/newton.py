@@ -24,6 +24,7 @@ that already solves the problem, e.g. zero load from ũ = 0, stops at once).
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
 import time
@@ -56,15 +57,53 @@ Array = npt.NDArray[np.float64]
 LOAD_GUARD = 100.0
 
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
-#: pc = "auto" takes GAMG from this many unknowns on and ILU (the paper's) below (docs/ratio, docs/table2:
-#: ILU is the faster up to lev 6 (27 744 unknowns), GAMG from lev 7 (79 488) on, and its Krylov count
-#: stays level-independent where ILU's grows).
+#: pc = "auto" (:func:`choose_preconditioner`) takes ILU (the paper's) only on hexahedral meshes below this many
+#: unknowns on at most AUTO_ILU_MAX_RANKS ranks, GAMG everywhere else (docs/pc-auto; docs/ratio, docs/table2:
+#: on the cuboid ILU is the faster up to lev 6 (27 744 unknowns), GAMG from lev 7 (79 488) on).
 AUTO_GAMG_UNKNOWNS = 50_000
+#: Block-Jacobi ILU's Krylov counts grow with the number of blocks (docs/pc-auto: d3/L2 lev 6, ν = 0.45:
+#: 137 on 1 rank, 210 on 2; issue 17: lev 5 d2/L1 145 on 1 rank, 245 on 16) while GAMG's do not.
+AUTO_ILU_MAX_RANKS = 2
 #: GAMG's level smoother (Chebyshev) sweeps unless -<prefix>mg_levels_ksp_max_it says otherwise: one sweep
 #: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
 #: against 105 s).
 GAMG_SMOOTHER_SWEEPS = 1
+#: PETSc's default parallel triple product P^T A P (GAMG's Galerkin coarse matrices) adds the off-process
+#: contributions in the order the messages arrive, so the coarse matrices, and every later bit, can differ
+#: from run to run on 3 and more ranks (docs/partition). The "allatonce" algorithm sums them in a fixed order.
+#: PETSc creates these product matrices without an options prefix, so the option can only be given
+#: unprefixed: the solver sets it for the duration of its own KSP solves (where GAMG sets up) and removes
+#: it afterwards; a value the user gave is left alone.
+DETERMINISTIC_PTAP = ("matptap_via", "allatonce")
 VARIANTS = ("4a", "4b")
+
+
+def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str) -> str:
+    """The preconditioner that ``pc = "auto"`` stands for, chosen from the measurements in docs/pc-auto.
+
+    GAMG (on A, with the rigid-body near-nullspace) kept every linear solve of every measured case within one
+    GMRES restart cycle (at most 18 iterations per Newton step; hexahedral cuboid lev 2-7, tetrahedral hemisphere
+    and roller 2 058-63 900 unknowns, ν 0.3 and 0.45, 1, 2 and 4 ranks). ILU's counts grow with the mesh size, the
+    rank count and ν, and on tetrahedra they are several times larger from the smallest meshes on (roller, 7 617
+    unknowns, ν = 0.45: up to 81 per step on 1 rank against GAMG's 17, and GAMG the faster) and exceed a restart
+    cycle in 9 of the 58 measured groups, all tetrahedral (up to 466 per step); with ν = 0.3 and 25 000
+    unknowns a tetrahedral hemisphere ran into the 2000-iteration limit with ILU (issue 11). So ILU is
+    kept only where it is measured robust and at least as fast: hexahedra below AUTO_GAMG_UNKNOWNS unknowns on
+    at most AUTO_ILU_MAX_RANKS ranks.
+
+    Args:
+        n_global: Global number of unknowns (>= 1).
+        n_ranks: Number of MPI ranks (>= 1).
+        cell_type: The mesh's cell type name (``"hexahedron"``, ``"tetrahedron"``, ...).
+
+    Returns:
+        ``"ilu"`` or ``"gamg"``.
+    """
+    if n_global < 1 or n_ranks < 1:
+        raise ValueError(f"choose_preconditioner: n_global = {n_global}, n_ranks = {n_ranks} must be >= 1")
+    if cell_type == "hexahedron" and n_global < AUTO_GAMG_UNKNOWNS and n_ranks <= AUTO_ILU_MAX_RANKS:
+        return "ilu"
+    return "gamg"
 
 
 @dataclass
@@ -79,7 +118,8 @@ class SolverSettings:
             (≤ 8e-7 for every measured tol and pc), every contact state right, 13–41 % faster than 1e-12,
             and far below the discretization error (3.5e-3 at lev 6).
         max_iterations: Newton iterations before giving up.
-        pc: Preconditioner: auto (ilu below AUTO_GAMG_UNKNOWNS unknowns, gamg from there on), ilu
+        pc: Preconditioner: auto (:func:`choose_preconditioner`: ilu on hexahedra below AUTO_GAMG_UNKNOWNS
+            unknowns on at most AUTO_ILU_MAX_RANKS ranks, gamg otherwise), ilu
             (block-Jacobi/ILU(0) in parallel, the paper's), gamg (smoothed aggregation on the stiffness matrix A
             with the rigid-body near-nullspace, set up once per solver and reused by every Newton step),
             gamg-newton (smoothed aggregation on the Newton matrix, set up every step), hypre, lu, jacobi,
@@ -360,8 +400,9 @@ class SCDNewtonSolver:
         self._options_set: list[str] = []
         self._steps = 0
         n_global = A.getSize()[0]
-        #: The preconditioner in use ("auto" resolved by the global number of unknowns).
-        self.pc = settings.pc if settings.pc != "auto" else ("gamg" if n_global >= AUTO_GAMG_UNKNOWNS else "ilu")
+        #: The preconditioner in use ("auto" resolved by :func:`choose_preconditioner`).
+        self.pc = settings.pc if settings.pc != "auto" else choose_preconditioner(
+            n_global, self.comm.size, model.body.mesh.topology.cell_type.name)
         self.ksp = self._create_ksp()
         # work vectors
         self._u, self._r = A.createVecs()
@@ -407,6 +448,21 @@ class SCDNewtonSolver:
             pc.setType(self.pc)
         ksp.setFromOptions()
         return ksp
+
+    @contextlib.contextmanager
+    def _deterministic_setup(self) -> Iterator[None]:
+        """Within: GAMG's set-up (at a KSP solve) forms its Galerkin products in a fixed summation order
+        (:data:`DETERMINISTIC_PTAP`), so that the same run on the same ranks gives the same bits."""
+        key, value = DETERMINISTIC_PTAP
+        opts = PETSc.Options()
+        scoped = self.pc in ("gamg", "gamg-newton") and self.comm.size > 1 and not opts.hasName(key)
+        if scoped:
+            opts.setValue(key, value)
+        try:
+            yield
+        finally:
+            if scoped:
+                opts.delValue(key)
 
     # -- the approximation step -------------------------------------------------------------------
     def _approximate(self, u: Array, r: Array) -> tuple[Array, Array, Array]:
@@ -466,10 +522,11 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         self._du.set(0.0)
         try:
-            if self.settings.variant == "4a":
-                self.ksp.solve(self._b, self._du)
-            else:
-                self.ksp.solveTranspose(self._b, self._du)
+            with self._deterministic_setup():
+                if self.settings.variant == "4a":
+                    self.ksp.solve(self._b, self._du)
+                else:
+                    self.ksp.solveTranspose(self._b, self._du)
         except PETSc.Error as err:  # e.g. a -coulomb_ksp_type that cannot do what is asked of it
             detail = str(err).strip().splitlines()
             raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
@@ -635,7 +692,8 @@ class SCDNewtonSolver:
         tol = self.ksp.getTolerances()
         self.ksp.setTolerances(rtol=self.settings.rtol)
         self._du.set(0.0)
-        self.ksp.solve(model.load, self._du)
+        with self._deterministic_setup():
+            self.ksp.solve(model.load, self._du)
         self.ksp.setTolerances(rtol=tol[0])
         its = int(self.ksp.getIterationNumber())
         reason = int(self.ksp.getConvergedReason())
