@@ -10,41 +10,15 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
-from fenics_coulomb.model import rigid_body_modes
 from fenics_coulomb.newton import SolverSettings
 
 sys.path.insert(0, str(Path(__file__).parent))
 from common import build, peak_rss_mib, solve, write_table
-
-
-def linear_elastic(comm: MPI.Comm, lev: int, gap: str, load: str) -> tuple[float, int]:
-    """Assemble and solve A ũ = l̃ with CG + GAMG (rtol 1e-8); return (wall time, CG iterations)."""
-    comm.barrier()
-    t0 = time.perf_counter()
-    model, _ = build(comm, lev, gap, load)
-    ns = rigid_body_modes(model.V)
-    model.A.setNearNullSpace(ns)
-    ksp = PETSc.KSP().create(comm)
-    ksp.setOptionsPrefix("elastic_")
-    ksp.setOperators(model.A)
-    ksp.setType("cg")
-    ksp.getPC().setType("gamg")
-    ksp.setTolerances(rtol=1e-8)
-    ksp.setFromOptions()
-    x = model.A.createVecRight()
-    ksp.solve(model.load, x)
-    its = ksp.getIterationNumber()
-    elapsed = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-    for obj in (ksp, x, ns):
-        obj.destroy()
-    model.destroy()
-    return elapsed, its
+from elastic import linear_elastic
 
 
 def main() -> int:
@@ -59,7 +33,8 @@ def main() -> int:
     gap, load = args.case.split("/")
     rows = []
     for lev in args.levels:
-        t_lin, its_lin = linear_elastic(comm, lev, gap, load)
+        reference = linear_elastic(comm, lev, gap, load)
+        t_lin, its_lin = reference.timings["total"], reference.iterations
         for pc in args.pc:
             comm.barrier()
             model, t_model = build(comm, lev, gap, load)

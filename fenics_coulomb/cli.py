@@ -158,6 +158,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     out = prepare_output(comm, args.out)
 
     body = scene.build_body(comm)
+    t_mesh = time.perf_counter() - t0
     model = ContactModel(body, Material(scene.young, scene.poisson), scene.friction, scene.traction_table(),
                          body_force=(scene.body_force[0], scene.body_force[1], scene.body_force[2]))
     t_model = time.perf_counter() - t0
@@ -192,6 +193,8 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(scene.settings()),
                                        "body": body.description})
         data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+        data["timings_s"]["mesh"] = comm.allreduce(t_mesh, op=MPI.MAX)
+        data["timings_s"]["assembly"] = comm.allreduce(t_model - t_mesh, op=MPI.MAX)
         data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
         data["files"] = [*files, "summary.json"]
         write_summary(tmp / "summary.json", data, comm)
