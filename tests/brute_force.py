@@ -5,6 +5,8 @@ already identity-like with zero load, or given through ``dirichlet``), a load f 
 triples cdofs[i], frames Rᵢ = (t₁, t₂, n) (columns), gaps gᵢ, tangential shifts σᵢ and friction Fᵢ:
 
     K u = f + Σᵢ Eᵢ Rᵢ pᵢ,            pᵢ = (p_t, λ) the contact force on the body in the local frame,
+                                      (Eᵢ: the node's DOF triple; a general coupling G replaces Eᵢᵀ u by
+                                      (G u)ᵢ, e.g. the relative displacement of two bodies, issue 18)
     gₙ = gᵢ + n·uᵢ ≥ 0,  λ ≥ 0,  λ·gₙ = 0,
     s = T uᵢ + σᵢ (T = (t₁; t₂)),  ‖p_t‖ ≤ Fᵢ λ,  p_t = −Fᵢ λ s/‖s‖ where s ≠ 0.
 
@@ -84,6 +86,7 @@ def solve_contact(
     frames: npt.ArrayLike | None = None,
     shifts: npt.ArrayLike | None = None,
     dirichlet: tuple[npt.ArrayLike, npt.ArrayLike] | None = None,
+    coupling: sp.spmatrix | None = None,
     r: float | None = None,
     tol: float = 1e-12,
     max_iterations: int = 300,
@@ -99,6 +102,10 @@ def solve_contact(
         frames: R = (t₁, t₂, n) as columns, shape (m, 3, 3); default the identity (obstacle x3 = 0).
         shifts: Tangential shifts σ, shape (m, 2); default 0.
         dirichlet: (dofs, values) to impose on top of K's own rows.
+        coupling: A (3m × n) matrix G giving each contact node's Cartesian displacement (relative to its
+            counterpart: rows uₛ − Σⱼ φⱼ uⱼ for two bodies) as G u; default the selection of ``cdofs``. The
+            contact force then acts on the body as Gᵀ(Rᵢ pᵢ) (action and reaction). ``cdofs`` only gives m
+            and the scale of r then.
         r: Alart–Curnier parameter; default the mean diagonal of K on the contact DOFs.
         tol: Stop when ‖Φ‖ <= tol·max(‖f‖, ‖B p‖) and the step is below tol·‖u‖.
         max_iterations: Newton iterations before giving up (AssertionError).
@@ -120,6 +127,11 @@ def solve_contact(
     rows = np.repeat(cdofs, 3, axis=1).ravel()
     cols = np.tile(3 * np.arange(m)[:, None] + np.arange(3), (1, 3)).ravel()
     B = sp.csr_matrix((R.reshape(-1), (rows, cols)), shape=(n, 3 * m))
+    if coupling is not None:
+        G = sp.csr_matrix(coupling, dtype=np.float64)
+        if G.shape != (3 * m, n):
+            raise ValueError(f"coupling must have shape {(3 * m, n)}, got {G.shape}")
+        B = (G.T @ _block_diagonal(R)).tocsr()  # B p = Gᵀ (Rᵢ pᵢ), Bᵀ u = Rᵢᵀ (G u)ᵢ
     Bt = B.T.tocsr()
 
     def residual(u: Array, p: Array) -> tuple[Array, dict]:

@@ -157,3 +157,59 @@ def test_per_node_friction_and_dirichlet_input(lev1):
     dofs = lev1["dirichlet"][2::3][:1]
     pushed = solve_contact(K, f, cdofs, g, 0.23, dirichlet=(dofs, [1e-3]))
     assert pushed.u[dofs[0]] == pytest.approx(1e-3, abs=1e-15)
+
+
+def test_load_path_increment_shift(lev1):
+    """Issue 14's friction on the increment through the tangential shift: step 2 of a path (a tilted plane
+    dragged further, the side load reversed) with o = ũ₁ + δ₂ − δ₁. Brute force and the SCD iteration in frames
+    agree; without friction the path's end equals the static solve of the final state, with friction it differs."""
+    K, f, cdofs, x = lev1["K"], lev1["load"], lev1["cdofs"], lev1["x"]
+    nodes = cdofs[:, 0] // 3
+    plane = Plane(point=[0.0, 0.0, -0.004], normal=[0.01, -0.005, 1.0], displacement=[0.001, 0.0, 0.0])
+    delta2 = np.array([-0.002, 0.001, 0.0])
+    f2 = f.copy()
+    f2[0::3] *= -1.0  # the side load's x1 component reversed
+    for friction in (0.0, 0.3):
+        # step 1: the static problem at δ₁
+        _, g1, _, R1 = closest_obstacle([plane], x)
+        s1 = local_shift(R1, g1, plane.displacement)
+        step1 = solve_contact(K, f, cdofs, g1, friction, frames=R1, shifts=s1[:, :2])
+        # step 2 at δ₂, friction on the increment: o = ũ₁ + δ₂ − δ₁
+        moved = plane.moved(delta2)
+        _, g2, _, R2 = closest_obstacle([moved], x)
+        offset = step1.u[cdofs] + delta2 - np.asarray(plane.displacement)
+        s2 = local_shift(R2, g2, offset)
+        step2 = solve_contact(K, f2, cdofs, g2, friction, frames=R2, shifts=s2[:, :2])
+        u, _, z, _ = solve_in_frames(K, f2, nodes, R2, s2, friction)
+        assert np.linalg.norm(u - step2.u) <= 1e-7 * np.linalg.norm(step2.u)
+        assert np.abs(-z - step2.force).max() <= 1e-7 * step2.force[:, 2].max()
+        # the slip of step 2 is the increment T(ũ₂ − ũ₁) − T(δ₂ − δ₁)
+        increment = np.einsum("iab,ia->ib", R2, step2.u[cdofs] - step1.u[cdofs] - (delta2 - plane.displacement))
+        assert np.allclose(step2.slip, increment[:, :2], atol=1e-12 * np.abs(step2.u).max())
+        static = solve_contact(K, f2, cdofs, g2, friction, frames=R2, shifts=local_shift(R2, g2, delta2)[:, :2])
+        difference = np.linalg.norm(static.u - step2.u) / np.linalg.norm(static.u)
+        if friction == 0.0:
+            assert difference < 1e-10
+        else:
+            assert difference > 1e-2, difference
+
+
+@pytest.mark.parametrize(("friction", "sticks"), [(0.0, False), (0.5, True), (0.2, False)])
+def test_two_body_coupling_against_the_closed_form(friction, sticks):
+    """Two nodes on springs k₁, k₂ (to the ground), node a pressed down by P onto node b (gap g) and pulled
+    sideways by Q, contact on the relative displacement u_a − u_b (the coupling of issue 18): the closed form
+    λ = (P/k₁ − g)/(1/k₁ + 1/k₂); sticking p_t = −Q/(1 + k₁/k₂) if |p_t| <= Fλ, else sliding p_t = −Fλ."""
+    k1, k2, P, Q, g = 3.0, 5.0, 2.0, 0.4, 0.1
+    K = sp.diags(np.r_[np.full(3, k1), np.full(3, k2)])
+    f = np.array([Q, 0.0, -P, 0.0, 0.0, 0.0])
+    G = sp.hstack([sp.eye(3), -sp.eye(3)])  # u_a − u_b
+    sol = solve_contact(K, f, np.array([[0, 1, 2]]), [g], friction, coupling=G)
+    lam = (P / k1 - g) / (1 / k1 + 1 / k2)
+    stick = -Q / (1 + k1 / k2)
+    pt = stick if abs(stick) <= friction * lam else -friction * lam
+    assert (abs(stick) <= friction * lam) == sticks
+    assert sol.force[0] == pytest.approx([pt, 0.0, lam], abs=1e-12)
+    ua, ub = sol.u[:3], sol.u[3:]
+    assert ua == pytest.approx([(Q + pt) / k1, 0.0, (-P + lam) / k1], abs=1e-12)
+    assert ub == pytest.approx([-pt / k2, 0.0, -lam / k2], abs=1e-12)  # the reaction on b
+    assert sol.gap[0] == pytest.approx(0.0, abs=1e-12)
