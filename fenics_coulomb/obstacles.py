@@ -83,7 +83,7 @@ columns) become
 
     Bⁱ → Bⁱ Rᵢᵀ,   Cⁱ → Cⁱ Rᵢᵀ     (B = W*ᵀ, C = γ U*ᵀ; :func:`rotate_rows`),
 
-with the unchanged right-hand side written with the local êⁱ: −γ(W*ᵀ êⁱ) − U*ᵀ êⁱ. The solution is the
+with the unchanged right-hand side −(Bⁱ γêⁱ + Cⁱ êⁱ) of the UNROTATED Bⁱ, Cⁱ and the local êⁱ. The solution is the
 Cartesian Δu (no rotation back), and the line search works on Cartesian u, r = A u − l.
 
 Newton step 4b: with M̂ = 𝔛ᵀ Â + 𝔜ᵀ (γ Yᵀ on contact rows) the code solves M̂ᵀ q̂ = Â ê − γ ê − M̂ᵀ ê and
