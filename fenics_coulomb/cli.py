@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import sys
 import time
 import traceback
@@ -21,8 +20,8 @@ import numpy as np
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel, Material
-from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver
-from fenics_coulomb.output import summary, write_convergence_csv, write_summary, write_xdmf
+from fenics_coulomb.newton import PRECONDITIONERS, SCDNewtonSolver, SolveResult
+from fenics_coulomb.output import ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES
 
 logger = logging.getLogger("fenics_coulomb")
@@ -100,21 +99,9 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
     )
 
 
-def prepare_output(comm: MPI.Comm, out: str) -> Path:
-    """Create the output directory on rank 0; raise InputError on every rank if it is unusable."""
-    path = Path(out)
-    message = ""
-    if comm.rank == 0:
-        try:
-            path.mkdir(parents=True, exist_ok=True)
-            probe = path / f".write-test-{os.getpid()}"
-            probe.write_text("")
-            probe.unlink()
-        except OSError as err:
-            message = f"--out {out!r}: output directory is not writable ({err.strerror or err})"
-    message = comm.bcast(message, root=0)
-    check_all(comm, not message, message)
-    return path
+def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
+    """Check that the result set can go to ``out``; raise InputError on every rank if it cannot."""
+    return ResultDirectory(comm, out)
 
 
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
@@ -149,38 +136,44 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         status = EXIT_DIVERGED
         logger.error("fenics-coulomb: the solve did not converge: %s", err)
     t_write = time.perf_counter()
-    write_xdmf(out / "solution.xdmf", model, result)
-    data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(scene.settings()),
-                                   "body": body.description})
-    data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-    write_convergence_csv(out / "convergence.csv", result, comm)
-    if not args.no_plots:
-        from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence, plot_deformed
-
-        label = scene.name if args.scene else f"{scene.gap}/{scene.load}, lev {scene.lev}"
-        plot_deformed(model.V, result.displacement, model.contact.coordinates,
-                      result.displacement[model.contact.local_dofs], result.states, out / "deformed.png",
-                      f"Deformed body, {label}")
-        gathered = gather_contact(comm, model.contact.coordinates, result.states)
-        if gathered is not None:
-            plot_convergence({label: result.residual_history}, out / "convergence.png",
-                             f"Convergence, {label}")
-            plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
-    data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
-    write_summary(out / "summary.json", data, comm)
+    label = scene.name if args.scene else f"{scene.gap}/{scene.load}, lev {scene.lev}"
+    with out.writing() as tmp:
+        files = write_results(tmp, model, result, label, plots=not args.no_plots)
+        data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(scene.settings()),
+                                       "body": body.description})
+        data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+        data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
+        data["files"] = [*files, "summary.json"]
+        write_summary(tmp / "summary.json", data, comm)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
             f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
-            f"{data['wall_time_s']:.2f} s; results in {out}/ (solution.xdmf, summary.json, convergence.csv"
-            f"{'' if args.no_plots else ', convergence.png, contact_states.png, deformed.png'})",
+            f"{data['wall_time_s']:.2f} s; results in {args.out}/ ({', '.join(data['files'])})",
             flush=True,
         )
     solver.destroy()
     model.destroy()
     return status
+
+
+def write_results(directory: Path, model: ContactModel, result: SolveResult, label: str, plots: bool = True
+                  ) -> list[str]:
+    """Write the fields, the convergence history and (optionally) the figures into ``directory`` (collective).
+
+    Returns:
+        The names of the files written (figures that failed are left out; see figures.write_figures).
+    """
+    write_xdmf(directory / "solution.xdmf", model, result)
+    write_convergence_csv(directory / "convergence.csv", result, model.V.mesh.comm)
+    files = ["solution.xdmf", "solution.h5", "convergence.csv"]
+    if plots:
+        from fenics_coulomb.figures import write_figures
+
+        files += write_figures(directory, model, result, label)
+    return files
 
 
 def initial_displacement(start: str, model: ContactModel) -> np.ndarray | None:
@@ -189,20 +182,13 @@ def initial_displacement(start: str, model: ContactModel) -> np.ndarray | None:
         return None
     if start == "zero":
         return -model.shift.getArray(readonly=True).copy()
-    from fenics_coulomb.output import read_displacement
+    from fenics_coulomb.output import check_solution_file, read_displacement
 
     comm = model.V.mesh.comm
     message = ""
     if comm.rank == 0:
-        try:
-            import h5py
-
-            with h5py.File(Path(start).with_suffix(".h5"), "r") as h5:
-                shape = h5["Function/displacement/0"].shape
-                if len(shape) != 2 or shape[1] != 3:
-                    message = f"--start {start!r}: 'displacement' is not a 3-vector field (shape {shape})"
-        except (OSError, KeyError) as err:
-            message = f"--start {start!r}: no displacement from an earlier run can be read ({err})"
+        problem = check_solution_file(Path(start))
+        message = f"--start {start!r}: {problem}" if problem else ""
     message = comm.bcast(message, root=0)
     check_all(comm, not message, message)
     return read_displacement(Path(start), model.V)
