@@ -16,6 +16,7 @@ ENV OMPI_ALLOW_RUN_AS_ROOT=1 \
 WORKDIR /opt/fenics-coulomb
 COPY . .
 RUN python3 -m pip install --no-deps --no-build-isolation --break-system-packages . \
-    && python3 -c "import fenics_coulomb, dolfinx; print(fenics_coulomb.__version__, dolfinx.__version__)"
+    && python3 -c "import fenics_coulomb, dolfinx; print(fenics_coulomb.__version__, dolfinx.__version__)" \
+    && python -c "import fenics_coulomb"  # the usage line's `python` (python-is-python3) works too
 
 CMD ["make", "demo"]

@@ -10,39 +10,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 from mpi4py import MPI
 
-import dolfinx.fem.petsc
 from common import build, peak_rss_mib, solve, write_table
+from elastic import linear_elastic
 
-from fenics_coulomb.builder import build_body, clamp, isotropic_forms
-from fenics_coulomb.config import Scene
-from fenics_coulomb.preconditioner import rigid_body_modes
 from fenics_coulomb.settings import SolverSettings
-
-
-def linear_elastic(comm: MPI.Comm, lev: int, gap: str, load: str) -> tuple[float, int]:
-    """Assemble and solve the same linear-elastic problem without contact with DOLFINx's LinearProblem, CG +
-    GAMG with the rigid-body near-nullspace (rtol 1e-8); return (wall time, CG iterations)."""
-    comm.barrier()
-    t0 = time.perf_counter()
-    scene = Scene().override(lev=lev, gap=gap, load=load)
-    body = build_body(scene, comm)
-    V = dolfinx.fem.functionspace(body.mesh, ("Lagrange", 1, (3,)))
-    tractions = {body.tag(name): value for name, value in scene.traction_table().items()}
-    a, L = isotropic_forms(V, scene.material.material(), body.facet_tags, tractions)
-    problem = dolfinx.fem.petsc.LinearProblem(a, L, bcs=[clamp(V, body)], petsc_options={
-        "ksp_type": "cg", "pc_type": "gamg", "ksp_rtol": 1e-8})
-    ns = rigid_body_modes(V)
-    problem.A.setNearNullSpace(ns)
-    problem.solve()
-    its = problem.solver.getIterationNumber()
-    elapsed = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-    ns.destroy()
-    return elapsed, its
 
 
 def main() -> int:
@@ -57,7 +32,8 @@ def main() -> int:
     gap, load = args.case.split("/")
     rows = []
     for lev in args.levels:
-        t_lin, its_lin = linear_elastic(comm, lev, gap, load)
+        reference = linear_elastic(comm, lev, gap, load)
+        t_lin, its_lin = reference.timings["total"], reference.iterations
         for pc in args.pc:
             comm.barrier()
             model, t_model = build(comm, lev, gap, load)

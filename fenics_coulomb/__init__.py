@@ -5,7 +5,7 @@ and the flow of one solve are in docs/architecture.md.
 """
 
 from fenics_coulomb.errors import InputError, SolverError
-from fenics_coulomb.obstacle import Plane
+from fenics_coulomb.obstacles import Plane
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.records import IterationRecord, SolveResult
 from fenics_coulomb.settings import SolverSettings

@@ -7,6 +7,7 @@ boundary and a constant body force.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -93,13 +94,17 @@ class Built:
     forms: tuple[ufl.Form, ufl.Form]
     bcs: list[dolfinx.fem.DirichletBC]
     problem: ContactProblem
+    #: Wall time of building the body (mesh and facet tags) on this rank.
+    mesh_time: float = 0.0
 
 
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_prefix: str = "coulomb_",
                   petsc_options: dict[str, Any] | None = None) -> Built:
     """Turn a scene into its body, forms, boundary conditions and ContactProblem (collective)."""
     scene.validate()
+    t0 = time.perf_counter()
     body = build_body(scene, comm)
+    mesh_time = time.perf_counter() - t0
     material = scene.material.material()
     tractions = {body.tag(name): value for name, value in scene.traction_table().items()}
     force = scene.load.body_force
@@ -110,4 +115,4 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
                              settings=scene.solver, petsc_options_prefix=petsc_options_prefix,
                              petsc_options=petsc_options)
-    return Built(body, (a, L), bcs, problem)
+    return Built(body, (a, L), bcs, problem, mesh_time)

@@ -1,18 +1,22 @@
 """Command line: ``python3 -m fenics_coulomb [flags]`` (runs unchanged under ``mpirun -n N``).
 
 Exit status: 0 solved, 2 bad input (one line naming the value, on every rank, before any collective
-call), 3 no convergence (the last iterate and the history are still written).
+call), 3 no convergence (the last iterate and the history are still written), 130/143 interrupted by
+SIGINT/SIGTERM (every rank ends: the interrupted rank aborts the MPI job), 1 an unexpected error.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
-import os
+import re
+import signal
 import sys
 import time
 import traceback
+import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import NoReturn
 
 from mpi4py import MPI
 
@@ -20,23 +24,59 @@ import dolfinx.fem
 
 from fenics_coulomb.builder import build_problem
 from fenics_coulomb.config import Scene
+from fenics_coulomb.display import virtual_display
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel
-from fenics_coulomb.output import summary, write_convergence_csv, write_summary, write_xdmf
+from fenics_coulomb.output import ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.records import SolveResult
-from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES
+from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES, expected_sizes
 from fenics_coulomb.settings import PRECONDITIONERS
 
 logger = logging.getLogger("fenics_coulomb")
 
 EXIT_INPUT = 2
 EXIT_DIVERGED = 3
+EXIT_INTERRUPTED = 128  # + the signal number (130 SIGINT, 143 SIGTERM), as a shell reports it
+
+#: Peak memory (summed over ranks) of a cuboid solve: a base per rank plus bytes per unknown, fitted to the
+#: measured peak RSS of docs/table2 (d3/L2, GAMG at lev >= 7, 2 ranks): 3221 MiB at 603 057 and 8207 MiB at
+#: 1 622 400 unknowns give 5.1 kB per unknown and ~140 MiB per rank (lev 0: 201 MiB for 2 ranks).
+BYTES_PER_UNKNOWN = 5.2e3
+BYTES_PER_RANK = 150 * 2**20
+#: Largest scene-independent start file read for validation (an XDMF is a few kB of XML).
+MAX_XDMF_BYTES = 16 * 2**20
+
+
+class Interrupted(BaseException):
+    """A termination signal (SIGTERM, SIGHUP) received by this rank; handled like KeyboardInterrupt."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse that prints on rank 0 only (help, usage, errors) and reports an error in one line.
+
+    Every rank parses the same arguments, so every rank exits with status 2 (or 0 for --help) and only
+    the message is not repeated once per rank.
+    """
+
+    def _print_message(self, message: str, file=None) -> None:
+        if MPI.COMM_WORLD.rank == 0:
+            super()._print_message(message, file)
+
+    def error(self, message: str) -> NoReturn:
+        if MPI.COMM_WORLD.rank == 0:
+            print(f"{self.prog}: error: {message} (see --help)", file=sys.stderr, flush=True)
+        _finish_together(MPI.COMM_WORLD)
+        sys.exit(EXIT_INPUT)
 
 
 def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentParser:
     """The argument parser shared by the CLI and the demo (scene values are None unless given)."""
     d = Scene()
-    p = argparse.ArgumentParser(
+    p = ArgumentParser(
         prog=prog,
         description="3D static contact of a linear-elastic body with a rigid plane under Coulomb friction, "
         "solved by the SCD semismooth* Newton method (DOLFINx/PETSc, MPI-parallel).",
@@ -102,28 +142,23 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
     )
 
 
-def prepare_output(comm: MPI.Comm, out: str) -> Path:
-    """Create the output directory on rank 0; raise InputError on every rank if it is unusable."""
-    path = Path(out)
-    message = ""
-    if comm.rank == 0:
-        try:
-            path.mkdir(parents=True, exist_ok=True)
-            probe = path / f".write-test-{os.getpid()}"
-            probe.write_text("")
-            probe.unlink()
-        except OSError as err:
-            message = f"--out {out!r}: output directory is not writable ({err.strerror or err})"
-    message = comm.bcast(message, root=0)
-    check_all(comm, not message, message)
-    return path
+def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
+    """Check that the result set can go to ``out``; raise InputError on every rank if it cannot."""
+    return ResultDirectory(comm, out)
 
 
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
-    """Flags → scene → problem → solve → output; return the exit status."""
+    """Solve the scene described by ``args``; return the exit status."""
     t0 = time.perf_counter()
     scene = scene_from_args(args)
+    if not args.out.strip():
+        raise InputError(f"--out {args.out!r}: give an output directory (an empty name would write into the "
+                         "current directory)")
+    check_memory(comm, scene)
+    if scene.start not in ("zero", "undeformed"):
+        check_start_file(comm, scene.start)
     out = prepare_output(comm, args.out)
+
     built = build_problem(scene, comm)
     with built.problem as problem:
         model = problem.model
@@ -137,44 +172,52 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             result = err.result
             status = EXIT_DIVERGED
             logger.error("fenics-coulomb: the solve did not converge: %s", err)
+        if status == 0 and not result.converged:  # e.g. the linear solve of a body without contact nodes
+            status = EXIT_DIVERGED
+            logger.error("fenics-coulomb: the solve did not converge: %s", result.reason)
         t_write = time.perf_counter()
-        write_xdmf(out / "solution.xdmf", model, result)
-        data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
-                                       "body": built.body.description})
-        data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-        write_convergence_csv(out / "convergence.csv", result, comm)
-        if not args.no_plots:
-            write_figures(out, model, result, scene.label)
-        data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
-        write_summary(out / "summary.json", data, comm)
+        with out.writing() as tmp:
+            files = write_results(tmp, model, result, scene.label, plots=not args.no_plots)
+            data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
+                                           "body": built.body.description})
+            data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+            data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
+            data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
+            data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
+            data["files"] = [*files, "summary.json"]
+            write_summary(tmp / "summary.json", data, comm)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
             f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
-            f"{data['wall_time_s']:.2f} s; results in {out}/ (solution.xdmf, summary.json, convergence.csv"
-            f"{'' if args.no_plots else ', convergence.png, contact_states.png, deformed.png'})",
+            f"{data['wall_time_s']:.2f} s; results in {args.out}/ ({', '.join(data['files'])})",
             flush=True,
         )
     return status
 
 
-def write_figures(out: Path, model: ContactModel, result: SolveResult, label: str) -> None:
-    """The PNG figures: deformed body, convergence history, contact states (collective)."""
-    from fenics_coulomb.figures import gather_contact, plot_contact_states, plot_convergence, plot_deformed
+def write_results(directory: Path, model: ContactModel, result: SolveResult, label: str, plots: bool = True
+                  ) -> list[str]:
+    """Write the fields, the convergence history and (optionally) the figures into ``directory`` (collective).
 
-    plot_deformed(model.V, result.displacement, model.contact.coordinates,
-                  result.displacement[model.contact.local_dofs], result.states, out / "deformed.png",
-                  f"Deformed body, {label}")
-    gathered = gather_contact(model.comm, model.contact.coordinates, result.states)
-    if gathered is not None:
-        plot_convergence({label: result.residual_history}, out / "convergence.png", f"Convergence, {label}")
-        plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
+    Returns:
+        The names of the files written (figures that failed are left out; see figures.write_figures).
+    """
+    write_xdmf(directory / "solution.xdmf", model, result)
+    write_convergence_csv(directory / "convergence.csv", result, model.V.mesh.comm)
+    files = ["solution.xdmf", "solution.h5", "convergence.csv"]
+    if plots:
+        from fenics_coulomb.figures import write_figures
+
+        files += write_figures(directory, model, result, label)
+    return files
 
 
 def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function | None:
-    """The start ũ⁽⁰⁾ of a start setting: None (the paper's u⁽⁰⁾ = 0), zero, or an earlier run's solution."""
+    """The start ũ⁽⁰⁾ of a start setting: None (the paper's u⁽⁰⁾ = 0), zero, or an earlier run's solution
+    (checked beforehand by :func:`check_start_file`), interpolated onto V."""
     if start == "zero":
         return None
     u0 = dolfinx.fem.Function(V)
@@ -182,57 +225,217 @@ def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Func
         return u0
     from fenics_coulomb.output import read_displacement
 
-    comm = V.mesh.comm
-    message = ""
-    if comm.rank == 0:
-        try:
-            import h5py
-
-            with h5py.File(Path(start).with_suffix(".h5"), "r") as h5:
-                shape = h5["Function/displacement/0"].shape
-                if len(shape) != 2 or shape[1] != 3:
-                    message = f"--start {start!r}: 'displacement' is not a 3-vector field (shape {shape})"
-        except (OSError, KeyError) as err:
-            message = f"--start {start!r}: no displacement from an earlier run can be read ({err})"
-    message = comm.bcast(message, root=0)
-    check_all(comm, not message, message)
     u0.x.petsc_vec.array[:] = read_displacement(Path(start), V)
     u0.x.scatter_forward()
     return u0
 
 
+def check_memory(comm: MPI.Comm, scene: Scene) -> None:
+    """Refuse (InputError on every rank) a cuboid level whose estimated memory exceeds what the machine(s) of
+    the ranks have available, before anything is allocated (collective: every rank must call it)."""
+    if scene.body.shape != "cuboid":
+        return
+    n = expected_sizes(scene.body.lev)[1]
+    need = comm.size * BYTES_PER_RANK + n * BYTES_PER_UNKNOWN
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    local = available_memory() if node.rank == 0 else 0
+    node.Free()
+    available = comm.allreduce(local, op=MPI.SUM)
+    if available > 0 and need > available:
+        raise InputError(
+            f"lev = {scene.body.lev}: {n:,} unknowns need about {need / 2**30:,.1f} GiB, but only "
+            f"{available / 2**30:,.1f} GiB of memory are available (lower --lev)")
+
+
+def available_memory() -> int:
+    """MemAvailable of this machine in bytes (0 when unknown)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
+
+def check_start_file(comm: MPI.Comm, start: str) -> None:
+    """Check on rank 0 that ``start`` is the solution.xdmf of an earlier run: readable XML naming a 3D mesh
+    (hexahedra or tetrahedra) with XYZ geometry and a 3-vector point field ``displacement`` whose HDF5
+    datasets exist with matching shapes. InputError on every rank otherwise (collective)."""
+    message = ""
+    if comm.rank == 0:
+        try:
+            message = _start_file_problem(Path(start).with_suffix(".xdmf"))
+        except Exception as err:  # any failure to read a foreign file is a bad input, reported in one line
+            message = f"cannot be read ({type(err).__name__}: {str(err).splitlines()[0] if str(err) else ''})"
+        if message:
+            message = f"--start {start!r}: {message}"
+    message = comm.bcast(message, root=0)
+    check_all(comm, not message, message)
+
+
+def _start_file_problem(xdmf: Path) -> str:
+    """What is wrong with ``xdmf`` as a start file ("" if nothing)."""
+    import h5py
+
+    if not xdmf.is_file():
+        return "no such file"
+    if xdmf.stat().st_size > MAX_XDMF_BYTES:
+        return "too large for an XDMF file of fenics-coulomb"
+    try:
+        root = ET.fromstring(xdmf.read_bytes())
+    except ET.ParseError as err:
+        return f"not an XDMF (XML) file ({err})"
+    strip = {el: el.tag.rsplit("}", 1)[-1] for el in root.iter()}
+    topologies = [el for el, tag in strip.items() if tag == "Topology"]
+    geometries = [el for el, tag in strip.items() if tag == "Geometry"]
+    if not topologies or not geometries:
+        return "no mesh (Topology/Geometry) in the XDMF file"
+    kinds = {(el.get("TopologyType") or el.get("Type") or "").lower() for el in topologies}
+    if not kinds <= {"hexahedron", "tetrahedron"}:
+        return f"the mesh has cells of type {', '.join(sorted(kinds))}, not 3D hexahedra or tetrahedra"
+    if any((el.get("GeometryType") or el.get("Type") or "XYZ").upper() != "XYZ" for el in geometries):
+        return "the mesh geometry is not XYZ (3D)"
+    fields = [el for el, tag in strip.items() if tag == "Attribute" and el.get("Name") == "displacement"]
+    if not fields:
+        return "no 'displacement' field in the XDMF file"
+
+    def dataset(element: ET.Element) -> tuple[int, ...]:
+        item = next((el for el in element.iter() if el.tag.rsplit("}", 1)[-1] == "DataItem"), None)
+        if item is None or (item.get("Format") or "XML").upper() != "HDF" or not item.text:
+            raise ValueError("its data are not stored in HDF5")
+        file, _, name = item.text.strip().partition(":")
+        path = xdmf.parent / file if not Path(file).is_absolute() else Path(file)
+        with h5py.File(path, "r") as h5:
+            data = h5[name]
+            if not isinstance(data, h5py.Dataset):
+                raise ValueError(f"{file}:{name} is not a dataset")
+            return tuple(data.shape)
+
+    try:
+        points = dataset(geometries[0])
+        values = dataset(fields[0])
+    except (OSError, KeyError, ValueError) as err:
+        return f"the HDF5 data cannot be read ({err})"
+    if len(points) != 2 or points[1] != 3 or points[0] == 0:
+        return f"the mesh geometry has shape {points}, not (nodes, 3)"
+    if len(values) != 2 or values[1] != 3 or values[0] != points[0]:
+        return f"'displacement' has shape {values}, not ({points[0]}, 3) (a 3-vector per mesh node)"
+    return ""
+
+
 def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb") -> int:
-    """Entry point; returns the exit status (2 bad input, 3 no convergence)."""
+    """Entry point; returns the exit status (2 bad input, 3 no convergence, 128 + signal interrupted)."""
     comm = MPI.COMM_WORLD
     parser = build_parser(prog)
     args, petsc_args = parser.parse_known_args(argv)
     configure_logging(comm, args.quiet, args.verbose)
+    handlers = _raise_on_termination()
     try:
         set_petsc_options(petsc_args)
-        return run(args, comm)
+        with virtual_display(enabled=not args.no_plots and comm.rank == 0):
+            return run(args, comm)
     except InputError as err:
         if comm.rank == 0:
             print(f"{prog}: error: {err}", file=sys.stderr, flush=True)
+        _finish_together(comm)
         return EXIT_INPUT
+    except (KeyboardInterrupt, Interrupted) as err:  # any rank interrupted ends all ranks, none hangs
+        signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
+        print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all "
+              "ranks", file=sys.stderr, flush=True)
+        comm.Abort(EXIT_INTERRUPTED + signum)
+        return EXIT_INTERRUPTED + signum
     except Exception:  # an unexpected failure on any rank must end all ranks, not hang them
         print(f"[rank {comm.rank}] fenics-coulomb: unexpected error:\n{traceback.format_exc()}",
               file=sys.stderr, flush=True)
         comm.Abort(1)
         return 1
+    finally:
+        for signum, handler in handlers.items():
+            signal.signal(signum, handler)
+
+
+def _finish_together(comm: MPI.Comm) -> None:
+    """Synchronize the ranks before a non-zero exit: mpirun ends the job at the first non-zero exit, and a
+    rank that is still starting up or finalizing then prints PMIx errors after the one-line message."""
+    comm.Barrier()
+
+
+def _raise_on_termination() -> dict[int, object]:
+    """Turn SIGTERM and SIGHUP into :class:`Interrupted` (SIGINT already raises KeyboardInterrupt), so that
+    the rank aborts the whole MPI job and leaves nothing behind; return the previous handlers."""
+    def handler(signum: int, frame: object) -> None:
+        raise Interrupted(signum)
+
+    previous: dict[int, object] = {}
+    try:
+        for signum in (signal.SIGTERM, signal.SIGHUP):
+            previous[signum] = signal.signal(signum, handler)
+    except ValueError:  # not the main thread (e.g. main() called from a worker thread): keep the defaults
+        pass
+    return previous
 
 
 def set_petsc_options(tokens: list[str]) -> None:
-    """Put ``-coulomb_*`` options from the command line into PETSc's options database.
+    """Put ``-coulomb_*`` options from the command line into PETSc's options database and check them.
 
-    Only prefixed options are accepted, so nothing outside fenics-coulomb's objects is changed.
+    Only prefixed options are accepted, so nothing outside fenics-coulomb's objects is changed. The options
+    are tried on a small KSP set up as the solver's (GMRES, right preconditioning, unpreconditioned norm) on
+    this rank alone (no communication): an option PETSc refuses (an unknown KSP or PC type, a norm the KSP
+    cannot monitor, a missing factorization package) is an InputError; the options are then removed again.
     """
     from petsc4py import PETSc
 
     opts = PETSc.Options()
-    for key, value in _petsc_pairs(tokens):
+    pairs = _petsc_pairs(tokens)
+    for key, _ in pairs:
         if not key.startswith("coulomb_"):
             raise InputError(f"unrecognized argument -{key} (PETSc options must carry the prefix -coulomb_)")
+    for key, value in pairs:
         opts[key] = value
+    try:
+        check_petsc_options("coulomb_")
+    except InputError:
+        for key, _ in pairs:
+            opts.delValue(key)
+        raise
+
+
+def check_petsc_options(prefix: str) -> None:
+    """Set up a KSP with options prefix ``prefix`` like the solver's on PETSc.COMM_SELF; InputError naming the
+    options when PETSc refuses them."""
+    from petsc4py import PETSc
+
+    n = 6
+    A = PETSc.Mat().createAIJ([n, n], nnz=3, comm=PETSc.COMM_SELF)
+    for i in range(n):  # the 1D Laplacian: SPD, so every sensible KSP/PC can set up on it
+        A.setValue(i, i, 2.0)
+        if i > 0:
+            A.setValue(i, i - 1, -1.0)
+        if i < n - 1:
+            A.setValue(i, i + 1, -1.0)
+    A.assemble()
+    A.setOptionsPrefix(prefix)
+    ksp = PETSc.KSP().create(PETSc.COMM_SELF)
+    try:
+        ksp.setOptionsPrefix(prefix)
+        ksp.setOperators(A)
+        ksp.setType(PETSc.KSP.Type.GMRES)
+        ksp.setPCSide(PETSc.PC.Side.RIGHT)
+        ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
+        ksp.getPC().setType("ilu")
+        ksp.setFromOptions()
+        ksp.setUp()
+    except PETSc.Error as err:
+        given = " ".join(f"-{k} {v}".strip() for k, v in PETSc.Options().getAll().items() if k.startswith(prefix))
+        detail = [re.sub(r"^\[\d+\]\s*", "", line.strip()) for line in str(err).splitlines() if line.strip()]
+        raise InputError(f"PETSc options {given!r} cannot be used by the solver: "
+                         f"{detail[-1] if detail else err}") from None
+    finally:
+        ksp.destroy()
+        A.destroy()
 
 
 def _petsc_pairs(tokens: list[str]) -> list[tuple[str, str]]:

@@ -26,7 +26,7 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     variant = "4a"
     tol = 0.1
     rtol = 1e-12            # the paper's reduction (default 1e-8)
-    pc = "auto"             # ilu below 50 000 unknowns, gamg above
+    pc = "auto"             # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
     start = "zero"
 """
 
@@ -43,11 +43,13 @@ from mpi4py import MPI
 
 import dolfinx.io.gmshio
 import dolfinx.mesh
+import numpy as np
 
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.expression import parse_gap_expression
 from fenics_coulomb.materials import Material
 from fenics_coulomb.model import validate_friction
+from fenics_coulomb.partition import create_partitioner
 from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.settings import SolverSettings, rtol_for_accuracy  # noqa: F401  (re-exported)
 
@@ -62,6 +64,113 @@ def _vector(name: str, value: Any) -> list[float]:
     if not isinstance(value, list | tuple) or len(value) != 3:
         raise InputError(f"{name} = {value!r}: must be 3 numbers")
     return [_number(name, c) for c in value]
+
+
+#: The type of every key of every section: "str", "int", "number" (int or float), "bool", "names" (a list of
+#: strings), "vector" (a list of 3 numbers). The free tables [boundaries] (name = integer tag) and
+#: [tractions] (name = vector) are listed under the key "*".
+KINDS: dict[str, dict[str, str]] = {
+    "body": {"shape": "str", "lev": "int", "gap": "str", "mesh": "str", "clamped": "names", "contact": "names",
+             "name": "str"},
+    "boundaries": {"*": "int"},
+    "material": {"young": "number", "poisson": "number"},
+    "friction": {"coefficient": "number"},
+    "load": {"case": "str", "scale": "number", "body_force": "vector"},
+    "tractions": {"*": "vector"},
+    "solver": {"variant": "str", "tol": "number", "rtol": "number", "accuracy": "number", "max_it": "int",
+               "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
+               "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
+               "predictor": "bool", "no_contact_shortcut": "bool", "start": "str"},
+}
+_KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
+              "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite"}
+
+#: Largest scene file read (a scene is a few hundred bytes; /dev/zero or a mesh given by mistake is refused).
+MAX_SCENE_BYTES = 1 << 20
+#: Physically sensible ranges: Young's modulus in GPa (1 Pa to 10^18 Pa), the factor on the power-method
+#: estimate of λ_max(A) for γ (outside these bounds the approximation step's d̂ = u − r/γ is either u to
+#: machine precision or dominated by r), and the magnitude of tractions and body forces (GPa) times the load
+#: scale. Within them every derived quantity (displacements ~ load/E, residuals ~ E·u, their squared norms)
+#: stays far inside the float64 range.
+YOUNG_RANGE = (1e-9, 1e9)
+GAMMA_SCALE_RANGE = (1e-6, 1e6)
+MAX_LOAD = 1e12
+#: Largest level of the cuboid accepted at all (lev 40 has ~10^13 unknowns); the memory check in the CLI
+#: refuses far smaller ones on an ordinary machine.
+MAX_LEV = 40
+
+
+def check_kind(where: str, value: Any, kind: str) -> None:
+    """Raise InputError ``"<where> = <value>: must be ..."`` unless ``value`` is of ``kind`` (see KINDS)."""
+    optional = kind.endswith("?")
+    kind = kind.rstrip("?")
+    if optional and value is None:
+        return
+
+    def is_number(v: Any) -> bool:
+        return not isinstance(v, bool) and isinstance(v, int | float) and math.isfinite(v)
+
+    ok = {
+        "str": lambda v: isinstance(v, str),
+        "int": lambda v: isinstance(v, int) and not isinstance(v, bool),
+        "number": is_number,
+        "bool": lambda v: isinstance(v, bool),
+        "names": lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v),
+        "vector": lambda v: isinstance(v, list | tuple) and len(v) == 3 and all(is_number(c) for c in v),
+    }[kind](value)
+    if not ok:
+        raise InputError(f"{where} = {value!r}: must be {_KIND_TEXT[kind]}")
+
+
+#: Section attributes that may be None (set so in code, never from TOML).
+OPTIONAL = {"mesh", "name", "case", "accuracy", "gamma"}
+
+
+def check_kinds(section: str, obj: Any) -> None:
+    """check_kind on every attribute of a section dataclass that KINDS lists (values set by flags or code),
+    named as the command line names it (:data:`FLAGS`, e.g. ``load_scale`` for [load] scale)."""
+    names = {key: flag for flag, key in FLAGS.items()}
+    for f in fields(obj):
+        kind = KINDS[section].get(f.name)
+        value = getattr(obj, f.name)
+        if kind is not None and not (value is None and f.name in OPTIONAL):
+            check_kind(names.get((section, f.name), f.name), value, kind)
+
+
+def read_scene_text(path: Path) -> str:
+    """The text of a scene file; InputError for anything but a readable UTF-8 regular file of sensible size."""
+    name = str(path)
+    try:
+        if path.is_dir():
+            raise InputError(f"scene file {name!r} is a directory")
+        if path.exists() and not path.is_file():
+            raise InputError(f"scene file {name!r} is not a regular file")
+        with path.open("rb") as f:
+            data = f.read(MAX_SCENE_BYTES + 1)
+    except OSError as err:
+        raise InputError(f"scene file {name!r}: {err.strerror or err}") from None
+    if len(data) > MAX_SCENE_BYTES:
+        raise InputError(f"scene file {name!r} is larger than {MAX_SCENE_BYTES // 1024} KiB: not a scene (TOML)")
+    if b"\0" in data:
+        raise InputError(f"scene file {name!r} is a binary file, not a scene (TOML)")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"scene file {name!r} is not UTF-8 text, not a scene (TOML)") from None
+
+
+def check_gap_values(text: str, gap: GapFunction) -> None:
+    """Evaluate a gap expression on a grid over the cuboid's bottom (no communication): InputError if it fails
+    or leaves [0, 1) there, so that a bad expression is refused before the mesh is built."""
+    x1, x2 = np.meshgrid(np.linspace(0.0, 2.0, 41), np.linspace(0.0, 1.0, 21))
+    try:
+        values = np.asarray(gap(x1.ravel(), x2.ravel()), dtype=np.float64)
+    except (ArithmeticError, ValueError, TypeError) as err:
+        raise InputError(f"gap expression {text!r} cannot be evaluated: {err}") from None
+    bad = ~np.isfinite(values) | (values < 0.0) | (values >= 1.0)
+    if np.any(bad):
+        raise InputError(f"gap expression {text!r} takes the value {values[bad][0]!r} outside [0, 1) "
+                         "on the cuboid's bottom (the body would invert)")
 
 
 def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
@@ -82,8 +191,11 @@ def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mes
             gmsh.finalize()
     message = comm.bcast(message, root=0)
     check_all(comm, not message, message)
+    # The deterministic partitioner, from the coordinates gmsh holds on rank 0 (the rows model_to_mesh gives
+    # create_mesh): the same file on the same ranks gives the same partition in every run.
+    x = dolfinx.io.gmshio.extract_geometry(gmsh.model) if comm.rank == 0 else np.zeros((0, 3))
     msh, _, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0,
-                                                         gdim=3)
+                                                         gdim=3, partitioner=create_partitioner(comm, x))
     if comm.rank == 0:
         gmsh.finalize()
     return msh, facet_tags
@@ -103,12 +215,15 @@ class BodySection:
 
     def validate(self) -> None:
         """Raise InputError naming the first bad value."""
+        check_kinds("body", self)
         if self.shape not in ("cuboid", "mesh"):
             raise InputError(f"body shape {self.shape!r}: choose 'cuboid' or 'mesh'")
-        if isinstance(self.lev, bool) or not isinstance(self.lev, int) or self.lev < 0:
-            raise InputError(f"lev = {self.lev!r}: must be an integer >= 0")
+        if isinstance(self.lev, bool) or not isinstance(self.lev, int) or not 0 <= self.lev <= MAX_LEV:
+            raise InputError(f"lev = {self.lev!r}: must be an integer in [0, {MAX_LEV}]")
         if self.shape == "cuboid":
-            self.gap_function()  # raises for an unknown name or a rejected expression
+            gap = self.gap_function()  # raises for an unknown name or a rejected expression
+            if self.gap not in GAP_PROFILES:
+                check_gap_values(self.gap, gap)
         else:
             if not self.mesh:
                 raise InputError("body shape 'mesh' needs mesh = \"path/to/file.msh\"")
@@ -139,7 +254,11 @@ class MaterialSection:
 
     def validate(self) -> None:
         """Raise InputError naming the first bad value."""
+        check_kinds("material", self)
         self.material().validate()
+        if not YOUNG_RANGE[0] <= self.young <= YOUNG_RANGE[1]:
+            raise InputError(f"Young's modulus E = {self.young!r} GPa: must lie in [{YOUNG_RANGE[0]:g}, "
+                             f"{YOUNG_RANGE[1]:g}] GPa (1 Pa to 1e18 Pa)")
 
     def material(self) -> Material:
         """The material, with the values checked to be numbers."""
@@ -154,6 +273,7 @@ class FrictionSection:
 
     def validate(self) -> None:
         """Raise InputError naming the first bad value."""
+        check_kinds("friction", self)
         validate_friction(_number("friction", self.coefficient))
 
 
@@ -167,6 +287,7 @@ class LoadSection:
 
     def validate(self) -> None:
         """Raise InputError naming the first bad value."""
+        check_kinds("load", self)
         if self.case is not None and self.case not in LOAD_CASES:
             raise InputError(f"load case {self.case!r}: choose one of {sorted(LOAD_CASES)}")
         _number("load scale", self.scale)
@@ -205,11 +326,10 @@ class Scene:
         """Read a scene file; raise InputError naming any unreadable file, bad key or bad value."""
         path = Path(path)
         where = f"scene file {str(path)!r}"
+        text = read_scene_text(path)
         try:
-            data = tomllib.loads(path.read_text())
-        except OSError as err:
-            raise InputError(f"{where}: {err.strerror or err}") from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as err:
             raise InputError(f"{where} does not parse: {err}") from None
         sections: dict[str, Any] = {}
         for section, value in data.items():
@@ -217,6 +337,10 @@ class Scene:
                 raise InputError(f"{where}: unknown section [{section}] (allowed: {', '.join(SECTIONS)})")
             if not isinstance(value, dict):
                 raise InputError(f"{where}: [{section}] must be a table")
+            kinds = KINDS[section]
+            for key, item in value.items():
+                if key in kinds or "*" in kinds:
+                    check_kind(f"[{section}] {key}", item, kinds.get(key, kinds.get("*", "")))
             kind = SECTIONS[section]
             if kind is None:
                 sections[section] = dict(value)
@@ -239,7 +363,7 @@ class Scene:
             body = {**body, "mesh": str(candidate if candidate.exists() else Path(mesh))}
         try:
             scene = cls(
-                name=path.stem, body=BodySection(**body), boundaries=sections.get("boundaries", {}),
+                name=body.get("name") or path.stem, body=BodySection(**body), boundaries=sections.get("boundaries", {}),
                 material=MaterialSection(**sections.get("material", {})),
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
@@ -271,6 +395,8 @@ class Scene:
     # -- validation (pure, identical on every rank) ------------------------------------------------
     def validate(self) -> None:
         """Raise InputError naming the first bad value."""
+        if not isinstance(self.boundaries, dict):
+            raise InputError(f"boundaries = {self.boundaries!r}: must be a table of names = integer tags")
         self.body.validate()
         if self.body.shape == "cuboid":
             names: dict[str, Any] = FACE_NAMES
@@ -289,15 +415,27 @@ class Scene:
         self.material.validate()
         self.friction.validate()
         self.load.validate()
+        if self.tractions is not None and not isinstance(self.tractions, dict):
+            raise InputError(f"tractions = {self.tractions!r}: must be a table of names = [3 numbers]")
         for name, value in (self.tractions or {}).items():
             if not isinstance(value, list) or len(value) != 3:
                 raise InputError(f"traction on {name!r} = {value!r}: must be 3 numbers (GPa)")
             _vector(f"traction on {name!r}", value)
+        largest = max([abs(float(c)) for v in (self.tractions or {}).values() for c in v] + [1.0]) \
+            * abs(float(self.load.scale))
+        if largest > MAX_LOAD or max(abs(float(c)) for c in self.load.body_force) > MAX_LOAD:
+            raise InputError(f"load scale = {self.load.scale!r}: tractions and body forces (times the scale) must "
+                             f"stay below {MAX_LOAD:g} GPa in magnitude")
+        check_kind("start", self.start, "str")
         if not (self.start in ("zero", "undeformed") or Path(self.start).suffix in (".xdmf", ".h5")):
             raise InputError(f"start {self.start!r}: 'zero', 'undeformed' or a solution.xdmf of an earlier run")
         if self.start not in ("zero", "undeformed") and not Path(self.start).with_suffix(".h5").is_file():
             raise InputError(f"start file {self.start!r} (and its .h5) does not exist")
+        check_kinds("solver", self.solver)
         self.solver.validate()
+        if not GAMMA_SCALE_RANGE[0] <= self.solver.gamma_scale <= GAMMA_SCALE_RANGE[1]:
+            raise InputError(f"gamma_scale = {self.solver.gamma_scale!r}: must lie in [{GAMMA_SCALE_RANGE[0]:g}, "
+                             f"{GAMMA_SCALE_RANGE[1]:g}]")
 
     # -- derived data ------------------------------------------------------------------------------
     def traction_table(self) -> dict[str, tuple[float, float, float]]:

@@ -1,6 +1,6 @@
 """The contact-node extractor: contact facets' DOFs as per-node 3-blocks (u1, u2 tangential, u3 normal).
 
-The rigid obstacle (:mod:`fenics_coulomb.obstacle`) is the half-space x3 <= 0 with outer normal e3, so for
+The rigid obstacle (:mod:`fenics_coulomb.obstacles`) is the half-space x3 <= 0 with outer normal e3, so for
 a node the normal component is u3 and the tangential components are (u1, u2); the initial gap of a node is
 the obstacle's signed distance of it. A contact node is a vertex of the contact boundary none of whose
 components carries a Dirichlet condition; every node is owned by exactly one rank, which holds its block of
@@ -18,7 +18,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.obstacle import Plane
+from fenics_coulomb.obstacles import Plane
 
 
 def boundary_blocks(
@@ -92,6 +92,6 @@ class ContactMap:
             local_dofs=local_dofs,
             global_dofs=global_dofs,
             coordinates=np.ascontiguousarray(coordinates),
-            gap=(obstacle or Plane()).gap(coordinates),
+            gap=(obstacle or Plane()).signed_distance(coordinates),
             num_global=num_global,
         )

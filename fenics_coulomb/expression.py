@@ -3,8 +3,13 @@
 The text is parsed with :mod:`ast` and only numbers, the variables ``x1``, ``x2``, the constants ``pi``
 and ``e``, the operators + − * / ** and unary ±, and calls of the whitelisted NumPy functions below are
 accepted; anything else (attribute access, names such as ``__import__``, subscripts, lambdas,
-comprehensions, keyword arguments) is rejected with an :class:`InputError` naming it. The accepted tree is
-evaluated by a small interpreter on NumPy arrays.
+comprehensions, keyword or starred arguments) is rejected with an :class:`InputError` naming it. The accepted
+tree is evaluated by a small interpreter on NumPy arrays.
+
+Every function has a fixed arity and is called with exactly that many positional arguments, so NumPy's
+positional ``out`` argument (``sin(1, x1)`` would write sin(1) into the mesh coordinates x1) can never be
+reached; a call with another number of arguments is rejected naming the function. The interpreter also
+evaluates on read-only copies of x1, x2, so nothing it computes can write into its inputs.
 """
 
 from __future__ import annotations
@@ -21,21 +26,25 @@ from fenics_coulomb.errors import InputError
 
 Array = npt.NDArray[np.float64]
 
-FUNCTIONS: dict[str, Callable[..., Array]] = {
-    "sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log, "sqrt": np.sqrt,
-    "abs": np.abs, "tanh": np.tanh, "arctan": np.arctan, "arctan2": np.arctan2,
-    "max": np.maximum, "min": np.minimum, "hypot": np.hypot,
+#: The whitelisted functions and their arity (number of positional arguments, no more, no fewer).
+FUNCTIONS: dict[str, tuple[Callable[..., Array], int]] = {
+    "sin": (np.sin, 1), "cos": (np.cos, 1), "tan": (np.tan, 1), "exp": (np.exp, 1), "log": (np.log, 1),
+    "sqrt": (np.sqrt, 1), "abs": (np.abs, 1), "tanh": (np.tanh, 1), "arctan": (np.arctan, 1),
+    "arctan2": (np.arctan2, 2), "max": (np.maximum, 2), "min": (np.minimum, 2), "hypot": (np.hypot, 2),
 }
-CONSTANTS = {"pi": np.pi, "e": np.e}
+CONSTANTS = {"pi": np.float64(np.pi), "e": np.float64(np.e)}
 VARIABLES = ("x1", "x2")
 BINARY = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv,
           ast.Pow: operator.pow}
 UNARY: dict[type[ast.unaryop], Callable[[Any], Any]] = {ast.UAdd: operator.pos, ast.USub: operator.neg}
 MAX_LENGTH = 2000
+#: Deepest accepted nesting of the expression tree (the interpreter recurses once per level).
+MAX_DEPTH = 100
 
 
 def _check(node: ast.AST, text: str) -> None:
     """Raise InputError unless every node of the tree is allowed."""
+    callees = {id(sub.func) for sub in ast.walk(node) if isinstance(sub, ast.Call)}
     for sub in ast.walk(node):
         if isinstance(sub, ast.Expression | ast.Load):
             continue
@@ -48,11 +57,19 @@ def _check(node: ast.AST, text: str) -> None:
                     f"gap expression {text!r}: unknown name {sub.id!r} "
                     f"(allowed: {', '.join(VARIABLES)}, {', '.join(CONSTANTS)}, {', '.join(sorted(FUNCTIONS))})"
                 )
+            if sub.id in FUNCTIONS and id(sub) not in callees:
+                raise InputError(f"gap expression {text!r}: function {sub.id!r} must be called, e.g. {sub.id}(x1)")
         elif isinstance(sub, ast.Call):
             if not isinstance(sub.func, ast.Name) or sub.func.id not in FUNCTIONS:
                 raise InputError(f"gap expression {text!r}: only calls of {sorted(FUNCTIONS)} are allowed")
             if sub.keywords:
                 raise InputError(f"gap expression {text!r}: keyword arguments are not allowed")
+            arity = FUNCTIONS[sub.func.id][1]
+            if len(sub.args) != arity:
+                raise InputError(
+                    f"gap expression {text!r}: {sub.func.id}() takes exactly {arity} argument"
+                    f"{'s' if arity > 1 else ''}, got {len(sub.args)}"
+                )
         elif isinstance(sub, ast.BinOp):
             if type(sub.op) not in BINARY:
                 raise InputError(f"gap expression {text!r}: operator {type(sub.op).__name__} is not allowed")
@@ -68,7 +85,7 @@ def _evaluate(node: ast.AST, env: dict[str, Array | float]) -> Array | float:
         return _evaluate(node.body, env)
     if isinstance(node, ast.Constant):
         assert isinstance(node.value, int | float)  # guaranteed by _check
-        return float(node.value)
+        return np.float64(node.value)  # NumPy semantics: 1/0 is inf, (-1)**0.5 is nan, never an exception
     if isinstance(node, ast.Name):
         return env[node.id] if node.id in env else CONSTANTS[node.id]
     if isinstance(node, ast.BinOp):
@@ -77,10 +94,22 @@ def _evaluate(node: ast.AST, env: dict[str, Array | float]) -> Array | float:
         return UNARY[type(node.op)](_evaluate(node.operand, env))
     if isinstance(node, ast.Call):
         assert isinstance(node.func, ast.Name)
-        function: Callable[..., Array] = FUNCTIONS[node.func.id]
+        function, arity = FUNCTIONS[node.func.id]
         args = [_evaluate(a, env) for a in node.args]
+        if len(args) != arity:  # unreachable after _check; never let a surplus argument become ``out``
+            raise InputError(f"{node.func.id}() takes exactly {arity} argument(s), got {len(args)}")
         return function(*args)
     raise InputError(f"{type(node).__name__} is not allowed")  # unreachable after _check
+
+
+def _depth(node: ast.AST) -> int:
+    """Depth of the tree (iteratively, so a deep tree cannot exhaust the interpreter's stack here)."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        current, level = stack.pop()
+        deepest = max(deepest, level)
+        stack.extend((child, level + 1) for child in ast.iter_child_nodes(current))
+    return deepest
 
 
 def parse_gap_expression(text: str) -> Callable[[Array, Array], Array]:
@@ -101,10 +130,17 @@ def parse_gap_expression(text: str) -> Callable[[Array, Array], Array]:
     except SyntaxError as err:
         raise InputError(f"gap expression {text!r} does not parse: {err.msg}") from None
     _check(tree, text)
+    if _depth(tree) > MAX_DEPTH:
+        raise InputError(f"gap expression {text!r} is nested deeper than {MAX_DEPTH} levels")
 
     def gap(x1: Array, x2: Array) -> Array:
+        env: dict[str, Array | float] = {}
+        for name, x in (("x1", x1), ("x2", x2)):
+            copy = np.array(x, dtype=np.float64)  # a copy, read-only: the caller's arrays are never written
+            copy.flags.writeable = False
+            env[name] = copy
         with np.errstate(all="ignore"):
-            value = _evaluate(tree, {"x1": np.asarray(x1, float), "x2": np.asarray(x2, float)})
+            value = _evaluate(tree, env)
         return np.broadcast_to(np.asarray(value, dtype=np.float64), np.shape(x1)).copy()
 
     gap.__name__ = text.strip()

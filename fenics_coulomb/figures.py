@@ -2,11 +2,18 @@
 
 ``convergence.png``  ‖ŷ⁽ᵏ⁾‖/‖ŷ⁽⁰⁾‖ against the Newton iteration (like the paper's Fig. 3);
 ``contact_states.png``  the contact nodes over the bottom (x1, x2), coloured as in the paper's Fig. 2:
-no contact blue, sliding yellow, sticking red.
+no contact blue, sliding yellow, sticking red;
+``deformed.png``  the deformed body (pyvista, off screen) with the contact nodes in the same categorical colours.
+
+``contact_state`` is categorical: the figures colour it with :data:`STATE_COLOURS` (one colour per state, never a
+continuous map). User text (scene names) is shown literally: matplotlib's math text is not parsed in it. A
+figure that cannot be drawn is a logged warning (:func:`write_figures`), never a lost result; a virtual X
+server started for pyvista is stopped again (:func:`fenics_coulomb.display.virtual_display`).
 """
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from mpi4py import MPI
@@ -14,8 +21,12 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
+from fenics_coulomb.display import virtual_display
 from fenics_coulomb.resolvent import OPEN, SLIP, STICK
 
+logger = logging.getLogger(__name__)
+
+#: Categorical colours of the contact states (label, matplotlib colour), as in the paper's Fig. 2.
 STATE_COLOURS = {OPEN: ("no contact", "tab:blue"), SLIP: ("sliding", "gold"), STICK: ("sticking", "tab:red")}
 
 
@@ -39,9 +50,10 @@ def plot_convergence(histories: dict[str, list[float]], path: Path, title: str =
     ax.set_ylabel(r"$\|\hat y^{(k)}\| / \|\hat y^{(0)}\|$")
     ax.grid(True, which="both", alpha=0.3)
     if title:
-        ax.set_title(title)
+        ax.set_title(title, parse_math=False)
     if len(histories) > 1:
-        ax.legend()
+        for text in ax.legend().get_texts():
+            text.set_parse_math(False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -76,10 +88,36 @@ def plot_contact_states(
     ax.set_ylabel("$x_2$")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
     if title:
-        ax.set_title(title)
+        ax.set_title(title, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+
+
+def gather_deformed(
+    V: object,
+    displacement: npt.NDArray[np.float64],
+    contact_coordinates: npt.NDArray[np.float64],
+    contact_displacement: npt.NDArray[np.float64],
+    states: npt.NDArray[np.int8],
+) -> tuple[list, tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]]] | None:
+    """Gather the VTK pieces of the displaced body and the contact nodes on rank 0 (collective; None
+    elsewhere)."""
+    import dolfinx.fem
+    import dolfinx.plot
+
+    comm: MPI.Comm = V.mesh.comm  # type: ignore[attr-defined]
+    u = dolfinx.fem.Function(V)
+    u.x.petsc_vec.array[:] = displacement
+    u.x.scatter_forward()
+    topology, cell_types, x = dolfinx.plot.vtk_mesh(V)
+    values = u.x.array.reshape(-1, 3)[: x.shape[0]]
+    parts = comm.gather((topology, cell_types, x, values), root=0)
+    contact = gather_contact(comm, np.hstack([contact_coordinates, contact_displacement]), states)
+    if comm.rank != 0:
+        return None
+    assert parts is not None and contact is not None
+    return parts, contact
 
 
 def plot_deformed(
@@ -96,29 +134,17 @@ def plot_deformed(
 
     The displacement is magnified so that the largest one is 10 % of the body's size.
     """
-    import dolfinx.fem
-    import dolfinx.plot
+    gathered = gather_deformed(V, displacement, contact_coordinates, contact_displacement, states)
+    if gathered is not None:
+        render_deformed(*gathered, path, title)
 
-    comm: MPI.Comm = V.mesh.comm  # type: ignore[attr-defined]
-    u = dolfinx.fem.Function(V)
-    u.x.petsc_vec.array[:] = displacement
-    u.x.scatter_forward()
-    topology, cell_types, x = dolfinx.plot.vtk_mesh(V)
-    values = u.x.array.reshape(-1, 3)[: x.shape[0]]
-    parts = comm.gather((topology, cell_types, x, values), root=0)
-    contact = gather_contact(comm, np.hstack([contact_coordinates, contact_displacement]), states)
-    if comm.rank != 0:
-        return
-    import os
 
+def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]], path: Path,
+                    title: str = "") -> None:
+    """Render the pieces gathered by :func:`gather_deformed` to ``path`` (one process)."""
     import pyvista
 
     pyvista.OFF_SCREEN = True
-    if not os.environ.get("DISPLAY"):
-        try:
-            pyvista.start_xvfb(wait=0.3)
-        except Exception:  # no Xvfb: VTK may still render off screen (EGL/OSMesa builds)
-            pass
     grids = []
     for top, types, pts, vals in parts:
         grid = pyvista.UnstructuredGrid(top, types, pts)
@@ -130,22 +156,61 @@ def plot_deformed(
     factor = 0.1 * size / umax if umax > 0 else 1.0
     warped = grid.warp_by_vector("u", factor=factor)
     warped.point_data["|u|"] = np.linalg.norm(grid.point_data["u"], axis=1)
-    plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 800))
-    plotter.add_mesh(warped, scalars="|u|", cmap="viridis", show_edges=True, edge_color="grey",
-                     line_width=0.5, scalar_bar_args={"title": "|displacement|"})
-    assert contact is not None
-    data, st = contact
-    if st.size:
-        points = data[:, :3] + factor * data[:, 3:]
-        for state, (label, colour) in STATE_COLOURS.items():
-            mask = st == state
-            if np.any(mask):
-                plotter.add_points(points[mask], color=colour, point_size=8, render_points_as_spheres=True,
-                                   label=label)
-        plotter.add_legend(bcolor="white", size=(0.15, 0.1), loc="upper left")
-    if title:
-        plotter.add_title(f"{title} (displacement x{factor:.3g})", font_size=10)
-    # from below and in front, so that the contact boundary is seen
-    plotter.view_vector((0.55, -1.0, -0.75), viewup=(0.0, 0.0, 1.0))
-    plotter.screenshot(str(path))
-    plotter.close()
+    with virtual_display():
+        plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 800))
+        try:
+            plotter.add_mesh(warped, scalars="|u|", cmap="viridis", show_edges=True, edge_color="grey",
+                             line_width=0.5, scalar_bar_args={"title": "|displacement|"})
+            data, st = contact
+            if st.size:
+                points = data[:, :3] + factor * data[:, 3:]
+                for state, (label, colour) in STATE_COLOURS.items():
+                    mask = st == state
+                    if np.any(mask):
+                        plotter.add_points(points[mask], color=colour, point_size=8,
+                                           render_points_as_spheres=True, label=label)
+                plotter.add_legend(bcolor="white", size=(0.15, 0.1), loc="upper left")
+            if title:
+                # VTK renders $...$ as math text: escape user text so it is shown literally
+                plotter.add_title(f"{title} (displacement x{factor:.3g})".replace("$", "\\$"), font_size=10)
+            # from below and in front, so that the contact boundary is seen
+            plotter.view_vector((0.55, -1.0, -0.75), viewup=(0.0, 0.0, 1.0))
+            plotter.screenshot(str(path))
+        finally:
+            plotter.close()
+            plotter.deep_clean()
+            del plotter
+
+
+def write_figures(directory: Path, model: object, result: object, label: str) -> list[str]:
+    """Write convergence.png, contact_states.png and deformed.png of a solve into ``directory`` (collective).
+
+    The data are gathered on rank 0 by all ranks; each figure is then drawn on rank 0 alone and a figure that
+    fails is a logged warning, not an error.
+
+    Returns:
+        The names of the figures written (the same list on every rank).
+    """
+    comm: MPI.Comm = model.V.mesh.comm  # type: ignore[attr-defined]
+    contact = model.contact  # type: ignore[attr-defined]
+    displacement = result.displacement  # type: ignore[attr-defined]
+    deformed = gather_deformed(model.V, displacement, contact.coordinates,  # type: ignore[attr-defined]
+                               displacement[contact.local_dofs], result.states)  # type: ignore[attr-defined]
+    states = gather_contact(comm, contact.coordinates, result.states)  # type: ignore[attr-defined]
+    written: list[str] = []
+    if comm.rank == 0:
+        assert deformed is not None and states is not None
+        jobs = [
+            ("convergence.png", lambda p: plot_convergence({label: result.residual_history}, p,  # type: ignore
+                                                           f"Convergence, {label}")),
+            ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}")),
+            ("deformed.png", lambda p: render_deformed(*deformed, p, f"Deformed body, {label}")),
+        ]
+        for name, draw in jobs:
+            try:
+                draw(directory / name)
+                written.append(name)
+            except Exception as err:  # a figure never costs the results
+                logger.warning("fenics-coulomb: warning: %s not written (%s: %s)", name, type(err).__name__, err)
+                (directory / name).unlink(missing_ok=True)
+    return comm.bcast(written, root=0)

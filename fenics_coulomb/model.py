@@ -42,11 +42,25 @@ import ufl
 
 from fenics_coulomb.contact import ContactMap
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.obstacle import Plane
+from fenics_coulomb.obstacles import Plane
 
 logger = logging.getLogger(__name__)
 
 Friction = float | dolfinx.fem.Function
+
+
+def check_supported_obstacle(obstacle: Plane) -> Plane:
+    """The obstacle if the contact model can represent it, InputError otherwise (pure, no communication).
+
+    The contact map and the Newton rows use the global frame (normal e3, tangents e1, e2), so only a
+    :class:`~fenics_coulomb.obstacles.Plane` with normal e3 (at any height, moved by any δ) is solved so far;
+    the per-node frames of :mod:`fenics_coulomb.obstacles` (other normals, spheres, cylinders) come next.
+    """
+    if not isinstance(obstacle, Plane):
+        raise InputError(f"obstacle {obstacle!r}: only a plane with normal (0, 0, 1) is supported so far")
+    if not np.allclose(obstacle.normal, (0.0, 0.0, 1.0), atol=1e-14):
+        raise InputError(f"obstacle normal {obstacle.normal!r}: only the plane's normal (0, 0, 1) is supported")
+    return obstacle
 
 
 def validate_friction(friction: float) -> None:
@@ -109,9 +123,8 @@ class ContactModel:
         facet_tags, markers = contact
         self.facet_tags = facet_tags
         self.markers = [int(m) for m in markers]
-        self.obstacle = obstacle or Plane()
         # Validate everything before the first collective call: all ranks hold the same values.
-        self.obstacle.validate()
+        self.obstacle = check_supported_obstacle(obstacle or Plane())
         if not isinstance(friction, dolfinx.fem.Function):
             validate_friction(friction)
         if L is None:

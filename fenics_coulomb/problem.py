@@ -30,7 +30,7 @@ import ufl
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model import ContactModel, Friction
 from fenics_coulomb.newton import SCDNewtonSolver
-from fenics_coulomb.obstacle import Plane
+from fenics_coulomb.obstacles import Plane
 from fenics_coulomb.records import SolveResult
 from fenics_coulomb.settings import SolverSettings
 
@@ -119,7 +119,8 @@ class ContactProblem:
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacle, petsc_options_prefix,
                                    form_compiler_options, jit_options)
-        self._model_time = time.perf_counter() - t0
+        #: Wall time of building the model (form compilation and assembly) on this rank.
+        self.model_time = time.perf_counter() - t0
         self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
         self.petsc_options_prefix = petsc_options_prefix
         #: The physical displacement of the last solve.
@@ -218,7 +219,7 @@ class ContactProblem:
             logger.info(message)
 
     def _finish(self, result: SolveResult) -> dolfinx.fem.Function:
-        result.timings["model"] = self._model_time
+        result.timings["model"] = self.model_time
         self.u.x.petsc_vec.array[:] = result.displacement
         self.u.x.scatter_forward()
         return self.u

@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.partition import box_partitioner
 
 GapFunction = Callable[[npt.NDArray[np.float64], npt.NDArray[np.float64]], npt.NDArray[np.float64]]
 
@@ -140,12 +141,16 @@ def create_cuboid(
     # Validate before the first collective call (create_box): every rank sees the same arguments.
     n = cells_per_direction(lev)
     d = resolve_gap(gap)
+    corners = [np.array([0.0, 0.0, 0.0]), np.array([LENGTH, WIDTH, HEIGHT])]
+    # The deterministic partitioner: the same level on the same ranks gives the same partition, and so the
+    # same bits, in every run (DOLFINx's default, PT-Scotch, does not repeat).
     msh = dolfinx.mesh.create_box(
         comm,
-        [np.array([0.0, 0.0, 0.0]), np.array([LENGTH, WIDTH, HEIGHT])],
+        corners,
         list(n),
         dolfinx.mesh.CellType.hexahedron,
         ghost_mode=ghost_mode,
+        partitioner=box_partitioner(corners, n, ghost_mode),
     )
     tdim = msh.topology.dim
     fdim = tdim - 1

@@ -47,6 +47,21 @@ def make_problem(lev: int = 1, gap: str = "d3", load: str = "L2", comm: MPI.Comm
     return build_problem(scene, comm).problem
 
 
+def assembled(problem: ContactProblem) -> dict[str, np.ndarray]:
+    """The discrete problem a ContactProblem holds, on a serial communicator: the stiffness matrix K (scipy CSR,
+    Dirichlet rows scaled as the solver has them), the load l̃, the contact DOFs (p, 3), the contact nodes'
+    coordinates and gaps, and the Dirichlet rows (for independent solvers such as tests/brute_force.py)."""
+    import scipy.sparse as sp
+
+    model = problem.model
+    assert model.comm.size == 1, "assembled() needs a problem on one rank (comm=MPI.COMM_SELF)"
+    indptr, indices, values = model.A.getValuesCSR()
+    return dict(K=sp.csr_matrix((values, indices, indptr), shape=model.A.getSize()),
+                load=model.load.getArray(readonly=True).copy(), cdofs=model.contact.local_dofs.copy(),
+                x=model.contact.coordinates.copy(), gap=model.contact.gap.copy(),
+                dirichlet=model.dirichlet_rows.copy())
+
+
 @pytest.fixture
 def problem_factory() -> Iterator:
     """Build problems (make_problem's arguments) and destroy them after the test."""

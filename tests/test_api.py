@@ -286,3 +286,17 @@ def test_predictor_and_no_contact_shortcut(predictor):
                         petsc_options_prefix="free_") as free:
         _, result = free.solve()
         assert free.p == 0 and result.converged and result.linear == (not predictor)
+
+
+def test_obstacle_plane_from_obstacles_module():
+    """The obstacle is fenics_coulomb.obstacles.Plane (default x3 = 0): a plane lowered by h gives every gap + h;
+    a normal other than e3 (per-node frames are not in the solver yet) is refused with InputError."""
+    from fenics_coulomb import Plane
+
+    comm = MPI.COMM_WORLD
+    with user_problem(comm, cells=(4, 2, 2)) as default, \
+            user_problem(comm, cells=(4, 2, 2), obstacle=Plane(point=(0.0, 0.0, -0.01))) as lowered:
+        gap = default.model.contact.gap
+        assert gap.size == 0 or np.allclose(lowered.model.contact.gap, gap + 0.01, rtol=0, atol=1e-15)
+    with pytest.raises(InputError, match="normal"):
+        user_problem(comm, cells=(4, 2, 2), obstacle=Plane(normal=(0.01, 0.0, 1.0)))

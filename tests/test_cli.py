@@ -85,7 +85,7 @@ def test_no_plots(mpi_tmp_path):
         (["--lev", "-1"], "lev = -1"),
         (["--gap", "d7"], "d7"),
         (["--load", "L9"], "L9"),
-        (["--load-scale", "nan"], "load scale = nan"),
+        (["--load-scale", "nan"], "load_scale = nan"),
         (["--tol", "0"], "tol"),
         (["--rtol", "2"], "rtol"),
         (["--pc", "magic"], "magic"),

@@ -17,7 +17,7 @@ import pytest
 from conftest import global_norm, make_problem
 
 from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.cli import EXIT_DIVERGED, main
+from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError, SolverError
 
@@ -174,15 +174,17 @@ def test_exception_on_one_rank_ends_all_ranks(tmp_path):
     assert "injected failure on rank 1" in proc.stderr + proc.stdout
 
 
-def test_petsc_error_in_linear_solve_exits_3(mpi_tmp_path, capsys):
-    """A KSP chosen on the command line that PETSc refuses (here: Richardson cannot monitor the
-    unpreconditioned residual with right preconditioning) ends with exit 3 and PETSc's reason, no traceback."""
+def test_petsc_options_the_solver_cannot_use_exit_2(mpi_tmp_path, capsys):
+    """A KSP chosen on the command line that cannot work as the solver's (here: Richardson cannot monitor the
+    unpreconditioned residual with right preconditioning) is refused before any work: exit 2 with PETSc's
+    reason in one line, no traceback (it used to fail inside the first Newton step with exit 3)."""
     out = mpi_tmp_path / "refused"
     status = main(["--lev", "1", "--out", str(out), "--no-plots", "-coulomb_ksp_type", "richardson"])
     from petsc4py import PETSc
 
-    PETSc.Options().delValue("coulomb_ksp_type")
-    assert status == EXIT_DIVERGED
+    assert not PETSc.Options().hasName("coulomb_ksp_type")  # a refused option does not stay behind
+    assert status == EXIT_INPUT
+    assert not (out / "summary.json").exists()
     if MPI.COMM_WORLD.rank == 0:
-        err = capsys.readouterr().err
-        assert "does not support norm type" in err and "Traceback" not in err
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "does not support norm type" in err[0] and "Traceback" not in err[0]

@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Host-side checks of container/run (the sandbox cannot start a sandbox, so these run on the host; .ci/run and
+# `make test-host` call this script):
+#  1. paths: run from a directory outside the repository, --out/--scene under /tmp, --out=~/..., a relative
+#     ../ path and `python` (not python3) under mpirun: the results exist on the host afterwards;
+#  2. interrupts: SIGINT to the process group (Ctrl-C) and SIGTERM to container/run end a 2-rank run within a
+#     few seconds with a non-zero status, and no process of the run (bwrap, mpirun, python3, Xvfb) is left.
+set -euo pipefail
+run=$(cd "$(dirname "$0")/../.." && pwd)/container/run
+work=$(mktemp -d /tmp/fenics-coulomb-host-XXXXXX)
+home_out="$HOME/.fenics-coulomb-host-test-$$"
+trap 'rm -rf "$work" "$home_out"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+# -- 1. paths as the host sees them ---------------------------------------------------------------------
+mkdir -p "$work/cwd/sub"
+cd "$work/cwd/sub"
+printf '[body]\nlev = 0\n' > "$work/scene.toml"
+"$run" mpirun -n 2 python -m fenics_coulomb --scene "$work/scene.toml" --out "$work/tmp-out" --quiet --no-plots
+[ -s "$work/tmp-out/summary.json" ] || fail "--out under /tmp: no summary.json on the host"
+"$run" python3 -m fenics_coulomb --lev 0 --out="$home_out" --quiet --no-plots
+[ -s "$home_out/summary.json" ] || fail "--out=~/...: no summary.json in the host's home"
+"$run" python3 -m fenics_coulomb --lev 0 --out ../../rel-out --quiet --no-plots
+[ -s "$work/rel-out/summary.json" ] || fail "--out ../../rel-out: no summary.json on the host"
+status=0
+"$run" python3 -m fenics_coulomb --lev 0 --out "" --quiet 2> "$work/err" || status=$?
+[ "$status" -eq 2 ] && [ "$(wc -l < "$work/err")" -eq 1 ] || fail "--out '': status $status, $(cat "$work/err")"
+echo "paths: ok"
+
+# -- 2. interrupts --------------------------------------------------------------------------------------
+for sig in INT TERM; do
+    out="$work/int-$sig"
+    setsid "$run" mpirun -n 2 python3 -m fenics_coulomb --lev 6 --out "$out" > "$work/log-$sig" 2>&1 &
+    pid=$!
+    for _ in $(seq 600); do grep -q '^it ' "$work/log-$sig" && break; sleep 0.1; done
+    grep -q '^it ' "$work/log-$sig" || fail "SIG$sig: the run did not reach the Newton iteration: $(cat "$work/log-$sig")"
+    procs=$(ps -s "$pid" -o args= | grep -c -E 'mpirun|prterun|fenics_coulomb|Xvfb' || true)
+    [ "$procs" -ge 4 ] || fail "SIG$sig: expected mpirun, 2 ranks and Xvfb running, found $procs"
+    t0=$(date +%s%N)
+    if [ "$sig" = INT ]; then kill -INT -- "-$pid"; else kill -TERM "$pid"; fi
+    status=0
+    wait "$pid" || status=$?
+    ms=$((($(date +%s%N) - t0) / 1000000))
+    [ "$status" -ne 0 ] || fail "SIG$sig: container/run exited 0"
+    [ "$ms" -lt 10000 ] || fail "SIG$sig: took $ms ms"
+    left=""
+    for _ in $(seq 50); do
+        left=$(ps -s "$pid" -o stat=,pid=,args= | awk '$1 !~ /^Z/' || true)
+        [ -z "$left" ] && break
+        sleep 0.1
+    done
+    [ -z "$left" ] || fail "SIG$sig: processes left behind:
+$left"
+    echo "SIG$sig: status $status after $ms ms, no process left"
+done
+echo "container/run host checks: ok"

@@ -1,0 +1,83 @@
+"""Interrupts end every rank promptly, exit non-zero and leave no process behind (mpirun, ranks, Xvfb).
+
+Each run is a real ``mpirun -n 2 python3 -m fenics_coulomb`` in its own session; after the signal the test
+waits for mpirun and then looks for any process left in that session (``ps -s``). The same for
+``container/run`` from the host is tests/host/interrupts.sh (the sandbox cannot start a sandbox).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+pytestmark = pytest.mark.serial
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _env() -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_", "OMPI_MCA_orte"))}
+    env["PYTHONPATH"] = ROOT
+    env.pop("DISPLAY", None)  # the run starts its own Xvfb for the plots, which must end with it
+    return env
+
+
+def _session(sid: int) -> list[str]:
+    out = subprocess.run(["ps", "-s", str(sid), "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
+    return [line for line in out.splitlines() if line.split()[1][0] != "Z"]  # zombies are reaped, not running
+
+
+def _children(pid: int) -> list[int]:
+    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
+    return [int(p) for p in out.split()]
+
+
+def _start(tmp_path, lev: int = 6) -> subprocess.Popen:
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", "--lev", str(lev), "--out",
+           str(tmp_path / "out")]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
+                            start_new_session=True)
+    assert proc.stdout is not None
+    for line in proc.stdout:  # wait until the ranks are inside the Newton iteration
+        if line.startswith("it "):
+            break
+    else:
+        pytest.fail(f"the run ended before its first Newton iteration (status {proc.wait()})")
+    return proc
+
+
+@pytest.mark.parametrize(
+    "target, signum",
+    [("group", signal.SIGINT), ("mpirun", signal.SIGTERM), ("rank", signal.SIGINT), ("rank", signal.SIGTERM)],
+    ids=["SIGINT-group", "SIGTERM-mpirun", "SIGINT-one-rank", "SIGTERM-one-rank"],
+)
+def test_signal_ends_all_ranks(tmp_path, target, signum):
+    proc = _start(tmp_path)
+    ranks = _children(proc.pid)
+    assert len([p for p in ranks if "fenics_coulomb" in open(f"/proc/{p}/cmdline").read()]) == 2
+    xvfb = subprocess.run(["ps", "-s", str(proc.pid), "-o", "args="], capture_output=True, text=True).stdout
+    assert "Xvfb" in xvfb  # the plots' display runs during the solve ...
+    t0 = time.monotonic()
+    if target == "group":
+        os.killpg(proc.pid, signum)
+    elif target == "mpirun":
+        proc.send_signal(signum)
+    else:
+        os.kill(ranks[-1], signum)
+    try:
+        proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail(f"{signal.Signals(signum).name} to {target}: the run did not end within 20 s")
+    elapsed = time.monotonic() - t0
+    assert proc.returncode != 0
+    assert elapsed < 10.0, elapsed
+    deadline = time.monotonic() + 5.0
+    while (left := _session(proc.pid)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not left, left  # ... and neither it nor a rank is left behind
