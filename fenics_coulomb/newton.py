@@ -35,6 +35,7 @@ from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditioner re-exported)
+    AUTO_ILU_FALLBACK_ITS,
     DETERMINISTIC_PTAP,
     choose_preconditioner,
     create_ksp,
@@ -126,13 +127,12 @@ class SCDNewtonSolver:
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
                              model.V.mesh.topology.cell_type.name)
         self._user_options = dict(petsc_options or {})
-        self._default_options = {k: v for k, v in default_options(self.pc).items() if k not in self._user_options}
-        self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, model.V, self.pc, prefix, settings.tol,
-                                               settings.gmres_restart, settings.ksp_max_it)
-        with self.petsc_options():
-            self.ksp.setFromOptions()
+        self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
         self.tol = float(self.ksp.getTolerances()[0])
+        #: pc = "auto" chose ILU: a linear solve that stalls hands the solve to GAMG (:meth:`_fall_back`).
+        self._fallback = settings.pc == "auto" and self.pc == "ilu"
+        self._max_it = int(self.ksp.getTolerances()[3])
         self._steps = 0
         self.u, self.r = self.A.createVecs()
         self.b, self.x = self.A.createVecs()
@@ -140,6 +140,37 @@ class SCDNewtonSolver:
         for name in ("u", "r", "b", "x", "Adu", "w"):
             getattr(self, name).setOptionsPrefix(f"{prefix}{name}_")
         self.timings["setup"] = time.perf_counter() - t0
+
+    def _create_ksp(self) -> None:
+        """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""
+        settings = self.settings
+        self._default_options = {k: v for k, v in default_options(self.pc).items() if k not in self._user_options}
+        self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
+                                               settings.tol, settings.gmres_restart, settings.ksp_max_it)
+        with self.petsc_options():
+            self.ksp.setFromOptions()
+
+    def _fall_back(self, its: int) -> bool:
+        """After a stalled ILU solve under pc = "auto", replace the KSP by one with GAMG; True if it did.
+
+        ILU-preconditioned GMRES can stagnate where the automatic rule predicts ILU (nearly incompressible
+        materials, unusual meshes); GAMG on A does not (docs/pc-auto). The switch is logged and reported as
+        the preconditioner of the result. The user's ksp_max_it applies to the GAMG solves.
+        """
+        reason = int(self.ksp.getConvergedReason())
+        if not self._fallback or reason > 0:
+            return False
+        if self.comm.rank == 0:
+            logger.warning("pc auto: ILU-GMRES stalled in Newton step %d (%d iterations, reason %d); GAMG takes "
+                           "over for the rest of the solve", self._steps + 1, its, reason)
+        self.ksp.destroy()
+        if self._nullspace is not None:
+            self._nullspace.destroy()
+        self.pc = "gamg"
+        self._fallback = False
+        self._create_ksp()
+        self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
+        return True
 
     @contextlib.contextmanager
     def petsc_options(self) -> Iterator[None]:
@@ -199,16 +230,10 @@ class SCDNewtonSolver:
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        self.ksp.setTolerances(rtol=eta)
-        self.x.set(0.0)
-        try:
-            with self.petsc_options():
-                self.step.linear_solve(self.ksp, self.b, self.x)
-        except PETSc.Error as err:  # e.g. a -coulomb_ksp_type that cannot do what is asked of it
-            detail = str(err).strip().splitlines()
-            raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
+        its = self._solve_newton_system(eta)
+        if self._fall_back(its):
+            its += self._solve_newton_system(eta)
         self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
-        its = int(self.ksp.getIterationNumber())
         b_norm = self.b.norm()
         # GMRES with right preconditioning monitors the true (unpreconditioned) residual norm
         linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
@@ -216,6 +241,27 @@ class SCDNewtonSolver:
         self._check_linear_solve(its, du)
         self._steps += 1
         return Direction(du, its, eta, linear_residual)
+
+    def _set_tolerance(self, rtol: float) -> None:
+        """Set the KSP's relative tolerance; under the ILU fallback also its iteration cap,
+        AUTO_ILU_FALLBACK_ITS per decade of reduction (at most the user's ksp_max_it)."""
+        if self._fallback:
+            decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
+            self.ksp.setTolerances(rtol=rtol, max_it=min(self._max_it, math.ceil(AUTO_ILU_FALLBACK_ITS * decades)))
+        else:
+            self.ksp.setTolerances(rtol=rtol)
+
+    def _solve_newton_system(self, eta: float) -> int:
+        """One GMRES solve of the Newton system (right-hand side b, solution x) to tolerance eta; its iterations."""
+        self._set_tolerance(eta)
+        self.x.set(0.0)
+        try:
+            with self.petsc_options():
+                self.step.linear_solve(self.ksp, self.b, self.x)
+        except PETSc.Error as err:  # e.g. a -coulomb_ksp_type that cannot do what is asked of it
+            detail = str(err).strip().splitlines()
+            raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
+        return int(self.ksp.getIterationNumber())
 
     def _check_linear_solve(self, its: int, du: Array) -> None:
         """Raise SolverError for a failed or non-finite linear solve; warn when it hit its iteration limit."""
@@ -366,12 +412,9 @@ class SCDNewtonSolver:
         model = self.model
         t0 = time.perf_counter()
         self.A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.ksp.setTolerances(rtol=self.settings.reduction)
-        self.x.set(0.0)
-        with self.petsc_options():
-            self.ksp.solve(model.load, self.x)
-        self.ksp.setTolerances(rtol=self.tol)
-        its = int(self.ksp.getIterationNumber())
+        its = self._solve_linear_system()
+        if self._fall_back(its):
+            its += self._solve_linear_system()
         reason = int(self.ksp.getConvergedReason())
         b_norm = model.load.norm()
         linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
@@ -386,6 +429,15 @@ class SCDNewtonSolver:
         record = IterationRecord(1, it.residual, 1.0, its, 0, 0, 0, self.settings.reduction, linear_residual)
         return self.result(it, [res0, it.residual], [record], converged,
                            "converged" if converged else f"ksp_reason_{reason}", t0, linear=True)
+
+    def _solve_linear_system(self) -> int:
+        """Solve A x = l̃ (the Newton matrix is A) to the reduction; its iterations."""
+        self._set_tolerance(self.settings.reduction)
+        self.x.set(0.0)
+        with self.petsc_options():
+            self.ksp.solve(self.model.load, self.x)
+        self.ksp.setTolerances(rtol=self.tol)
+        return int(self.ksp.getIterationNumber())
 
     def is_separated(self, result: SolveResult) -> bool:
         """True on all ranks if no contact node of ``result`` touches or penetrates the obstacle."""

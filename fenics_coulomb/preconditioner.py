@@ -21,6 +21,13 @@ AUTO_GAMG_UNKNOWNS = 50_000
 #: Block-Jacobi ILU's Krylov counts grow with the number of blocks (docs/pc-auto: d3/L2 lev 6, ν = 0.45:
 #: 137 on 1 rank, 210 on 2; issue 17: lev 5 d2/L1 145 on 1 rank, 245 on 16) while GAMG's do not.
 AUTO_ILU_MAX_RANKS = 2
+#: pc = "auto" with ILU: a linear solve that has not reached its tolerance after this many GMRES iterations per
+#: decade of reduction (twice one restart cycle; ILU needed at most 41 per step at tol = 0.1 on every case the
+#: rule gives it, docs/pc-auto)
+#: hands the rest of the solve to GAMG instead of running on to ksp_max_it. ILU-GMRES stagnates for
+#: nearly incompressible materials (d3/L2 lev 2, ν = 0.49: 2000 iterations per step on 2 ranks without
+#: reaching tol = 0.1, a breakdown after 28 000 iterations on 1 rank), which the rule cannot see.
+AUTO_ILU_FALLBACK_ITS = 200
 #: PETSc's default parallel triple product P^T A P (GAMG's Galerkin coarse matrices) adds the off-process
 #: contributions in the order the messages arrive, so the coarse matrices, and every later bit, can differ
 #: from run to run on 3 and more ranks (docs/partition). The "allatonce" algorithm sums them in a fixed order.
