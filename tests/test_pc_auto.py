@@ -21,48 +21,11 @@ from fenics_coulomb.newton import SolverSettings, choose_preconditioner
 ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "docs" / "pc-auto" / "pc-auto.csv"
 
-SCENES = {
-    # meshes/hemisphere.py pressed on the plane: apex disc clamped, 1 GPa on the flat top (the issue's body)
-    "hemisphere": """\
-[body]
-shape = "mesh"
-mesh = "{mesh}"
-clamped = ["apex"]
-contact = ["bottom"]
-[boundaries]
-top = 1
-bottom = 2
-apex = 3
-[material]
-poisson = {poisson}
-[friction]
-coefficient = 0.3
-[tractions]
-top = [0.0, 0.0, -1.0]
-""",
-    # meshes/roller.py with the loads of demos/scenes/roller.toml
-    "roller": """\
-[body]
-shape = "mesh"
-mesh = "{mesh}"
-clamped = ["left"]
-contact = ["bottom"]
-[boundaries]
-left = 1
-right = 2
-top = 3
-bottom = 4
-[material]
-poisson = {poisson}
-[friction]
-coefficient = 0.3
-[tractions]
-top = [0.0, 0.0, -0.5]
-right = [0.0, -0.1, 0.0]
-[solver]
-start = "undeformed"
-""",
-}
+# The scenes the measurement in docs/pc-auto ran (benchmarks/pc_auto.py), so the test checks the same bodies.
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import pc_auto  # noqa: E402
+
+SCENES = {"hemisphere": pc_auto.HEMISPHERE_SCENE, "roller": pc_auto.ROLLER_SCENE}
 
 
 def scene_file(tmp: Path, body: str, size: float, poisson: float) -> Path:
