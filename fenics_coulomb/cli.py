@@ -62,6 +62,10 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
                    help="safeguarded Eisenstat-Walker forcing terms <= --tol (superlinear tail, fewer Newton "
                    f"steps); --no-adaptive-tol keeps every GMRES solve at --tol, as the paper (default "
                    f"{'on' if d.solver.adaptive_tol else 'off'})")
+    p.add_argument("--matrix-free", action=argparse.BooleanOptionalAction, default=None,
+                   help="apply the Newton matrix as D(A x) + C x without a second copy of A when the "
+                   "preconditioner is built on A (gamg); --no-matrix-free stores it (default "
+                   f"{'on' if d.solver.matrix_free else 'off'})")
     p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.solver.max_it})")
     p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.solver.pc})")
     p.add_argument("--gamma-scale", type=float,
@@ -98,7 +102,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
         max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
-        accuracy=args.accuracy, adaptive_tol=args.adaptive_tol,
+        accuracy=args.accuracy, adaptive_tol=args.adaptive_tol, matrix_free=args.matrix_free,
     )
 
 
