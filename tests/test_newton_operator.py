@@ -102,3 +102,22 @@ def test_matrix_free_solve_equals_explicit(variant, lev, problem_factory):
     diff = np.sqrt(comm.allreduce(np.sum((a.displacement - b.displacement) ** 2)))
     assert diff <= 1e-8 * np.sqrt(comm.allreduce(np.sum(b.displacement**2)))
     assert a.iterations == b.iterations
+
+
+@pytest.mark.parametrize("variant", ["4a", "4b"])
+def test_nested_iteration_reaches_the_direct_solution(variant, problem_factory):
+    """Solving lev 1 and 2 loosely and starting lev 3 from the interpolated solution gives the solution of
+    the direct start (1e-7), with no more fine-level Newton steps."""
+    from fenics_coulomb.nested import solve_nested
+
+    direct = problem_factory(3, "d3", "L2", variant=variant, rtol=1e-12)
+    _, ref = direct.solve()
+    coarse = [problem_factory(lev, "d3", "L2", variant=variant, rtol=1e-4) for lev in (1, 2)]
+    fine = problem_factory(3, "d3", "L2", variant=variant, rtol=1e-12)
+    _, result, nested = solve_nested([*coarse, fine])
+    assert ref.converged and result.converged and len(nested.levels) == 3
+    comm = MPI.COMM_WORLD
+    diff = np.sqrt(comm.allreduce(np.sum((result.displacement - ref.displacement) ** 2)))
+    assert diff <= 1e-7 * np.sqrt(comm.allreduce(np.sum(ref.displacement**2)))
+    assert result.counts == ref.counts
+    assert result.iterations <= ref.iterations
