@@ -64,7 +64,7 @@ class ShellContext:
         ya = y.getArray()
         ya[cd] = np.einsum("iab,ib->ia", self.left, ya[cd]) + np.einsum("iab,ib->ia", self.right, xa[cd])
 
-    def multTranspose(self, mat: PETSc.Mat, x: PETSc.Vec, y: PETSc.Vec) -> None:  # noqa: N802 (petsc4py name)
+    def multTranspose(self, mat: PETSc.Mat, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """y = Aᵀ(Dᵀ x) + Cᵀ x."""
         cd = self.cdofs
         xa = x.getArray(readonly=True)
