@@ -175,7 +175,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
                             sum(r.iterations for r in coarse_results), sum(r.krylov_iterations for r in coarse_results))
             else:
                 u0 = start_function(scene.start, problem.V)
-            _, result = problem.solve(u0)
+            _, result = problem.solve(u0, paper_target=bool(nested))
         except SolverError as err:
             result = err.result
             status = EXIT_DIVERGED

@@ -258,14 +258,22 @@ class SCDNewtonSolver:
         self.r.axpy(-1.0, self.model.rhs)
         return self.approximation_step(u, self.r.getArray(readonly=True).copy())
 
-    def stopping_rule(self, first: Iterate) -> StoppingRule:
-        """The stopping rule for a solve starting at ``first``."""
+    def stopping_rule(self, first: Iterate, reference: float | None = None) -> StoppingRule:
+        """The stopping rule for a solve starting at ``first``; ``reference`` replaces ‖ŷ⁽⁰⁾‖ in the target."""
         load = self.norm(self.model.load.getArray(readonly=True))
-        return StoppingRule.create(self.settings.reduction, self.settings.max_it, first.residual,
+        return StoppingRule.create(self.settings.reduction, self.settings.max_it,
+                                   first.residual if reference is None else reference,
                                    self.norm(first.u), load, self.gamma)
 
-    def solve(self, initial_displacement: Array | None = None) -> SolveResult:
+    def paper_start_residual(self) -> float:
+        """‖ŷ⁽⁰⁾‖ of the paper's start u⁽⁰⁾ = 0 (collective)."""
+        return self.start(-self.model.shift.getArray(readonly=True)).residual
+
+    def solve(self, initial_displacement: Array | None = None, reference: float | None = None) -> SolveResult:
         """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0).
+
+        ``reference`` (e.g. :meth:`paper_start_residual` for a start interpolated from a coarser solution)
+        replaces ‖ŷ⁽⁰⁾‖ in the stopping target, so that a better start is not asked for a smaller residual.
 
         Raises:
             SolverError: when the method does not converge; ``error.result`` holds the last iterate.
@@ -273,7 +281,7 @@ class SCDNewtonSolver:
         t_start = time.perf_counter()
         self._steps = 0
         it = self.start(initial_displacement)
-        rule = self.stopping_rule(it)
+        rule = self.stopping_rule(it, reference)
         history = [it.residual]
         records: list[IterationRecord] = []
         eta = self.tol
