@@ -72,6 +72,9 @@ class ArgumentParser(argparse.ArgumentParser):
         _finish_together(MPI.COMM_WORLD)
         sys.exit(EXIT_INPUT)
 
+#: Residual reduction of the coarse levels of --nested (they only provide the start of the next level).
+NESTED_COARSE_RTOL = 1e-4
+
 
 def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentParser:
     """The argument parser shared by the CLI and the demo (scene values are None unless given)."""
@@ -102,6 +105,10 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
                    help="safeguarded Eisenstat-Walker forcing terms <= --tol (superlinear tail, fewer Newton "
                    f"steps); --no-adaptive-tol keeps every GMRES solve at --tol, as the paper (default "
                    f"{'on' if d.solver.adaptive_tol else 'off'})")
+    p.add_argument("--matrix-free", action=argparse.BooleanOptionalAction, default=None,
+                   help="apply the Newton matrix as D(A x) + C x without a second copy of A when the "
+                   "preconditioner is built on A (gamg); --no-matrix-free stores it (default "
+                   f"{'on' if d.solver.matrix_free else 'off'})")
     p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.solver.max_it})")
     p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.solver.pc})")
     p.add_argument("--gamma-scale", type=float,
@@ -112,6 +119,10 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
         help="'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d), 'undeformed' (ũ = 0) or the "
         "solution.xdmf of an earlier run, interpolated onto this mesh (default zero)",
     )
+    p.add_argument("--nested", type=int, default=0, metavar="K",
+                   help="nested iteration for the cuboid: solve lev-K, ..., lev-1 first (each to a residual "
+                   f"reduction of {NESTED_COARSE_RTOL:g}), each from the previous level's solution interpolated, and "
+                   "start lev from the last (default 0: off)")
     p.add_argument("--predictor", action="store_const", const=True, default=None,
                    help="first solve the linear problem; if it does not touch the obstacle it is the solution")
     p.add_argument("--out", default="out", help="output directory (default ./out)")
@@ -138,13 +149,33 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
         max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
-        accuracy=args.accuracy, adaptive_tol=args.adaptive_tol,
+        accuracy=args.accuracy, adaptive_tol=args.adaptive_tol, matrix_free=args.matrix_free,
     )
 
 
 def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
     """Check that the result set can go to ``out``; raise InputError on every rank if it cannot."""
     return ResultDirectory(comm, out)
+
+
+def nested_start(scene: Scene, levels: int, comm: MPI.Comm) -> tuple[dolfinx.fem.Function | None, list]:
+    """Solve the cuboid scene on its ``levels`` coarser levels (coarse to fine, each from the previous solution)
+    and return the last solution (None when ``levels`` is 0) and the coarse results (collective)."""
+    if levels == 0:
+        return None, []
+    from fenics_coulomb.nested import solve_nested
+
+    coarse = [build_problem(scene.override(lev=scene.body.lev - k, rtol=NESTED_COARSE_RTOL),
+                            comm, petsc_options_prefix=f"coulomb_nested{k}_").problem
+              for k in range(levels, 0, -1)]
+    try:
+        uh, _, nested = solve_nested(coarse, start_function(scene.start, coarse[0].V))
+        u = dolfinx.fem.Function(uh.function_space)
+        u.x.array[:] = uh.x.array
+        return u, nested.levels
+    finally:
+        for problem in coarse:
+            problem.destroy()
 
 
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
@@ -157,6 +188,13 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     check_memory(comm, scene)
     if scene.start not in ("zero", "undeformed"):
         check_start_file(comm, scene.start)
+    nested = args.nested
+    check_all(comm, not isinstance(nested, bool) and isinstance(nested, int) and nested >= 0,
+              f"--nested {nested!r}: must be an integer >= 0")
+    if nested:
+        check_all(comm, scene.body.shape == "cuboid", "--nested: nested iteration needs the cuboid body (lev)")
+        check_all(comm, nested <= scene.body.lev, f"--nested {nested}: more coarser levels than lev = "
+                  f"{scene.body.lev}")
     out = prepare_output(comm, args.out)
 
     built = build_problem(scene, comm)
@@ -167,7 +205,13 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
                     problem.n, problem.p, scene.friction.coefficient, comm.size)
         status = 0
         try:
-            _, result = problem.solve(start_function(scene.start, problem.V))
+            if nested:
+                u0, coarse_results = nested_start(scene, nested, comm)
+                logger.info("nested iteration: %d coarser level(s), %d Newton / %d Krylov iterations", nested,
+                            sum(r.iterations for r in coarse_results), sum(r.krylov_iterations for r in coarse_results))
+            else:
+                u0 = start_function(scene.start, problem.V)
+            _, result = problem.solve(u0, paper_target=bool(nested))
         except SolverError as err:
             result = err.result
             status = EXIT_DIVERGED

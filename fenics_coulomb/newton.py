@@ -5,8 +5,9 @@ One iteration k, from the iterate u = u⁽ᵏ⁾ with residual r = A u − l:
 1. Approximation step (6.17): d̂ = (γI + Q)⁻¹(γ u − r), node-wise by the closed-form resolvent on the
    contact blocks and d̂ = u − r/γ on the other DOFs. With e := u − d̂ the residual of Section 7 is
    ŷ = (γ e, e), ‖ŷ‖ = √(1 + γ²)·‖e‖, and zⁱ = γ eⁱ − rⁱ ∈ Q̃(d̂ⁱ).
-2. Newton direction: variant 4a or 4b (:mod:`fenics_coulomb.steps`); the Newton matrix is a copy of A
-   whose contact rows are overwritten in place every iteration (:mod:`fenics_coulomb.contact_rows`).
+2. Newton direction: variant 4a or 4b (:mod:`fenics_coulomb.steps`); the Newton matrix is A with its
+   contact rows replaced every iteration, applied matrix-free when the preconditioner is built on A, else
+   a copy of A updated in place (:mod:`fenics_coulomb.newton_operator`).
 3. Non-monotone line search (Section 7): α is the first of 1, 1/2, 1/4, 1/8, 1/32, 1/128, 0.1/128,
    0.01/128, … with ‖ŷ(u + αΔu)‖ ≤ (1 − 0.1α + 0.1/(k + 1))‖ŷ(u)‖.
 4. Stopping rule (:mod:`fenics_coulomb.stopping`).
@@ -33,6 +34,7 @@ from fenics_coulomb.contact_rows import ContactRows
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.model import ContactModel
+from fenics_coulomb.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditioner re-exported)
     AUTO_ILU_FALLBACK_ITS,
@@ -119,13 +121,15 @@ class SCDNewtonSolver:
         self.timings["gamma"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()
-        self.M = self.A.duplicate(copy=True)
-        self.M.setOptionsPrefix(prefix)
         self.rows = ContactRows(self.A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
                              model.V.mesh.topology.cell_type.name)
+        #: The Newton matrix: a shell (no copy of A) when the preconditioner does not read it.
+        self.operator = NewtonOperator(self.A, self.rows, self.cdofs,
+                                       settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
+        self.M = self.operator.M
         self._user_options = dict(petsc_options or {})
         self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
@@ -225,7 +229,7 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
-        self.rows.update(self.M, left, right)
+        self.operator.update(left, right)
         self.step.right_hand_side(self, it.e, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
 
@@ -313,11 +317,12 @@ class SCDNewtonSolver:
         self.r.axpy(-1.0, self.model.rhs)
         return self.approximation_step(u, self.r.getArray(readonly=True).copy())
 
-    def stopping_rule(self, first: Iterate) -> StoppingRule:
-        """The stopping rule for a solve starting at ``first``."""
+    def stopping_rule(self, first: Iterate, reference: float | None = None) -> StoppingRule:
+        """The stopping rule for a solve starting at ``first``; ``reference`` replaces ‖ŷ⁽⁰⁾‖ in the target."""
         shift = self.model.shift.getArray(readonly=True)
         load = self.norm(self.model.load.getArray(readonly=True))
-        return StoppingRule.create(self.settings.reduction, self.settings.max_it, first.residual,
+        return StoppingRule.create(self.settings.reduction, self.settings.max_it,
+                                   first.residual if reference is None else reference,
                                    self.norm(shift), self.norm(first.u - shift), load, self.gamma)
 
     def zero_if_converged(self, it: Iterate, rule: StoppingRule) -> Iterate:
@@ -334,8 +339,15 @@ class SCDNewtonSolver:
             logger.info("ũ = 0 meets the stopping rule (|y| = %.3e): the load is below round-off", it.residual)
         return zero
 
-    def solve(self, initial_displacement: Array | None = None) -> SolveResult:
+    def paper_start_residual(self) -> float:
+        """‖ŷ⁽⁰⁾‖ of the paper's start u⁽⁰⁾ = 0 (collective)."""
+        return self.start(-self.model.shift.getArray(readonly=True)).residual
+
+    def solve(self, initial_displacement: Array | None = None, reference: float | None = None) -> SolveResult:
         """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0).
+
+        ``reference`` (e.g. :meth:`paper_start_residual` for a start interpolated from a coarser solution)
+        replaces ‖ŷ⁽⁰⁾‖ in the stopping target, so that a better start is not asked for a smaller residual.
 
         Raises:
             SolverError: when the method does not converge; ``error.result`` holds the last iterate.
@@ -343,7 +355,7 @@ class SCDNewtonSolver:
         t_start = time.perf_counter()
         self._steps = 0
         it = self.start(initial_displacement)
-        rule = self.stopping_rule(it)
+        rule = self.stopping_rule(it, reference)
         it = self.zero_if_converged(it, rule)
         history = [it.residual]
         records: list[IterationRecord] = []
@@ -411,7 +423,7 @@ class SCDNewtonSolver:
         """Solve A ũ = l̃ once (no contact possible): the Newton matrix is A and the KSP runs to the reduction."""
         model = self.model
         t0 = time.perf_counter()
-        self.A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.operator.set_stiffness()
         its = self._solve_linear_system()
         if self._fall_back(its):
             its += self._solve_linear_system()
@@ -446,7 +458,8 @@ class SCDNewtonSolver:
 
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
-        for obj in (self.ksp, self.M, self.u, self.r, self.b, self.x, self.Adu, self.w):
+        self.operator.destroy()
+        for obj in (self.ksp, self.u, self.r, self.b, self.x, self.Adu, self.w):
             obj.destroy()
         if self._nullspace is not None:
             self._nullspace.destroy()

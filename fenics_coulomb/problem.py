@@ -181,8 +181,12 @@ class ContactProblem:
             start[prescribed] = owned[prescribed]
         return start
 
-    def solve(self, u0: dolfinx.fem.Function | None = None) -> tuple[dolfinx.fem.Function, SolveResult]:
+    def solve(self, u0: dolfinx.fem.Function | None = None, *,
+              paper_target: bool = False) -> tuple[dolfinx.fem.Function, SolveResult]:
         """Solve from ``u0`` (default: the paper's u⁽⁰⁾ = 0 of the shifted unknown).
+
+        With ``paper_target`` the stopping target is rtol times the residual of the paper's start instead of
+        that of ``u0`` (for a start interpolated from a coarser solution: nested iteration).
 
         With the ``predictor`` setting (or no contact node and ``no_contact_shortcut``) the linear problem is
         solved first; if it does not reach the obstacle it is the solution (one linear solve).
@@ -207,7 +211,7 @@ class ContactProblem:
                 return self._finish(result), result
             self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
-            result = solver.solve(start)
+            result = solver.solve(start, solver.paper_start_residual() if paper_target else None)
         except SolverError as err:
             if err.result is not None:
                 self._finish(err.result)

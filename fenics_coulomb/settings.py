@@ -62,6 +62,8 @@ class SolverSettings:
         adaptive_tol: Safeguarded Eisenstat–Walker forcing terms η_k <= tol instead of the fixed tol.
         predictor: First solve the linear problem; if it does not reach the obstacle it is the solution.
         no_contact_shortcut: Without contact nodes, solve the linear problem once instead of Newton.
+        matrix_free: Apply the Newton matrix as D(A x) + C x (a PETSc shell, no second copy of A) when the
+            preconditioner does not read it (gamg, none); false stores the explicit copy always.
     """
 
     variant: str = "4a"
@@ -79,6 +81,7 @@ class SolverSettings:
     adaptive_tol: bool = False
     predictor: bool = False
     no_contact_shortcut: bool = True
+    matrix_free: bool = True
 
     @property
     def reduction(self) -> float:
@@ -111,6 +114,6 @@ class SolverSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(f"{name} = {value!r}: must be an integer >= 1")
-        for name in ("adaptive_tol", "predictor", "no_contact_shortcut"):
+        for name in ("adaptive_tol", "predictor", "no_contact_shortcut", "matrix_free"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name} = {getattr(self, name)!r}: must be true or false")

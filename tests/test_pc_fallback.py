@@ -21,7 +21,7 @@ def test_stalled_ilu_falls_back_to_gamg_only_under_auto(problem_factory, pc, exp
                               max_it=30 if pc == "auto" else 3)
     try:
         uh, result = problem.solve()
-    except Exception as err:  # noqa: BLE001 — an explicit ILU may fail; it must not switch preconditioners
+    except Exception as err:  # an explicit ILU may fail; it must not switch preconditioners
         assert expected == "ilu", err
         assert problem.solver.pc == "ilu"
         return
