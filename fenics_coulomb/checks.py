@@ -2,7 +2,8 @@
 
 Everything is recomputed from the physical displacement ũ, the stiffness A and the load l̃: the contact
 force on the body at a contact node is fⁱ = (A ũ − l̃)ⁱ (normal part λ = f₃, tangential part t = f₁₂),
-the gap is ũ₃ + α. The residuals are relative, so that thresholds do not depend on units:
+the gap is ũ₃ + α — all in each node's frame R = (t₁, t₂, n): λ = n·f, t = T f, gap = g + n·ũ and the
+slip s = T(ũ − δ) (T = (t₁; t₂), δ the node's obstacle displacement). The residuals are relative, so that thresholds do not depend on units:
 
 * ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃|;
 * ``penetration``: max(−gap, 0) / δ  (gap ≥ 0), δ = max(max α, max |ũ|) the displacement scale;
@@ -28,6 +29,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.model import ContactModel
+from fenics_coulomb.obstacles import to_local
 
 
 def _gmax(comm: MPI.Comm, values: npt.NDArray[np.float64], initial: float = 0.0) -> float:
@@ -54,10 +56,12 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     F = model.friction
     r = residual(model, displacement)
     f = r[cmap.local_dofs]
-    lam = f[:, 2]
-    t = f[:, :2]
-    gap = displacement[cmap.local_dofs[:, 2]] + cmap.gap
-    slip = displacement[cmap.local_dofs[:, :2]]
+    f_local = to_local(cmap.frames, f)
+    lam = f_local[:, 2]
+    t = f_local[:, :2]
+    v = to_local(cmap.frames, displacement[cmap.local_dofs]) + model.local_shift
+    gap = v[:, 2]
+    slip = v[:, :2]
 
     free = np.ones(r.size, dtype=bool)
     free[cmap.local_dofs.ravel()] = False
@@ -66,7 +70,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     # force scale: the largest contact force, or the largest nodal load when nothing touches
     lam_scale = max(_gmax(comm, lam), load_scale)
     # displacement scale: the largest initial gap or displacement (a zero gap profile has no gap scale)
-    gap_scale = max(_gmax(comm, cmap.gap), _gmax(comm, np.abs(displacement)))
+    gap_scale = max(_gmax(comm, np.abs(cmap.gap)), _gmax(comm, np.abs(displacement)))
     tiny = np.finfo(float).tiny
     out: dict[str, float] = {}
     out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale, tiny)

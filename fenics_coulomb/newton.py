@@ -33,6 +33,7 @@ from fenics_coulomb.contact_rows import ContactRows
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.model import ContactModel
+from fenics_coulomb.obstacles import rotate_rows, to_global, to_local
 from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import create_ksp, default_options, resolve_pc
 from fenics_coulomb.records import IterationRecord, SolveResult, global_state_counts
@@ -116,6 +117,8 @@ class SCDNewtonSolver:
         self.M.setOptionsPrefix(prefix)
         self.rows = ContactRows(self.A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
+        #: Frames R = (t₁, t₂, n) of the contact nodes (columns), shape (m, 3, 3).
+        self.frames = model.contact.frames
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0])
         self._user_options = dict(petsc_options or {})
@@ -156,12 +159,16 @@ class SCDNewtonSolver:
 
     # -- the approximation step -------------------------------------------------------------------
     def approximation_step(self, u: Array, r: Array) -> Iterate:
-        """The approximation step (6.17) at u with residual r: d̂ = (γI + Q)⁻¹(γ u − r) and ‖ŷ‖."""
+        """The approximation step (6.17) at u with residual r: d̂ = (γI + Q)⁻¹(γ u − r) and ‖ŷ‖.
+
+        On contact node i the resolvent acts in the node's frame: (vⁱ, zⁱ) = J̃(Rᵢᵀ(γ uⁱ − rⁱ)) and
+        eⁱ = uⁱ − Rᵢ vⁱ (Cartesian), see :mod:`fenics_coulomb.obstacles`.
+        """
         gamma = self.gamma
         e = r / gamma
         uc = u[self.cdofs]
-        v, z = resolvent(gamma * uc - r[self.cdofs], gamma, self.model.friction)
-        e[self.cdofs] = uc - v
+        v, z = resolvent(to_local(self.frames, gamma * uc - r[self.cdofs]), gamma, self.model.friction)
+        e[self.cdofs] = uc - to_global(self.frames, v)
         return Iterate(u, r, e, v, z, self.norm(e))
 
     def norm(self, e: Array) -> float:
@@ -181,8 +188,12 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
-        self.rows.update(self.M, left, right)
-        self.step.right_hand_side(self, it.e, left, right)
+        # rows acting on local components → rows acting on Cartesian ones: Bⁱ Rᵢᵀ, Cⁱ Rᵢᵀ
+        left_cartesian = rotate_rows(self.frames, left)
+        self.rows.update(self.M, left_cartesian, rotate_rows(self.frames, right))
+        e_local = it.e.copy()
+        e_local[self.cdofs] = to_local(self.frames, it.e[self.cdofs])
+        self.step.right_hand_side(self, it.e, e_local, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -199,7 +210,8 @@ class SCDNewtonSolver:
         b_norm = self.b.norm()
         # GMRES with right preconditioning monitors the true (unpreconditioned) residual norm
         linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
-        du = self.step.direction(self.x.getArray(readonly=True).copy(), it.e, left, self.cdofs)
+        du = self.step.direction(self.x.getArray(readonly=True).copy(), it.e, e_local, left_cartesian,
+                                 self.cdofs)
         self._check_linear_solve(its, du)
         self._steps += 1
         return Direction(du, its, eta, linear_residual)
@@ -322,6 +334,7 @@ class SCDNewtonSolver:
             states=states,
             normal_force=-it.z[:, 2].copy(),
             tangential_force=-it.z[:, :2].copy(),
+            contact_force=-to_global(self.frames, it.z),
             gap=it.v[:, 2].copy(),
             gamma=self.gamma,
             timings=dict(self.timings),
@@ -360,7 +373,7 @@ class SCDNewtonSolver:
 
     def is_separated(self, result: SolveResult) -> bool:
         """True on all ranks if no contact node of ``result`` touches or penetrates the obstacle."""
-        gap = result.displacement[self.cdofs[:, 2]] + self.model.contact.gap
+        gap = to_local(self.frames, result.displacement[self.cdofs])[:, 2] + self.model.contact.gap
         return bool(self.comm.allreduce(bool(np.all(gap > 0.0)), op=MPI.LAND))
 
     def destroy(self) -> None:

@@ -10,8 +10,9 @@ the mesh's unit L):
 ``contact_pressure``
     Normal contact force λ = −ϑ ≥ 0 per contact node (the paper's normal nodal force, GPa·L²); 0 elsewhere.
 ``tangential_force``
-    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², vector with zero
-    normal component); it opposes the slip on sliding nodes. 0 elsewhere.
+    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², a Cartesian 3-vector
+    ⊥ the node's obstacle normal: its t₁, t₂ components mapped back to x, y, z); it opposes the slip on
+    sliding nodes. 0 elsewhere.
 """
 
 from __future__ import annotations
@@ -70,7 +71,8 @@ def contact_functions(
     pressure.x.array[to_scalar[cmap.blocks]] = result.normal_force
     tangential = dolfinx.fem.Function(V, name="tangential_force")
     tangential.x.array[:] = 0.0
-    tangential.x.array[cmap.local_dofs[:, :2].ravel()] = result.tangential_force.ravel()
+    tangents = cmap.frames[:, :, :2]  # (t₁, t₂) as columns
+    tangential.x.array[cmap.local_dofs.ravel()] = np.einsum("iab,ib->ia", tangents, result.tangential_force).ravel()
     # Owned contact nodes were set on their owner: make the ghosts agree.
     for f in (state, pressure, tangential):
         f.x.scatter_forward()
