@@ -108,6 +108,6 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     bcs = [clamp(V, body)]
     contact = (body.facet_tags, [body.tag(name) for name in body.contact])
     problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
-                             settings=scene.solver, petsc_options_prefix=petsc_options_prefix,
+                             obstacles=scene.obstacles or None, settings=scene.solver, petsc_options_prefix=petsc_options_prefix,
                              petsc_options=petsc_options)
     return Built(body, (a, L), bcs, problem)

@@ -22,6 +22,12 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     case = "L2"             # the paper's tractions, or a [tractions] table: top = [0, 0, -1] ...
     scale = 1.0
 
+    [[obstacle]]            # rigid obstacles (fenics_coulomb.obstacles); none: the plane x3 = 0
+    type = "sphere"         # plane (point, normal) | sphere (center, radius) | cylinder (point, axis, radius)
+    center = [1.0, 0.5, -0.5]
+    radius = 0.5
+    displacement = [0.0, 0.0, 0.01]   # rigid translation δ (an indentation may overlap the body)
+
     [solver]                # the fields of fenics_coulomb.settings.SolverSettings, and start
     variant = "4a"
     tol = 0.1
@@ -48,6 +54,7 @@ from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.expression import parse_gap_expression
 from fenics_coulomb.materials import Material
 from fenics_coulomb.model import validate_friction
+from fenics_coulomb.obstacles import Obstacle, obstacles_from_list
 from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.settings import SolverSettings, rtol_for_accuracy  # noqa: F401  (re-exported)
 
@@ -182,7 +189,8 @@ FLAGS: dict[str, tuple[str | None, str]] = {
 }
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
-                            "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None}
+                            "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None,
+                            "obstacle": list}
 
 
 @dataclass
@@ -198,6 +206,8 @@ class Scene:
     tractions: dict[str, list[float]] | None = None
     solver: SolverSettings = field(default_factory=SolverSettings)
     start: str = "zero"
+    #: The rigid obstacles (``[[obstacle]]``); empty: the paper's plane x3 = 0.
+    obstacles: list[Obstacle] = field(default_factory=list)
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -215,6 +225,9 @@ class Scene:
         for section, value in data.items():
             if section not in SECTIONS:
                 raise InputError(f"{where}: unknown section [{section}] (allowed: {', '.join(SECTIONS)})")
+            if section == "obstacle":
+                sections[section] = obstacles_from_list(value)
+                continue
             if not isinstance(value, dict):
                 raise InputError(f"{where}: [{section}] must be a table")
             kind = SECTIONS[section]
@@ -243,7 +256,7 @@ class Scene:
                 material=MaterialSection(**sections.get("material", {})),
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
-                start=start,
+                start=start, obstacles=sections.get("obstacle", []),
             )
         except TypeError as err:  # unreachable for checked keys; kept as a one-line error
             raise InputError(f"{where}: {err}") from None
@@ -316,4 +329,6 @@ class Scene:
 
     def as_dict(self) -> dict[str, Any]:
         """The scene as plain data (for summary.json)."""
-        return asdict(self)
+        data = asdict(self)
+        data["obstacles"] = [{"type": o.kind, **dataclasses.asdict(o)} for o in self.obstacles]
+        return data

@@ -3,20 +3,34 @@ the paper's plane problem, and with the SCD method in per-node frames for tilted
 
 from __future__ import annotations
 
+import dataclasses
+
 from mpi4py import MPI
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 from brute_force import solve_contact
-from conftest import make_model
 from frame_scd import solve_in_frames
 
-from fenics_coulomb.newton import SCDNewtonSolver, SolverSettings
-from fenics_coulomb.obstacles import DEFAULT_PLANE, Plane, Sphere, closest_obstacle, local_shift
+from fenics_coulomb import ContactProblem
+from fenics_coulomb.builder import build_problem
+from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.config import Scene
+from fenics_coulomb.obstacles import DEFAULT_PLANE, Plane, Sphere, closest_obstacle, local_shift, to_global
 from fenics_coulomb.resolvent import OPEN, SLIP, STICK, classify, contact_states
 
 pytestmark = pytest.mark.serial
+
+#: The SCD solver run to round-off: LU, forcing 1e-13, reduction 1e-12.
+EXACT = {"rtol": 1e-12, "pc": "lu", "tol": 1e-13}
+
+
+def make_problem(lev: int, gap: str, load: str, friction: float = 0.23, obstacles=(), **solver) -> ContactProblem:
+    """A Section 7 cuboid case on this rank alone, optionally with other obstacles, as a ContactProblem."""
+    scene = Scene().override(lev=lev, gap=gap, load=load, friction=friction, **solver)
+    scene = dataclasses.replace(scene, obstacles=list(obstacles))
+    return build_problem(scene, MPI.COMM_SELF, petsc_options_prefix="bf_").problem
 
 
 def scipy_matrix(A):
@@ -28,11 +42,12 @@ def scipy_matrix(A):
 @pytest.fixture(scope="module")
 def lev1():
     """The d3/L2 cuboid at lev 1 (336 unknowns) on this rank alone: K, l̃, contact DOFs and coordinates."""
-    model = make_model(1, "d3", "L2", comm=MPI.COMM_SELF)
+    problem = make_problem(1, "d3", "L2")
+    model = problem.model
     data = dict(K=scipy_matrix(model.A), load=model.load.getArray(readonly=True).copy(),
                 cdofs=model.contact.local_dofs.copy(), x=model.contact.coordinates.copy(),
                 gap=model.contact.gap.copy(), dirichlet=model.dirichlet_rows.copy())
-    model.destroy()
+    problem.destroy()
     return data
 
 
@@ -65,26 +80,21 @@ def test_agrees_with_the_scd_solver_on_the_papers_plane(friction):
     """Lev 1 and 2 of d3/L2: the SCD solver (LU, 1e-12) and the Alart–Curnier solver on the same assembled
     matrices, with the default plane's frames and gaps from fenics_coulomb.obstacles, agree to 1e-7."""
     for lev in (1, 2):
-        model = make_model(lev, "d3", "L2", friction=friction, comm=MPI.COMM_SELF)
-        try:
-            solver = SCDNewtonSolver(model, SolverSettings(rtol=1e-12, pc="lu", tol=1e-13))
-            try:
-                result = solver.solve(-model.shift.getArray(readonly=True).copy())
-            finally:
-                solver.destroy()
+        with make_problem(lev, "d3", "L2", friction=friction, **EXACT) as problem:
+            model = problem.model
+            _, result = problem.solve()
             assert result.converged
             K, f = scipy_matrix(model.A), model.load.getArray(readonly=True).copy()
             _, g, _, R = closest_obstacle([DEFAULT_PLANE], model.contact.coordinates)
             assert np.array_equal(g, model.contact.gap) and np.array_equal(R, np.broadcast_to(np.eye(3), R.shape))
             sol = solve_contact(K, f, model.contact.local_dofs, g, friction, frames=R)
-        finally:
-            model.destroy()
+            cdofs = model.contact.local_dofs.copy()
         u = result.displacement
         assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u)
         lam = sol.force[:, 2]
         assert np.abs(lam - result.normal_force).max() <= 1e-7 * lam.max()
         assert np.abs(sol.force[:, :2] - result.tangential_force).max() <= 1e-7 * lam.max()
-        checks = physics(K, f, model.contact.local_dofs, R, g, np.zeros((len(g), 2)), friction, sol)
+        checks = physics(K, f, cdofs, R, g, np.zeros((len(g), 2)), friction, sol)
         for key in ("equilibrium", "kinematics", "penetration", "pressure", "complementarity", "cone"):
             assert checks[key] < 1e-10, (key, checks[key])
         assert checks["slip_direction"] < 1e-6
@@ -135,6 +145,38 @@ def test_frames_scd_iteration_agrees_with_brute_force(lev1, which, friction):
         assert np.linalg.norm(u - sol.u) <= 1e-7 * np.linalg.norm(sol.u), variant
         assert np.abs(-z - sol.force).max() <= 1e-7 * sol.force[:, 2].max()
         assert np.allclose(v[:, 2], sol.gap, atol=1e-9 * np.abs(sol.u).max())
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_real_solver_sphere_indentation_agrees_with_brute_force(lev1, friction):
+    """ContactProblem(obstacles=[Sphere moved into the body and sideways, floor plane]) at lev 1: the real
+    SCD solver (its own frames, shift and rows) and the Alart–Curnier solver on the problem's assembled matrices,
+    with frames, gaps and shifts computed here, agree to 1e-7 in the displacement and the Cartesian contact
+    forces; both obstacles carry the body, the indentation overlaps, and the physics checks hold in the frames."""
+    obstacles = [Sphere(center=[1.0, 0.5, -10.0], radius=10.0, displacement=[0.002, 0.001, 0.012]),
+                 Plane(point=[0.0, 0.0, -0.01], normal=[0.0, 0.0, 1.0], name="floor")]
+    for variant in ("4a", "4b"):
+        with make_problem(1, "d3", "L2", friction=friction, obstacles=obstacles, variant=variant,
+                          **EXACT) as problem:
+            model = problem.model
+            _, result = problem.solve()
+            assert result.converged
+            K, f, cdofs = scipy_matrix(model.A), model.load.getArray(readonly=True).copy(), model.contact.local_dofs
+            index, g, _, R = closest_obstacle(obstacles, model.contact.coordinates)
+            assert np.any(g < 0.0)  # the sphere's displacement indents the body
+            s = local_shift(R, g, np.array([o.displacement for o in obstacles])[index])
+            sol = solve_contact(K, f, cdofs, g, friction, frames=R, shifts=s[:, :2])
+            checks = physics_residuals(model, result.displacement)
+        u = result.displacement
+        assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u), variant
+        force = to_global(R, sol.force)
+        assert np.abs(force - result.contact_force).max() <= 1e-7 * sol.force[:, 2].max(), variant
+        touching = sol.force[:, 2] > 1e-9 * sol.force[:, 2].max()
+        assert set(np.unique(index[touching])) == {0, 1}
+        for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone",
+                    "slip_direction"):
+            assert checks[key] < 1e-8, (variant, key, checks[key])
+        assert checks["reaction_balance"] < 1e-8
 
 
 def test_per_node_friction_and_dirichlet_input(lev1):
