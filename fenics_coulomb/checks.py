@@ -106,3 +106,34 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["reaction_balance"] = float(np.linalg.norm(total + applied) / balance_scale)
     out["contact_resultant"] = [float(c) for c in contact_total]  # type: ignore[assignment]
     return out
+
+
+def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64],
+                       groups: dict[str, npt.NDArray[np.int32]]) -> dict[str, list[float]]:
+    """The reaction force the support exerts on the body per Dirichlet boundary (collective, same on all ranks).
+
+    The reaction at a node is (K ũ − l̃⁰) with the stiffness and load assembled WITHOUT boundary conditions;
+    ``groups`` maps a boundary name to its local DOF blocks (owned and ghost; only owned ones are summed).
+    """
+    comm = model.V.mesh.comm
+    uh = dolfinx.fem.Function(model.V)
+    uh.x.petsc_vec.array[:] = displacement
+    uh.x.scatter_forward()
+    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    full = b.getArray(readonly=True).reshape(-1, 3).copy()
+    b.destroy()
+    size_local = model.V.dofmap.index_map.size_local
+    out: dict[str, list[float]] = {}
+    for name, blocks in groups.items():
+        owned = blocks[blocks < size_local]
+        total = comm.allreduce(full[owned].sum(axis=0), op=MPI.SUM)
+        out[name] = [float(c) for c in total]
+    return out
+
+
+def total_contact_force(model: ContactModel, contact_force: npt.NDArray[np.float64]) -> list[float]:
+    """Σ of the Cartesian contact forces on the body over all contact nodes (collective)."""
+    local = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3).sum(axis=0)
+    return [float(c) for c in model.V.mesh.comm.allreduce(local, op=MPI.SUM)]

@@ -19,6 +19,7 @@ from mpi4py import MPI
 import dolfinx.fem
 
 from fenics_coulomb.builder import build_problem
+from fenics_coulomb.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel
@@ -142,6 +143,8 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
                                        "body": built.body.description})
         data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+        data["reactions"] = boundary_reactions(model, result.displacement, built.dirichlet_groups or {})
+        data["contact_force"] = total_contact_force(model, result.contact_force)
         write_convergence_csv(out / "convergence.csv", result, comm)
         if not args.no_plots:
             write_figures(out, model, result, scene.label)
@@ -157,7 +160,13 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{'' if args.no_plots else ', convergence.png, contact_states.png, deformed.png'})",
             flush=True,
         )
+        print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
+              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
     return status
+
+
+def _vector_text(v: list[float]) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
 
 
 def write_figures(out: Path, model: ContactModel, result: SolveResult, label: str) -> None:

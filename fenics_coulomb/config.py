@@ -121,8 +121,8 @@ class BodySection:
                 raise InputError("body shape 'mesh' needs mesh = \"path/to/file.msh\"")
             if not Path(self.mesh).is_file():
                 raise InputError(f"mesh file {self.mesh!r} does not exist")
-        if not isinstance(self.clamped, list) or not self.clamped:
-            raise InputError(f"clamped = {self.clamped!r}: name at least one boundary (rigid motions)")
+        if not isinstance(self.clamped, list):
+            raise InputError(f"clamped = {self.clamped!r}: must be a list of boundary names")
         if not isinstance(self.contact, list):
             raise InputError(f"contact = {self.contact!r}: must be a list of boundary names")
 
@@ -190,7 +190,7 @@ FLAGS: dict[str, tuple[str | None, str]] = {
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
                             "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None,
-                            "obstacle": list}
+                            "obstacle": list, "prescribed": None, "roller": None}
 
 
 @dataclass
@@ -208,6 +208,10 @@ class Scene:
     start: str = "zero"
     #: The rigid obstacles (``[[obstacle]]``); empty: the paper's plane x3 = 0.
     obstacles: list[Obstacle] = field(default_factory=list)
+    #: ``[prescribed]``: boundary name → its displacement (all three components).
+    prescribed: dict[str, list[float]] = field(default_factory=dict)
+    #: ``[roller]``: boundary name → the components held at 0 (0 = x1, 1 = x2, 2 = x3).
+    roller: dict[str, list[int]] = field(default_factory=dict)
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -256,7 +260,8 @@ class Scene:
                 material=MaterialSection(**sections.get("material", {})),
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
-                start=start, obstacles=sections.get("obstacle", []),
+                start=start, obstacles=sections.get("obstacle", []), prescribed=sections.get("prescribed", {}),
+                roller=sections.get("roller", {}),
             )
         except TypeError as err:  # unreachable for checked keys; kept as a one-line error
             raise InputError(f"{where}: {err}") from None
@@ -296,9 +301,21 @@ class Scene:
             where = f"is not in [boundaries] ({', '.join(self.boundaries) or 'empty'})"
             if self.load.case is not None:
                 raise InputError(f"load case {self.load.case!r} is defined for the cuboid only; give [tractions]")
-        for name in (*self.body.clamped, *self.body.contact, *(self.tractions or {})):
+        for name in (*self.body.clamped, *self.body.contact, *(self.tractions or {}), *self.prescribed,
+                     *self.roller):
             if name not in names:
                 raise InputError(f"boundary {name!r} {where}")
+        if not (self.body.clamped or self.prescribed or self.roller):
+            raise InputError("no Dirichlet boundary: name clamped, [prescribed] or [roller] boundaries "
+                             "(rigid motions)")
+        for name, value in self.prescribed.items():
+            if not isinstance(value, list) or len(value) != 3:
+                raise InputError(f"prescribed displacement on {name!r} = {value!r}: must be 3 numbers")
+            _vector(f"prescribed displacement on {name!r}", value)
+        for name, value in self.roller.items():
+            if (not isinstance(value, list) or not value or len(set(map(repr, value))) != len(value)
+                    or any(isinstance(c, bool) or c not in (0, 1, 2) for c in value)):
+                raise InputError(f"roller on {name!r} = {value!r}: a list of distinct components 0, 1, 2")
         self.material.validate()
         self.friction.validate()
         self.load.validate()
