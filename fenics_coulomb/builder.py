@@ -54,10 +54,11 @@ def isotropic_forms(
     V: dolfinx.fem.FunctionSpace,
     material: Material,
     facet_tags: dolfinx.mesh.MeshTags,
-    tractions: dict[int, tuple[float, float, float]],
+    tractions: dict[int, tuple[Any, Any, Any]],
     body_force: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> tuple[ufl.Form, ufl.Form]:
-    """The Lamé bilinear form and the load form (constant tractions per facet tag, constant body force)."""
+    """The Lamé bilinear form and the load form (tractions per facet tag: constants, or callables of points
+    x (shape (3, m)) interpolated into P1; a constant body force)."""
     msh = V.mesh
     mu, lmbda = material.lame
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -69,7 +70,13 @@ def isotropic_forms(
     f = dolfinx.fem.Constant(msh, np.asarray(body_force, dtype=PETSc.ScalarType))
     L = ufl.inner(f, v) * ufl.dx
     for tag, value in tractions.items():
-        L = L + ufl.inner(dolfinx.fem.Constant(msh, np.asarray(value, dtype=PETSc.ScalarType)), v) * ds(tag)
+        if any(callable(c) for c in value):  # expressions in x1, x2, x3: interpolated into P1
+            g = dolfinx.fem.Function(V)
+            g.interpolate(lambda x, value=value: np.vstack(
+                [c(x) if callable(c) else np.full(x.shape[1], float(c)) for c in value]))
+            L = L + ufl.inner(g, v) * ds(tag)
+        else:
+            L = L + ufl.inner(dolfinx.fem.Constant(msh, np.asarray(value, dtype=PETSc.ScalarType)), v) * ds(tag)
     return a, L
 
 

@@ -51,7 +51,7 @@ import dolfinx.io.gmshio
 import dolfinx.mesh
 
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.expression import parse_gap_expression
+from fenics_coulomb.expression import parse_gap_expression, parse_point_expression
 from fenics_coulomb.materials import Material
 from fenics_coulomb.model import validate_friction
 from fenics_coulomb.obstacles import Obstacle, obstacles_from_list
@@ -321,8 +321,16 @@ class Scene:
         self.load.validate()
         for name, value in (self.tractions or {}).items():
             if not isinstance(value, list) or len(value) != 3:
-                raise InputError(f"traction on {name!r} = {value!r}: must be 3 numbers (GPa)")
-            _vector(f"traction on {name!r}", value)
+                raise InputError(f"traction on {name!r} = {value!r}: must be 3 numbers or expressions in x1, x2, "
+                                 "x3 (GPa)")
+            if any(isinstance(c, str) for c in value):
+                for c in value:
+                    if isinstance(c, str):
+                        parse_point_expression(c, f"traction expression on {name!r}")
+                    else:
+                        _number(f"traction on {name!r}", c)
+            else:
+                _vector(f"traction on {name!r}", value)
         if not (self.start in ("zero", "undeformed") or Path(self.start).suffix in (".xdmf", ".h5")):
             raise InputError(f"start {self.start!r}: 'zero', 'undeformed' or a solution.xdmf of an earlier run")
         if self.start not in ("zero", "undeformed") and not Path(self.start).with_suffix(".h5").is_file():
@@ -330,12 +338,20 @@ class Scene:
         self.solver.validate()
 
     # -- derived data ------------------------------------------------------------------------------
-    def traction_table(self) -> dict[str, tuple[float, float, float]]:
-        """Tractions (GPa) per boundary name, scaled."""
+    def traction_table(self) -> dict[str, tuple[Any, Any, Any]]:
+        """Tractions (GPa) per boundary name: constant components scaled, expression components as compiled
+        functions of points x (shape (3, m)) with the scale applied."""
         if self.tractions is None:
             return paper_tractions(self.load.case, self.load.scale) if self.load.case is not None else {}
         s = float(self.load.scale)
-        return {k: (s * float(v[0]), s * float(v[1]), s * float(v[2])) for k, v in self.tractions.items()}
+
+        def component(name: str, c: Any) -> Any:
+            if isinstance(c, str):
+                f = parse_point_expression(c, f"traction expression on {name!r}")
+                return lambda x: s * f(x)
+            return s * float(c)
+
+        return {k: tuple(component(k, c) for c in v) for k, v in self.tractions.items()}  # type: ignore[misc]
 
     @property
     def label(self) -> str:

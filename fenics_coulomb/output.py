@@ -62,6 +62,8 @@ def block_to_scalar_dofs(V: dolfinx.fem.FunctionSpace, S: dolfinx.fem.FunctionSp
 def contact_areas(model: ContactModel) -> npt.NDArray[np.float64]:
     """Each owned contact node's share of the contact surface, ∫ φᵢ ds over the contact boundary (lumped facet
     areas; collective)."""
+    if not model.markers:
+        return np.zeros(model.contact.size)
     msh = model.V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
     v = ufl.TestFunction(S)

@@ -94,3 +94,23 @@ def test_bad_obstacle_exits_2(mpi_tmp_path, capsys, table, message):
         assert len(lines) == 1, err
         import re
         assert re.search(message, lines[0]), lines[0]
+
+
+def test_traction_expressions(mpi_tmp_path):
+    """Tractions as expressions in x1, x2, x3: the load's resultant equals the exact integral of a linear
+    traction over the top face (2 × 1), and a constant written as an expression equals the constant."""
+    from fenics_coulomb.builder import build_problem
+    from fenics_coulomb.config import Scene
+
+    def resultant(tractions: str) -> np.ndarray:
+        scene = mpi_tmp_path / "expr.toml"
+        write(scene, f'[body]\nlev = 1\n[tractions]\n{tractions}\n')
+        with build_problem(Scene.from_toml(scene), MPI.COMM_WORLD).problem as problem:
+            return problem.model.total_load()
+
+    linear = resultant('top = [0, "0.1*x2", "-(1 + 0.5*(x1 - 1))"]')
+    assert np.allclose(linear, [0.0, 0.1 * 2 * 0.5, -2.0], rtol=1e-12, atol=1e-14)
+    assert np.allclose(resultant('top = ["0.2", 0, -1.0]'), resultant("top = [0.2, 0, -1.0]"), rtol=1e-14)
+    with pytest.raises(Exception, match="unknown name 'x4'"):
+        Scene.from_toml(write(mpi_tmp_path / "e.toml", '[body]\nlev = 1\n[tractions]\ntop = [0, 0, "x4"]\n')
+                        or mpi_tmp_path / "e.toml")
