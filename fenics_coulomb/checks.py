@@ -73,7 +73,8 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     gap_scale = max(_gmax(comm, np.abs(cmap.gap)), _gmax(comm, np.abs(displacement)))
     tiny = np.finfo(float).tiny
     out: dict[str, float] = {}
-    out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale, tiny)
+    # relative to the load, or to the contact forces when only an obstacle's displacement loads the body
+    out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale if load_scale > 0 else lam_scale, tiny)
     out["penetration"] = _gmax(comm, -gap) / max(gap_scale, tiny)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * lam_scale, tiny)

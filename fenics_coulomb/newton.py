@@ -33,7 +33,7 @@ from fenics_coulomb.contact_rows import ContactRows
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.model import ContactModel
-from fenics_coulomb.obstacles import rotate_rows, to_global, to_local
+from fenics_coulomb.obstacles import conjugate, to_global, to_local
 from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import create_ksp, default_options, resolve_pc
 from fenics_coulomb.records import IterationRecord, SolveResult, global_state_counts
@@ -188,12 +188,11 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
-        # rows acting on local components → rows acting on Cartesian ones: Bⁱ Rᵢᵀ, Cⁱ Rᵢᵀ
-        left_cartesian = rotate_rows(self.frames, left)
-        self.rows.update(self.M, left_cartesian, rotate_rows(self.frames, right))
-        e_local = it.e.copy()
-        e_local[self.cdofs] = to_local(self.frames, it.e[self.cdofs])
-        self.step.right_hand_side(self, it.e, e_local, left, right)
+        # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see
+        # fenics_coulomb.obstacles); the identity frame leaves them unchanged
+        left, right = conjugate(self.frames, left), conjugate(self.frames, right)
+        self.rows.update(self.M, left, right)
+        self.step.right_hand_side(self, it.e, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
 
         t0 = time.perf_counter()
@@ -210,8 +209,7 @@ class SCDNewtonSolver:
         b_norm = self.b.norm()
         # GMRES with right preconditioning monitors the true (unpreconditioned) residual norm
         linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
-        du = self.step.direction(self.x.getArray(readonly=True).copy(), it.e, e_local, left_cartesian,
-                                 self.cdofs)
+        du = self.step.direction(self.x.getArray(readonly=True).copy(), it.e, left, self.cdofs)
         self._check_linear_solve(its, du)
         self._steps += 1
         return Direction(du, its, eta, linear_residual)

@@ -52,16 +52,14 @@ class NewtonStep(Protocol):
              gamma: float) -> tuple[Array, Array]:
         """The blocks (Bⁱ, Cⁱ) of the new contact rows Bⁱ Aⁱ + Cⁱ."""
 
-    def right_hand_side(self, ops: NewtonOperators, e: Array, e_local: Array, left: Array, right: Array) -> None:
-        """Fill ``ops.b`` (``e`` Cartesian, ``e_local`` with the contact blocks in the nodes' frames; ``left``,
-        ``right`` the blocks acting on local components)."""
+    def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
+        """Fill ``ops.b``."""
 
     def linear_solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
         """Solve the Newton system (or its transpose)."""
 
-    def direction(self, x: Array, e: Array, e_local: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
-        """Cartesian Δu from the linear solve's solution ``x`` (``left``: the rows Bⁱ Rᵢᵀ acting on Cartesian
-        components)."""
+    def direction(self, x: Array, e: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
+        """Δu from the linear solve's solution ``x``."""
 
 
 class _Rows:
@@ -83,17 +81,16 @@ class SStarStep(_Rows):
     name = "4a"
     blocks = staticmethod(sstar_blocks)
 
-    def right_hand_side(self, ops: NewtonOperators, e: Array, e_local: Array, left: Array, right: Array) -> None:
+    def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
         gamma, cd = ops.gamma, ops.cdofs
-        el = e_local[cd]
         b = -gamma * e
-        b[cd] = -gamma * (np.einsum("iab,ib->ia", left, el) + np.einsum("iab,ib->ia", right, el) / gamma)
+        b[cd] = -gamma * (np.einsum("iab,ib->ia", left, e[cd]) + np.einsum("iab,ib->ia", right, e[cd]) / gamma)
         ops.b.array[:] = b
 
     def linear_solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
         ksp.solve(b, x)
 
-    def direction(self, x: Array, e: Array, e_local: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
+    def direction(self, x: Array, e: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
         return x
 
 
@@ -103,25 +100,23 @@ class SStep(_Rows):
     name = "4b"
     blocks = staticmethod(s_blocks)
 
-    def right_hand_side(self, ops: NewtonOperators, e: Array, e_local: Array, left: Array, right: Array) -> None:
-        # In per-node frames (see fenics_coulomb.obstacles): Mᵀ q̂ = A e − γ e − Mᵀ ê with ê = e_local.
+    def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
         # (A X + Y) p = A ŷ₂ − ŷ₁ with ŷ₂ = e, ŷ₁ = γ e. Near the solution Δu = X p − e is much smaller than
         # p ≈ e, so an inexact p would swamp Δu: solve for q = p − e instead, with
         # (A X + Y) q = A e − γ e − (A X + Y) e, whose size is that of Δu (and tol then means the same as in 4a).
         ops.w.array[:] = e
         ops.A.mult(ops.w, ops.b)
         ops.b.axpy(-ops.gamma, ops.w)
-        ops.w.array[:] = e_local
         ops.M.multTranspose(ops.w, ops.Adu)
         ops.b.axpy(-1.0, ops.Adu)
 
     def linear_solve(self, ksp: PETSc.KSP, b: PETSc.Vec, x: PETSc.Vec) -> None:
         ksp.solveTranspose(b, x)
 
-    def direction(self, x: Array, e: Array, e_local: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
-        p = x + e_local
-        du = p - e_local
-        du[cdofs] = np.einsum("iba,ib->ia", left, p[cdofs]) - e[cdofs]  # Rᵢ Xⁱ p̂ = (Bⁱ Rᵢᵀ)ᵀ p̂
+    def direction(self, x: Array, e: Array, left: Array, cdofs: npt.NDArray[np.int32]) -> Array:
+        p = x + e
+        du = p - e
+        du[cdofs] = np.einsum("iba,ib->ia", left, p[cdofs]) - e[cdofs]  # Xⁱ p = (leftⁱ)ᵀ p
         return du
 
 

@@ -119,3 +119,26 @@ def test_scene_obstacle_tables(mpi_tmp_path):
             Scene.from_toml(path)
         assert "\n" not in str(err.value)
         MPI.COMM_WORLD.barrier()
+
+
+@pytest.mark.parametrize("name", ["cylinder_roller", "tilted_plane"])
+def test_shipped_obstacle_scenes_physics(name):
+    """The shipped cylinder-roller and tilted-plane scenes (at lev 2) solve and pass the physics checks in
+    the nodes' frames; the cylinder drags the plate along its motion."""
+    from pathlib import Path
+
+    from fenics_coulomb.cli import start_function
+
+    scene = Scene.from_toml(Path(__file__).parents[1] / "demos" / "scenes" / f"{name}.toml").override(lev=2)
+    with build_problem(scene, MPI.COMM_WORLD).problem as problem:
+        _, result = problem.solve(start_function(scene.start, problem.V))
+        assert result.converged
+        checks = physics_residuals(problem.model, result.displacement)
+        for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone",
+                    "slip_direction", "reaction_balance"):
+            assert checks[key] < 1e-6, (key, checks[key])
+        force = np.asarray(checks["contact_resultant"])
+        if name == "cylinder_roller":
+            assert force[2] < 0 and force[0] > 0  # pressed down, dragged along +x1
+        else:
+            assert force @ np.array(scene.obstacles[0].normal) > 0
