@@ -12,5 +12,5 @@ from fenics_coulomb.settings import SolverSettings
 
 __version__ = "0.1.0"
 
-__all__ = ["ContactProblem", "Cylinder", "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError", "Sphere",
-           "SolverSettings", "__version__"]
+__all__ = ["ContactProblem", "Cylinder", "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError",
+           "SolverSettings", "Sphere", "__version__"]

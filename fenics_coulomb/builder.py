@@ -158,6 +158,6 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     bcs, groups = dirichlet_conditions(V, body, scene)
     contact = (body.facet_tags, [body.tag(name) for name in body.contact])
     problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
-                             obstacles=scene.obstacles or None, settings=scene.solver, petsc_options_prefix=petsc_options_prefix,
-                             petsc_options=petsc_options)
+                             obstacles=scene.obstacles or None, settings=scene.solver,
+                             petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
     return Built(body, (a, L), bcs, problem, groups)

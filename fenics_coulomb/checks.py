@@ -3,9 +3,10 @@
 Everything is recomputed from the physical displacement ũ, the stiffness A and the load l̃: the contact
 force on the body at a contact node is fⁱ = (A ũ − l̃)ⁱ (normal part λ = f₃, tangential part t = f₁₂),
 the gap is ũ₃ + α — all in each node's frame R = (t₁, t₂, n): λ = n·f, t = T f, gap = g + n·ũ and the
-slip s = T(ũ − δ) (T = (t₁; t₂), δ the node's obstacle displacement). The residuals are relative, so that thresholds do not depend on units:
+slip s = T(ũ − δ) (T = (t₁; t₂), δ the node's obstacle displacement). The residuals are relative, so that
+thresholds do not depend on units:
 
-* ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃|;
+* ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃| (or / max λ when l̃ = 0);
 * ``penetration``: max(−gap, 0) / δ  (gap ≥ 0), δ = max(max α, max |ũ|) the displacement scale;
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);

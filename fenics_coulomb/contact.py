@@ -3,9 +3,9 @@
 Each contact node belongs to the rigid obstacle (:mod:`fenics_coulomb.obstacles`) with the smallest signed
 distance g of its reference position; that obstacle gives the node's outward normal n and its frame
 R = (t₁, t₂, n) (columns), so its local components are Rᵀu = (t₁·u, t₂·u, n·u). For the default plane
-x3 = 0 the frame is the identity (tangential u1, u2; normal u3; gap = height). A contact node is a vertex of the contact boundary none of whose
-components carries a Dirichlet condition; every node is owned by exactly one rank, which holds its block of
-three DOFs in its owned part of the PETSc vectors.
+x3 = 0 the frame is the identity (tangential u1, u2; normal u3; gap = height). A contact node is a vertex of
+the contact boundary none of whose components carries a Dirichlet condition; every node is owned by exactly
+one rank, which holds its block of three DOFs in its owned part of the PETSc vectors.
 """
 
 from __future__ import annotations

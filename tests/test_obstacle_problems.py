@@ -6,7 +6,6 @@ from __future__ import annotations
 import dataclasses
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import dolfinx
 import dolfinx.fem
