@@ -50,6 +50,20 @@ def residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.
     return out
 
 
+def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """K ũ − l̃⁰ per owned node (shape (owned nodes, 3)), assembled with UFL WITHOUT boundary conditions: the
+    force the supports and the obstacles exert on the body, node by node (collective)."""
+    uh = dolfinx.fem.Function(model.V)
+    uh.x.petsc_vec.array[:] = displacement
+    uh.x.scatter_forward()
+    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    full = b.getArray(readonly=True).reshape(-1, 3).copy()
+    b.destroy()
+    return full
+
+
 def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]) -> dict[str, float]:
     """Relative residuals of equilibrium, Signorini, Coulomb and global balance (see module docstring)."""
     comm = model.V.mesh.comm
@@ -89,14 +103,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["slip_direction"] = _gmax(comm, np.hypot(mismatch[:, 0], mismatch[:, 1])) / max(lam_scale, tiny)
 
     # Global balance with the clamped reactions from an assembly without boundary conditions.
-    uh = dolfinx.fem.Function(model.V)
-    uh.x.petsc_vec.array[:] = displacement
-    uh.x.scatter_forward()
-    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
-    b = dolfinx.fem.petsc.assemble_vector(form)
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    full = b.getArray(readonly=True).reshape(-1, 3)
-    b.destroy()
+    full = unconstrained_residual(model, displacement)
     clamped_blocks = np.unique(model.dirichlet_rows // 3)
     local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
     total = np.asarray(comm.allreduce(local, op=MPI.SUM))
@@ -118,14 +125,7 @@ def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64
     ``groups`` maps a boundary name to its local DOF blocks (owned and ghost; only owned ones are summed).
     """
     comm = model.V.mesh.comm
-    uh = dolfinx.fem.Function(model.V)
-    uh.x.petsc_vec.array[:] = displacement
-    uh.x.scatter_forward()
-    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
-    b = dolfinx.fem.petsc.assemble_vector(form)
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    full = b.getArray(readonly=True).reshape(-1, 3).copy()
-    b.destroy()
+    full = unconstrained_residual(model, displacement)
     size_local = model.V.dofmap.index_map.size_local
     out: dict[str, list[float]] = {}
     for name, blocks in groups.items():
