@@ -17,12 +17,14 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dolfinx.fem
+import numpy as np
 
 from fenics_coulomb.builder import build_problem
 from fenics_coulomb.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.config import Scene
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel
+from fenics_coulomb.obstacles import frames_from_normals, to_local
 from fenics_coulomb.output import summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.records import SolveResult
 from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES
@@ -176,10 +178,17 @@ def write_figures(out: Path, model: ContactModel, result: SolveResult, label: st
     plot_deformed(model.V, result.displacement, model.contact.coordinates,
                   result.displacement[model.contact.local_dofs], result.states, out / "deformed.png",
                   f"Deformed body, {label}")
-    gathered = gather_contact(model.comm, model.contact.coordinates, result.states)
+    # the contact surface in its own projection: onto the plane ⊥ the mean contact normal (x1, x2 for the
+    # paper's plane)
+    normal = np.asarray(model.comm.allreduce(model.contact.normals.sum(axis=0), op=MPI.SUM))
+    normal = normal / np.linalg.norm(normal) if np.linalg.norm(normal) > 0 else np.array([0.0, 0.0, 1.0])
+    frame = frames_from_normals(normal)
+    axes = ("$x_1$", "$x_2$") if np.allclose(frame[0], np.eye(3)) else ("$t_1$", "$t_2$")
+    projected = to_local(np.broadcast_to(frame, (model.contact.size, 3, 3)), model.contact.coordinates)
+    gathered = gather_contact(model.comm, projected, result.states)
     if gathered is not None:
         plot_convergence({label: result.residual_history}, out / "convergence.png", f"Convergence, {label}")
-        plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}")
+        plot_contact_states(*gathered, out / "contact_states.png", f"Contact states, {label}", axes)
 
 
 def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function | None:

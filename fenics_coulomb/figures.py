@@ -59,9 +59,11 @@ def gather_contact(
 
 
 def plot_contact_states(
-    coordinates: npt.NDArray[np.float64], states: npt.NDArray[np.int8], path: Path, title: str = ""
+    coordinates: npt.NDArray[np.float64], states: npt.NDArray[np.int8], path: Path, title: str = "",
+    labels: tuple[str, str] = ("$x_1$", "$x_2$"),
 ) -> None:
-    """Scatter the contact nodes over (x1, x2) coloured by state to ``path``."""
+    """Scatter the contact nodes over their first two coordinates (x1, x2, or a projection's axes named by
+    ``labels``) coloured by state to ``path``."""
     plt = _pyplot()
     extent = np.ptp(coordinates[:, :2], axis=0) if coordinates.size else np.ones(2)
     aspect = extent[1] / max(extent[0], 1e-12)
@@ -72,8 +74,8 @@ def plot_contact_states(
         ax.scatter(coordinates[mask, 0], coordinates[mask, 1], s=size, c=colour, marker="s",
                    label=f"{label} ({int(mask.sum())})", edgecolors="none")
     ax.set_aspect("equal")
-    ax.set_xlabel("$x_1$")
-    ax.set_ylabel("$x_2$")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
     if title:
         ax.set_title(title)
