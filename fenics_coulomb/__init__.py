@@ -5,12 +5,12 @@ and the flow of one solve are in docs/architecture.md.
 """
 
 from fenics_coulomb.errors import InputError, SolverError
-from fenics_coulomb.obstacles import Plane
+from fenics_coulomb.obstacles import Cylinder, Plane, Sphere
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.records import IterationRecord, SolveResult
 from fenics_coulomb.settings import SolverSettings
 
 __version__ = "0.1.0"
 
-__all__ = ["ContactProblem", "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError",
-           "SolverSettings", "__version__"]
+__all__ = ["ContactProblem", "Cylinder", "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError",
+           "SolverSettings", "Sphere", "__version__"]

@@ -55,10 +55,11 @@ def isotropic_forms(
     V: dolfinx.fem.FunctionSpace,
     material: Material,
     facet_tags: dolfinx.mesh.MeshTags,
-    tractions: dict[int, tuple[float, float, float]],
+    tractions: dict[int, tuple[Any, Any, Any]],
     body_force: tuple[float, float, float] = (0.0, 0.0, 0.0),
 ) -> tuple[ufl.Form, ufl.Form]:
-    """The Lamé bilinear form and the load form (constant tractions per facet tag, constant body force)."""
+    """The Lamé bilinear form and the load form (tractions per facet tag: constants, or callables of points
+    x (shape (3, m)) interpolated into P1; a constant body force)."""
     msh = V.mesh
     mu, lmbda = material.lame
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -70,19 +71,66 @@ def isotropic_forms(
     f = dolfinx.fem.Constant(msh, np.asarray(body_force, dtype=PETSc.ScalarType))
     L = ufl.inner(f, v) * ufl.dx
     for tag, value in tractions.items():
-        L = L + ufl.inner(dolfinx.fem.Constant(msh, np.asarray(value, dtype=PETSc.ScalarType)), v) * ds(tag)
+        if any(callable(c) for c in value):  # expressions in x1, x2, x3: interpolated into P1
+            g = dolfinx.fem.Function(V)
+            g.interpolate(lambda x, value=value: np.vstack(
+                [c(x) if callable(c) else np.full(x.shape[1], float(c)) for c in value]))
+            L = L + ufl.inner(g, v) * ds(tag)
+        else:
+            L = L + ufl.inner(dolfinx.fem.Constant(msh, np.asarray(value, dtype=PETSc.ScalarType)), v) * ds(tag)
     return a, L
 
 
-def clamp(V: dolfinx.fem.FunctionSpace, body: Body) -> dolfinx.fem.DirichletBC:
-    """u = 0 on the body's Dirichlet boundaries; InputError on every rank if they hold no node."""
+def boundary_nodes(V: dolfinx.fem.FunctionSpace, body: Body, names: list[str], what: str) -> np.ndarray:
+    """Local DOF blocks (owned and ghost) on the named boundaries; InputError on every rank if none."""
     fdim = body.mesh.topology.dim - 1
-    tags = [body.tag(name) for name in body.dirichlet]
+    tags = [body.tag(name) for name in names]
     facets = np.hstack([body.facet_tags.find(t) for t in tags]).astype(np.int32)
     dofs = dolfinx.fem.locate_dofs_topological(V, fdim, facets)
     count = body.mesh.comm.allreduce(int(np.sum(dofs < V.dofmap.index_map.size_local)), op=MPI.SUM)
-    check_all(body.mesh.comm, count > 0, f"the clamped boundary {body.dirichlet} has no nodes")
+    check_all(body.mesh.comm, count > 0, f"the {what} boundary {names} has no nodes")
+    return dofs
+
+
+def clamp(V: dolfinx.fem.FunctionSpace, body: Body) -> dolfinx.fem.DirichletBC:
+    """u = 0 on the body's clamped boundaries; InputError on every rank if they hold no node."""
+    dofs = boundary_nodes(V, body, body.dirichlet, "clamped")
     return dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V)
+
+
+def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene
+                         ) -> tuple[list[dolfinx.fem.DirichletBC], dict[str, np.ndarray]]:
+    """The scene's clamped, prescribed and roller conditions and the DOF blocks each boundary owns.
+
+    A node shared by several boundaries takes the first one of: clamped, prescribed (in scene order), roller;
+    so a clamped boundary wins over a prescribed one on shared edges. Returns the conditions and, per
+    boundary name, its local DOF blocks (for its reaction force).
+    """
+    bcs: list[dolfinx.fem.DirichletBC] = []
+    groups: dict[str, np.ndarray] = {}
+    taken = np.zeros(0, dtype=np.int32)
+    if body.dirichlet:
+        dofs = boundary_nodes(V, body, body.dirichlet, "clamped")
+        bcs.append(dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V))
+        groups[",".join(body.dirichlet)] = dofs
+        taken = dofs
+    for name, value in scene.prescribed.items():
+        dofs = np.setdiff1d(boundary_nodes(V, body, [name], "prescribed"), taken).astype(np.int32)
+        bcs.append(dolfinx.fem.dirichletbc(np.asarray(value, dtype=PETSc.ScalarType), dofs, V))
+        groups[name] = dofs
+        taken = np.union1d(taken, dofs).astype(np.int32)
+    fdim = body.mesh.topology.dim - 1
+    for name, components in scene.roller.items():
+        blocks = np.setdiff1d(boundary_nodes(V, body, [name], "roller"), taken).astype(np.int32)
+        facets = body.facet_tags.find(body.tag(name))
+        for c in components:
+            sub = V.sub(int(c))
+            dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
+            dofs = dofs[np.isin(dofs // 3, blocks)]
+            bcs.append(dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs, sub))
+        groups[name] = blocks
+        taken = np.union1d(taken, blocks).astype(np.int32)
+    return bcs, groups
 
 
 @dataclass
@@ -96,6 +144,8 @@ class Built:
     problem: ContactProblem
     #: Wall time of building the body (mesh and facet tags) on this rank.
     mesh_time: float = 0.0
+    #: Local DOF blocks per Dirichlet boundary name (for the reactions).
+    dirichlet_groups: dict[str, np.ndarray] | None = None
 
 
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_prefix: str = "coulomb_",
@@ -110,9 +160,9 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     force = scene.load.body_force
     V = dolfinx.fem.functionspace(body.mesh, ("Lagrange", 1, (body.mesh.geometry.dim,)))
     a, L = isotropic_forms(V, material, body.facet_tags, tractions, (force[0], force[1], force[2]))
-    bcs = [clamp(V, body)]
+    bcs, groups = dirichlet_conditions(V, body, scene)
     contact = (body.facet_tags, [body.tag(name) for name in body.contact])
     problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
-                             settings=scene.solver, petsc_options_prefix=petsc_options_prefix,
-                             petsc_options=petsc_options)
-    return Built(body, (a, L), bcs, problem, mesh_time)
+                             obstacles=scene.obstacles or None, settings=scene.solver,
+                             petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
+    return Built(body, (a, L), bcs, problem, mesh_time, groups)

@@ -2,9 +2,11 @@
 
 Everything is recomputed from the physical displacement ũ, the stiffness A and the load l̃: the contact
 force on the body at a contact node is fⁱ = (A ũ − l̃)ⁱ (normal part λ = f₃, tangential part t = f₁₂),
-the gap is ũ₃ + α. The residuals are relative, so that thresholds do not depend on units:
+the gap is ũ₃ + α — all in each node's frame R = (t₁, t₂, n): λ = n·f, t = T f, gap = g + n·ũ and the
+slip s = T(ũ − δ) (T = (t₁; t₂), δ the node's obstacle displacement). The residuals are relative, so that
+thresholds do not depend on units:
 
-* ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃|;
+* ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃| (or / max λ when l̃ = 0);
 * ``penetration``: max(−gap, 0) / δ  (gap ≥ 0), δ = max(max α, max |ũ|) the displacement scale;
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
@@ -28,6 +30,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.model import ContactModel
+from fenics_coulomb.obstacles import to_local
 
 
 def _gmax(comm: MPI.Comm, values: npt.NDArray[np.float64], initial: float = 0.0) -> float:
@@ -47,6 +50,20 @@ def residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.
     return out
 
 
+def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """K ũ − l̃⁰ per owned node (shape (owned nodes, 3)), assembled with UFL WITHOUT boundary conditions: the
+    force the supports and the obstacles exert on the body, node by node (collective)."""
+    uh = dolfinx.fem.Function(model.V)
+    uh.x.petsc_vec.array[:] = displacement
+    uh.x.scatter_forward()
+    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    full = b.getArray(readonly=True).reshape(-1, 3).copy()
+    b.destroy()
+    return full
+
+
 def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]) -> dict[str, float]:
     """Relative residuals of equilibrium, Signorini, Coulomb and global balance (see module docstring)."""
     comm = model.V.mesh.comm
@@ -54,10 +71,12 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     F = model.friction
     r = residual(model, displacement)
     f = r[cmap.local_dofs]
-    lam = f[:, 2]
-    t = f[:, :2]
-    gap = displacement[cmap.local_dofs[:, 2]] + cmap.gap
-    slip = displacement[cmap.local_dofs[:, :2]]
+    f_local = to_local(cmap.frames, f)
+    lam = f_local[:, 2]
+    t = f_local[:, :2]
+    v = to_local(cmap.frames, displacement[cmap.local_dofs]) + model.local_shift
+    gap = v[:, 2]
+    slip = v[:, :2]
 
     free = np.ones(r.size, dtype=bool)
     free[cmap.local_dofs.ravel()] = False
@@ -66,10 +85,11 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     # force scale: the largest contact force, or the largest nodal load when nothing touches
     lam_scale = max(_gmax(comm, lam), load_scale)
     # displacement scale: the largest initial gap or displacement (a zero gap profile has no gap scale)
-    gap_scale = max(_gmax(comm, cmap.gap), _gmax(comm, np.abs(displacement)))
+    gap_scale = max(_gmax(comm, np.abs(cmap.gap)), _gmax(comm, np.abs(displacement)))
     tiny = np.finfo(float).tiny
     out: dict[str, float] = {}
-    out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale, tiny)
+    # relative to the load, or to the contact forces when only an obstacle's displacement loads the body
+    out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale if load_scale > 0 else lam_scale, tiny)
     out["penetration"] = _gmax(comm, -gap) / max(gap_scale, tiny)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * lam_scale, tiny)
@@ -83,14 +103,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["slip_direction"] = _gmax(comm, np.hypot(mismatch[:, 0], mismatch[:, 1])) / max(lam_scale, tiny)
 
     # Global balance with the clamped reactions from an assembly without boundary conditions.
-    uh = dolfinx.fem.Function(model.V)
-    uh.x.petsc_vec.array[:] = displacement
-    uh.x.scatter_forward()
-    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
-    b = dolfinx.fem.petsc.assemble_vector(form)
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    full = b.getArray(readonly=True).reshape(-1, 3)
-    b.destroy()
+    full = unconstrained_residual(model, displacement)
     clamped_blocks = np.unique(model.dirichlet_rows // 3)
     local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
     total = np.asarray(comm.allreduce(local, op=MPI.SUM))
@@ -102,3 +115,27 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["reaction_balance"] = float(np.linalg.norm(total + applied) / balance_scale)
     out["contact_resultant"] = [float(c) for c in contact_total]  # type: ignore[assignment]
     return out
+
+
+def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64],
+                       groups: dict[str, npt.NDArray[np.int32]]) -> dict[str, list[float]]:
+    """The reaction force the support exerts on the body per Dirichlet boundary (collective, same on all ranks).
+
+    The reaction at a node is (K ũ − l̃⁰) with the stiffness and load assembled WITHOUT boundary conditions;
+    ``groups`` maps a boundary name to its local DOF blocks (owned and ghost; only owned ones are summed).
+    """
+    comm = model.V.mesh.comm
+    full = unconstrained_residual(model, displacement)
+    size_local = model.V.dofmap.index_map.size_local
+    out: dict[str, list[float]] = {}
+    for name, blocks in groups.items():
+        owned = blocks[blocks < size_local]
+        total = comm.allreduce(full[owned].sum(axis=0), op=MPI.SUM)
+        out[name] = [float(c) for c in total]
+    return out
+
+
+def total_contact_force(model: ContactModel, contact_force: npt.NDArray[np.float64]) -> list[float]:
+    """Σ of the Cartesian contact forces on the body over all contact nodes (collective)."""
+    local = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3).sum(axis=0)
+    return [float(c) for c in model.V.mesh.comm.allreduce(local, op=MPI.SUM)]

@@ -23,6 +23,7 @@ from mpi4py import MPI
 import dolfinx.fem
 
 from fenics_coulomb.builder import build_problem
+from fenics_coulomb.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.config import Scene
 from fenics_coulomb.display import virtual_display
 from fenics_coulomb.errors import InputError, SolverError, check_all
@@ -225,6 +226,8 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
                                            "body": built.body.description})
             data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+            data["reactions"] = boundary_reactions(model, result.displacement, built.dirichlet_groups or {})
+            data["contact_force"] = total_contact_force(model, result.contact_force)
             data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
             data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
             data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
@@ -239,6 +242,8 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{data['wall_time_s']:.2f} s; results in {args.out}/ ({', '.join(data['files'])})",
             flush=True,
         )
+        print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
+              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
     return status
 
 
@@ -257,6 +262,10 @@ def write_results(directory: Path, model: ContactModel, result: SolveResult, lab
 
         files += write_figures(directory, model, result, label)
     return files
+
+
+def _vector_text(v: list[float]) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
 
 
 def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function | None:

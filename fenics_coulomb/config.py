@@ -22,6 +22,12 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     case = "L2"             # the paper's tractions, or a [tractions] table: top = [0, 0, -1] ...
     scale = 1.0
 
+    [[obstacle]]            # rigid obstacles (fenics_coulomb.obstacles); none: the plane x3 = 0
+    type = "sphere"         # plane (point, normal) | sphere (center, radius) | cylinder (point, axis, radius)
+    center = [1.0, 0.5, -0.5]
+    radius = 0.5
+    displacement = [0.0, 0.0, 0.01]   # rigid translation δ (an indentation may overlap the body)
+
     [solver]                # the fields of fenics_coulomb.settings.SolverSettings, and start
     variant = "4a"
     tol = 0.1
@@ -46,9 +52,10 @@ import dolfinx.mesh
 import numpy as np
 
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.expression import parse_gap_expression
+from fenics_coulomb.expression import parse_gap_expression, parse_point_expression
 from fenics_coulomb.materials import Material
 from fenics_coulomb.model import validate_friction
+from fenics_coulomb.obstacles import Obstacle, obstacles_from_list
 from fenics_coulomb.partition import create_partitioner
 from fenics_coulomb.scene import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.settings import SolverSettings, rtol_for_accuracy  # noqa: F401  (re-exported)
@@ -76,14 +83,20 @@ KINDS: dict[str, dict[str, str]] = {
     "material": {"young": "number", "poisson": "number"},
     "friction": {"coefficient": "number"},
     "load": {"case": "str", "scale": "number", "body_force": "vector"},
-    "tractions": {"*": "vector"},
+    "tractions": {"*": "traction"},
+    "prescribed": {"*": "vector"},
+    "roller": {"*": "components"},
+    "obstacle": {"name": "str", "type": "str", "point": "vector", "normal": "vector", "center": "vector",
+                 "axis": "vector", "radius": "number", "displacement": "vector"},
     "solver": {"variant": "str", "tol": "number", "rtol": "number", "accuracy": "number", "max_it": "int",
                "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
                "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
                "predictor": "bool", "no_contact_shortcut": "bool", "start": "str"},
 }
 _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
-              "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite"}
+              "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite",
+              "traction": "a list of 3 numbers (finite) or expressions in x1, x2, x3",
+              "components": "a list of distinct components 0, 1, 2"}
 
 #: Largest scene file read (a scene is a few hundred bytes; /dev/zero or a mesh given by mistake is refused).
 MAX_SCENE_BYTES = 1 << 20
@@ -117,6 +130,10 @@ def check_kind(where: str, value: Any, kind: str) -> None:
         "bool": lambda v: isinstance(v, bool),
         "names": lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v),
         "vector": lambda v: isinstance(v, list | tuple) and len(v) == 3 and all(is_number(c) for c in v),
+        "traction": lambda v: isinstance(v, list | tuple) and len(v) == 3
+        and all(is_number(c) or isinstance(c, str) for c in v),
+        "components": lambda v: isinstance(v, list) and bool(v) and len(set(map(repr, v))) == len(v)
+        and all(isinstance(c, int) and not isinstance(c, bool) and c in (0, 1, 2) for c in v),
     }[kind](value)
     if not ok:
         raise InputError(f"{where} = {value!r}: must be {_KIND_TEXT[kind]}")
@@ -229,8 +246,8 @@ class BodySection:
                 raise InputError("body shape 'mesh' needs mesh = \"path/to/file.msh\"")
             if not Path(self.mesh).is_file():
                 raise InputError(f"mesh file {self.mesh!r} does not exist")
-        if not isinstance(self.clamped, list) or not self.clamped:
-            raise InputError(f"clamped = {self.clamped!r}: name at least one boundary (rigid motions)")
+        if not isinstance(self.clamped, list):
+            raise InputError(f"clamped = {self.clamped!r}: must be a list of boundary names")
         if not isinstance(self.contact, list):
             raise InputError(f"contact = {self.contact!r}: must be a list of boundary names")
 
@@ -303,7 +320,8 @@ FLAGS: dict[str, tuple[str | None, str]] = {
 }
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
-                            "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None}
+                            "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None,
+                            "obstacle": list, "prescribed": None, "roller": None}
 
 
 @dataclass
@@ -319,6 +337,12 @@ class Scene:
     tractions: dict[str, list[float]] | None = None
     solver: SolverSettings = field(default_factory=SolverSettings)
     start: str = "zero"
+    #: The rigid obstacles (``[[obstacle]]``); empty: the paper's plane x3 = 0.
+    obstacles: list[Obstacle] = field(default_factory=list)
+    #: ``[prescribed]``: boundary name → its displacement (all three components).
+    prescribed: dict[str, list[float]] = field(default_factory=dict)
+    #: ``[roller]``: boundary name → the components held at 0 (0 = x1, 1 = x2, 2 = x3).
+    roller: dict[str, list[int]] = field(default_factory=dict)
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -335,6 +359,14 @@ class Scene:
         for section, value in data.items():
             if section not in SECTIONS:
                 raise InputError(f"{where}: unknown section [{section}] (allowed: {', '.join(SECTIONS)})")
+            if section == "obstacle":
+                kinds = KINDS[section]
+                for i, table in enumerate(value if isinstance(value, list) else []):
+                    for key, item in (table.items() if isinstance(table, dict) else ()):
+                        if key in kinds:
+                            check_kind(f"[[obstacle]] {i + 1} {key}", item, kinds[key])
+                sections[section] = obstacles_from_list(value)
+                continue
             if not isinstance(value, dict):
                 raise InputError(f"{where}: [{section}] must be a table")
             kinds = KINDS[section]
@@ -367,7 +399,8 @@ class Scene:
                 material=MaterialSection(**sections.get("material", {})),
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
-                start=start,
+                start=start, obstacles=sections.get("obstacle", []), prescribed=sections.get("prescribed", {}),
+                roller=sections.get("roller", {}),
             )
         except TypeError as err:  # unreachable for checked keys; kept as a one-line error
             raise InputError(f"{where}: {err}") from None
@@ -409,9 +442,21 @@ class Scene:
             where = f"is not in [boundaries] ({', '.join(self.boundaries) or 'empty'})"
             if self.load.case is not None:
                 raise InputError(f"load case {self.load.case!r} is defined for the cuboid only; give [tractions]")
-        for name in (*self.body.clamped, *self.body.contact, *(self.tractions or {})):
+        for name in (*self.body.clamped, *self.body.contact, *(self.tractions or {}), *self.prescribed,
+                     *self.roller):
             if name not in names:
                 raise InputError(f"boundary {name!r} {where}")
+        if not (self.body.clamped or self.prescribed or self.roller):
+            raise InputError("no Dirichlet boundary: name clamped, [prescribed] or [roller] boundaries "
+                             "(rigid motions)")
+        for name, value in self.prescribed.items():
+            if not isinstance(value, list) or len(value) != 3:
+                raise InputError(f"prescribed displacement on {name!r} = {value!r}: must be 3 numbers")
+            _vector(f"prescribed displacement on {name!r}", value)
+        for name, value in self.roller.items():
+            if (not isinstance(value, list) or not value or len(set(map(repr, value))) != len(value)
+                    or any(isinstance(c, bool) or c not in (0, 1, 2) for c in value)):
+                raise InputError(f"roller on {name!r} = {value!r}: a list of distinct components 0, 1, 2")
         self.material.validate()
         self.friction.validate()
         self.load.validate()
@@ -419,10 +464,19 @@ class Scene:
             raise InputError(f"tractions = {self.tractions!r}: must be a table of names = [3 numbers]")
         for name, value in (self.tractions or {}).items():
             if not isinstance(value, list) or len(value) != 3:
-                raise InputError(f"traction on {name!r} = {value!r}: must be 3 numbers (GPa)")
-            _vector(f"traction on {name!r}", value)
-        largest = max([abs(float(c)) for v in (self.tractions or {}).values() for c in v] + [1.0]) \
-            * abs(float(self.load.scale))
+                raise InputError(f"traction on {name!r} = {value!r}: must be 3 numbers or expressions in x1, x2, "
+                                 "x3 (GPa)")
+            if any(isinstance(c, str) for c in value):
+                for c in value:
+                    if isinstance(c, str):
+                        parse_point_expression(c, f"traction expression on {name!r}")
+                    else:
+                        _number(f"traction on {name!r}", c)
+            else:
+                _vector(f"traction on {name!r}", value)
+        # expressions are bounded by their evaluation (non-finite values are refused where interpolated)
+        largest = max([abs(float(c)) for v in (self.tractions or {}).values() for c in v if not isinstance(c, str)]
+                      + [1.0]) * abs(float(self.load.scale))
         if largest > MAX_LOAD or max(abs(float(c)) for c in self.load.body_force) > MAX_LOAD:
             raise InputError(f"load scale = {self.load.scale!r}: tractions and body forces (times the scale) must "
                              f"stay below {MAX_LOAD:g} GPa in magnitude")
@@ -438,12 +492,20 @@ class Scene:
                              f"{GAMMA_SCALE_RANGE[1]:g}]")
 
     # -- derived data ------------------------------------------------------------------------------
-    def traction_table(self) -> dict[str, tuple[float, float, float]]:
-        """Tractions (GPa) per boundary name, scaled."""
+    def traction_table(self) -> dict[str, tuple[Any, Any, Any]]:
+        """Tractions (GPa) per boundary name: constant components scaled, expression components as compiled
+        functions of points x (shape (3, m)) with the scale applied."""
         if self.tractions is None:
             return paper_tractions(self.load.case, self.load.scale) if self.load.case is not None else {}
         s = float(self.load.scale)
-        return {k: (s * float(v[0]), s * float(v[1]), s * float(v[2])) for k, v in self.tractions.items()}
+
+        def component(name: str, c: Any) -> Any:
+            if isinstance(c, str):
+                f = parse_point_expression(c, f"traction expression on {name!r}")
+                return lambda x: s * f(x)
+            return s * float(c)
+
+        return {k: tuple(component(k, c) for c in v) for k, v in self.tractions.items()}  # type: ignore[misc]
 
     @property
     def label(self) -> str:
@@ -454,4 +516,6 @@ class Scene:
 
     def as_dict(self) -> dict[str, Any]:
         """The scene as plain data (for summary.json)."""
-        return asdict(self)
+        data = asdict(self)
+        data["obstacles"] = [{"type": o.kind, **dataclasses.asdict(o)} for o in self.obstacles]
+        return data

@@ -1,10 +1,11 @@
-"""The contact-node extractor: contact facets' DOFs as per-node 3-blocks (u1, u2 tangential, u3 normal).
+"""The contact-node extractor: contact facets' DOFs as per-node 3-blocks, each node with its obstacle frame.
 
-The rigid obstacle (:mod:`fenics_coulomb.obstacles`) is the half-space x3 <= 0 with outer normal e3, so for
-a node the normal component is u3 and the tangential components are (u1, u2); the initial gap of a node is
-the obstacle's signed distance of it. A contact node is a vertex of the contact boundary none of whose
-components carries a Dirichlet condition; every node is owned by exactly one rank, which holds its block of
-three DOFs in its owned part of the PETSc vectors.
+Each contact node belongs to the rigid obstacle (:mod:`fenics_coulomb.obstacles`) with the smallest signed
+distance g of its reference position; that obstacle gives the node's outward normal n and its frame
+R = (t₁, t₂, n) (columns), so its local components are Rᵀu = (t₁·u, t₂·u, n·u). For the default plane
+x3 = 0 the frame is the identity (tangential u1, u2; normal u3; gap = height). A contact node is a vertex of
+the contact boundary none of whose components carries a Dirichlet condition; every node is owned by exactly
+one rank, which holds its block of three DOFs in its owned part of the PETSc vectors.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.obstacles import Plane
+from fenics_coulomb.obstacles import DEFAULT_PLANE, Obstacle, closest_obstacle
 
 
 def boundary_blocks(
@@ -39,7 +40,9 @@ class ContactMap:
         local_dofs: Local DOF indices (owned numbering) of the node blocks, shape (m, 3).
         global_dofs: Global DOF (PETSc row) indices, shape (m, 3).
         coordinates: Reference coordinates of the nodes, shape (m, 3).
-        gap: Initial gap α of each node (its height above the obstacle plane x3 = 0), shape (m,).
+        gap: Signed distance g of each node from its obstacle (> 0 outside), shape (m,).
+        frames: Frame R = (t₁, t₂, n) (columns) of each node, shape (m, 3, 3).
+        obstacle_index: Index of each node's obstacle in the problem's list, shape (m,).
         num_global: Number of contact nodes on all ranks (p).
     """
 
@@ -48,7 +51,14 @@ class ContactMap:
     global_dofs: npt.NDArray[np.int64]
     coordinates: npt.NDArray[np.float64]
     gap: npt.NDArray[np.float64]
+    frames: npt.NDArray[np.float64]
+    obstacle_index: npt.NDArray[np.intp]
     num_global: int
+
+    @property
+    def normals(self) -> npt.NDArray[np.float64]:
+        """Outward unit normal n of each node's obstacle, shape (m, 3)."""
+        return np.ascontiguousarray(self.frames[:, :, 2])
 
     @property
     def size(self) -> int:
@@ -62,7 +72,7 @@ class ContactMap:
         facet_tags: dolfinx.mesh.MeshTags,
         contact_tags: list[int],
         excluded: npt.NDArray[np.int32],
-        obstacle: Plane | None = None,
+        obstacles: list[Obstacle] | None = None,
     ) -> ContactMap:
         """Extract the contact nodes of ``V`` on the facets with ``contact_tags``, minus excluded nodes.
 
@@ -72,7 +82,7 @@ class ContactMap:
             contact_tags: Tags of the contact boundary.
             excluded: Local DOF-block indices that are never contact nodes (nodes with a Dirichlet condition
                 on any component).
-            obstacle: The rigid obstacle (default: the plane x3 = 0).
+            obstacles: The rigid obstacles (placed at their displacements; default: the plane x3 = 0).
         """
         bs = V.dofmap.index_map_bs
         if bs != 3:
@@ -87,11 +97,14 @@ class ContactMap:
         global_dofs = bs * global_blocks[:, None] + offsets.astype(np.int64)
         coordinates = V.tabulate_dof_coordinates()[blocks]
         num_global = V.mesh.comm.allreduce(int(blocks.size), op=MPI.SUM)
+        index, gap, _, frames = closest_obstacle(obstacles or [DEFAULT_PLANE], coordinates.reshape(-1, 3))
         return cls(
             blocks=blocks,
             local_dofs=local_dofs,
             global_dofs=global_dofs,
             coordinates=np.ascontiguousarray(coordinates),
-            gap=(obstacle or Plane()).signed_distance(coordinates),
+            gap=np.ascontiguousarray(gap),
+            frames=np.ascontiguousarray(frames),
+            obstacle_index=index,
             num_global=num_global,
         )

@@ -42,7 +42,7 @@ MAX_LENGTH = 2000
 MAX_DEPTH = 100
 
 
-def _check(node: ast.AST, text: str) -> None:
+def _check(node: ast.AST, text: str, variables: tuple[str, ...] = VARIABLES, what: str = "gap expression") -> None:
     """Raise InputError unless every node of the tree is allowed."""
     callees = {id(sub.func) for sub in ast.walk(node) if isinstance(sub, ast.Call)}
     for sub in ast.walk(node):
@@ -50,34 +50,34 @@ def _check(node: ast.AST, text: str) -> None:
             continue
         if isinstance(sub, ast.Constant):
             if isinstance(sub.value, bool) or not isinstance(sub.value, int | float):
-                raise InputError(f"gap expression {text!r}: constant {sub.value!r} is not a number")
+                raise InputError(f"{what} {text!r}: constant {sub.value!r} is not a number")
         elif isinstance(sub, ast.Name):
-            if sub.id not in VARIABLES and sub.id not in CONSTANTS and sub.id not in FUNCTIONS:
+            if sub.id not in variables and sub.id not in CONSTANTS and sub.id not in FUNCTIONS:
                 raise InputError(
-                    f"gap expression {text!r}: unknown name {sub.id!r} "
-                    f"(allowed: {', '.join(VARIABLES)}, {', '.join(CONSTANTS)}, {', '.join(sorted(FUNCTIONS))})"
+                    f"{what} {text!r}: unknown name {sub.id!r} "
+                    f"(allowed: {', '.join(variables)}, {', '.join(CONSTANTS)}, {', '.join(sorted(FUNCTIONS))})"
                 )
             if sub.id in FUNCTIONS and id(sub) not in callees:
-                raise InputError(f"gap expression {text!r}: function {sub.id!r} must be called, e.g. {sub.id}(x1)")
+                raise InputError(f"{what} {text!r}: function {sub.id!r} must be called, e.g. {sub.id}(x1)")
         elif isinstance(sub, ast.Call):
             if not isinstance(sub.func, ast.Name) or sub.func.id not in FUNCTIONS:
-                raise InputError(f"gap expression {text!r}: only calls of {sorted(FUNCTIONS)} are allowed")
+                raise InputError(f"{what} {text!r}: only calls of {sorted(FUNCTIONS)} are allowed")
             if sub.keywords:
-                raise InputError(f"gap expression {text!r}: keyword arguments are not allowed")
+                raise InputError(f"{what} {text!r}: keyword arguments are not allowed")
             arity = FUNCTIONS[sub.func.id][1]
             if len(sub.args) != arity:
                 raise InputError(
-                    f"gap expression {text!r}: {sub.func.id}() takes exactly {arity} argument"
+                    f"{what} {text!r}: {sub.func.id}() takes exactly {arity} argument"
                     f"{'s' if arity > 1 else ''}, got {len(sub.args)}"
                 )
         elif isinstance(sub, ast.BinOp):
             if type(sub.op) not in BINARY:
-                raise InputError(f"gap expression {text!r}: operator {type(sub.op).__name__} is not allowed")
+                raise InputError(f"{what} {text!r}: operator {type(sub.op).__name__} is not allowed")
         elif isinstance(sub, ast.UnaryOp):
             if type(sub.op) not in UNARY:
-                raise InputError(f"gap expression {text!r}: operator {type(sub.op).__name__} is not allowed")
+                raise InputError(f"{what} {text!r}: operator {type(sub.op).__name__} is not allowed")
         elif not isinstance(sub, ast.operator | ast.unaryop):
-            raise InputError(f"gap expression {text!r}: {type(sub).__name__} is not allowed")
+            raise InputError(f"{what} {text!r}: {type(sub).__name__} is not allowed")
 
 
 def _evaluate(node: ast.AST, env: dict[str, Array | float]) -> Array | float:
@@ -110,6 +110,37 @@ def _depth(node: ast.AST) -> int:
         deepest = max(deepest, level)
         stack.extend((child, level + 1) for child in ast.iter_child_nodes(current))
     return deepest
+def _parse(text: str, variables: tuple[str, ...], what: str) -> ast.Expression:
+    """The checked syntax tree of ``text`` (InputError naming ``what`` otherwise)."""
+    if not isinstance(text, str) or not text.strip():
+        raise InputError(f"{what} {text!r}: must be a non-empty string")
+    if len(text) > MAX_LENGTH:
+        raise InputError(f"{what} is longer than {MAX_LENGTH} characters")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as err:
+        raise InputError(f"{what} {text!r} does not parse: {err.msg}") from None
+    _check(tree, text, variables, what)
+    if _depth(tree) > MAX_DEPTH:
+        raise InputError(f"{what} {text!r} is nested deeper than {MAX_DEPTH} levels")
+    return tree
+
+
+def parse_point_expression(text: str, what: str = "expression") -> Callable[[Array], Array]:
+    """Compile an expression in x1, x2, x3 into a vectorized function of points x (shape (3, m) → (m,)).
+
+    Raises:
+        InputError: as :func:`parse_gap_expression`, naming ``what``.
+    """
+    tree = _parse(text, ("x1", "x2", "x3"), what)
+
+    def value(x: Array) -> Array:
+        x = np.asarray(x, dtype=np.float64)
+        with np.errstate(all="ignore"):
+            out = _evaluate(tree, {"x1": x[0], "x2": x[1], "x3": x[2]})
+        return np.broadcast_to(np.asarray(out, dtype=np.float64), x[0].shape).copy()
+
+    return value
 
 
 def parse_gap_expression(text: str) -> Callable[[Array, Array], Array]:
@@ -121,17 +152,7 @@ def parse_gap_expression(text: str) -> Callable[[Array, Array], Array]:
     Raises:
         InputError: for text that does not parse or uses anything outside the whitelist.
     """
-    if not isinstance(text, str) or not text.strip():
-        raise InputError(f"gap expression {text!r}: must be a non-empty string")
-    if len(text) > MAX_LENGTH:
-        raise InputError(f"gap expression is longer than {MAX_LENGTH} characters")
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError as err:
-        raise InputError(f"gap expression {text!r} does not parse: {err.msg}") from None
-    _check(tree, text)
-    if _depth(tree) > MAX_DEPTH:
-        raise InputError(f"gap expression {text!r} is nested deeper than {MAX_DEPTH} levels")
+    tree = _parse(text, VARIABLES, "gap expression")
 
     def gap(x1: Array, x2: Array) -> Array:
         env: dict[str, Array | float] = {}

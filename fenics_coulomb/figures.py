@@ -71,9 +71,11 @@ def gather_contact(
 
 
 def plot_contact_states(
-    coordinates: npt.NDArray[np.float64], states: npt.NDArray[np.int8], path: Path, title: str = ""
+    coordinates: npt.NDArray[np.float64], states: npt.NDArray[np.int8], path: Path, title: str = "",
+    labels: tuple[str, str] = ("$x_1$", "$x_2$"),
 ) -> None:
-    """Scatter the contact nodes over (x1, x2) coloured by state to ``path``."""
+    """Scatter the contact nodes over their first two coordinates (x1, x2, or a projection's axes named by
+    ``labels``) coloured by state to ``path``."""
     plt = _pyplot()
     extent = np.ptp(coordinates[:, :2], axis=0) if coordinates.size else np.ones(2)
     aspect = extent[1] / max(extent[0], 1e-12)
@@ -84,8 +86,8 @@ def plot_contact_states(
         ax.scatter(coordinates[mask, 0], coordinates[mask, 1], s=size, c=colour, marker="s",
                    label=f"{label} ({int(mask.sum())})", edgecolors="none")
     ax.set_aspect("equal")
-    ax.set_xlabel("$x_1$")
-    ax.set_ylabel("$x_2$")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
     if title:
         ax.set_title(title, parse_math=False)
@@ -196,14 +198,23 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
     displacement = result.displacement  # type: ignore[attr-defined]
     deformed = gather_deformed(model.V, displacement, contact.coordinates,  # type: ignore[attr-defined]
                                displacement[contact.local_dofs], result.states)  # type: ignore[attr-defined]
-    states = gather_contact(comm, contact.coordinates, result.states)  # type: ignore[attr-defined]
+    # the contact surface in its own projection: onto the plane ⊥ the mean contact normal (x1, x2 for the
+    # paper's plane)
+    from fenics_coulomb.obstacles import frames_from_normals, to_local
+
+    normal = np.asarray(comm.allreduce(contact.normals.sum(axis=0), op=MPI.SUM))
+    normal = normal / np.linalg.norm(normal) if np.linalg.norm(normal) > 0 else np.array([0.0, 0.0, 1.0])
+    frame = frames_from_normals(normal)
+    axes = ("$x_1$", "$x_2$") if np.allclose(frame[0], np.eye(3)) else ("$t_1$", "$t_2$")
+    projected = to_local(np.broadcast_to(frame, (contact.size, 3, 3)), contact.coordinates)
+    states = gather_contact(comm, projected, result.states)  # type: ignore[attr-defined]
     written: list[str] = []
     if comm.rank == 0:
         assert deformed is not None and states is not None
         jobs = [
             ("convergence.png", lambda p: plot_convergence({label: result.residual_history}, p,  # type: ignore
                                                            f"Convergence, {label}")),
-            ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}")),
+            ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}", axes)),
             ("deformed.png", lambda p: render_deformed(*deformed, p, f"Deformed body, {label}")),
         ]
         for name, draw in jobs:

@@ -1,8 +1,10 @@
 r"""The discrete contact model of Section 6 built from a user's forms: stiffness, loads and the shift.
 
 Given a bilinear form a (any linear-elastic operator on a vector P1/Q1 space), a linear form L, Dirichlet
-conditions and the contact boundary, this assembles the stiffness matrix A, the load vector l̃, the shift d
-(dⁱ = (0, 0, αᵢ) at contact node i, αᵢ its initial gap, 0 elsewhere) and l = l̃ + A d.
+conditions, the rigid obstacles and the contact boundary, this assembles the stiffness matrix A, the load
+vector l̃, the shift d (dⁱ = Rᵢ sⁱ = gᵢ n − TᵀT δ at contact node i with frame Rᵢ = (t₁, t₂, n), gap gᵢ and
+its obstacle's displacement δ; for the default plane (0, 0, αᵢ), αᵢ the height; 0 elsewhere) and
+l = l̃ + A d. Why the per-node frames change nothing else: see :mod:`fenics_coulomb.obstacles`.
 
 **The shifted load.** The physical displacement ũ solves Definition 6.1. In the shifted unknown u = ũ + d
 the problem is the generalized equation (6.3) 0 ∈ A u − l + Q(u), where, substituting ũ = u − d into
@@ -42,25 +44,11 @@ import ufl
 
 from fenics_coulomb.contact import ContactMap
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.obstacles import Plane
+from fenics_coulomb.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, local_shift, to_global
 
 logger = logging.getLogger(__name__)
 
 Friction = float | dolfinx.fem.Function
-
-
-def check_supported_obstacle(obstacle: Plane) -> Plane:
-    """The obstacle if the contact model can represent it, InputError otherwise (pure, no communication).
-
-    The contact map and the Newton rows use the global frame (normal e3, tangents e1, e2), so only a
-    :class:`~fenics_coulomb.obstacles.Plane` with normal e3 (at any height, moved by any δ) is solved so far;
-    the per-node frames of :mod:`fenics_coulomb.obstacles` (other normals, spheres, cylinders) come next.
-    """
-    if not isinstance(obstacle, Plane):
-        raise InputError(f"obstacle {obstacle!r}: only a plane with normal (0, 0, 1) is supported so far")
-    if not np.allclose(obstacle.normal, (0.0, 0.0, 1.0), atol=1e-14):
-        raise InputError(f"obstacle normal {obstacle.normal!r}: only the plane's normal (0, 0, 1) is supported")
-    return obstacle
 
 
 def validate_friction(friction: float) -> None:
@@ -96,7 +84,9 @@ class ContactModel:
         bcs: Dirichlet conditions (any values; single components allowed).
         contact: Facet tags and the markers of the contact boundary.
         friction: Coulomb coefficient F: a number or a scalar field (interpolated at the contact nodes).
-        obstacle: The rigid obstacle (default: the plane x3 = 0).
+        obstacles: The rigid obstacles (default: the plane x3 = 0); each contact node belongs to the one with
+            the smallest gap. An obstacle overlapping the body at its scene position is an InputError; one
+            whose displacement δ makes it overlap is an indentation.
         prefix: Options prefix of the problem's PETSc objects.
         form_compiler_options: FFCx options.
         jit_options: JIT options.
@@ -109,7 +99,7 @@ class ContactModel:
         bcs: Sequence[dolfinx.fem.DirichletBC],
         contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]],
         friction: Friction,
-        obstacle: Plane | None = None,
+        obstacles: Sequence[Obstacle] | None = None,
         prefix: str = "coulomb_",
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
@@ -123,8 +113,13 @@ class ContactModel:
         facet_tags, markers = contact
         self.facet_tags = facet_tags
         self.markers = [int(m) for m in markers]
+        if isinstance(obstacles, Obstacle):
+            obstacles = [obstacles]
+        self.obstacles: list[Obstacle] = list(obstacles) if obstacles else [DEFAULT_PLANE]
         # Validate everything before the first collective call: all ranks hold the same values.
-        self.obstacle = check_supported_obstacle(obstacle or Plane())
+        bad_obstacles = [o for o in self.obstacles if not isinstance(o, Obstacle)]
+        if bad_obstacles:
+            raise InputError(f"obstacles: {bad_obstacles[0]!r} is not a Plane, Sphere or Cylinder")
         if not isinstance(friction, dolfinx.fem.Function):
             validate_friction(friction)
         if L is None:
@@ -160,24 +155,25 @@ class ContactModel:
         b.copy(self.load)
         b.destroy()
 
-        # Contact nodes (no node with a constrained component) and the shift d.
-        self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacle)
-        gap = self.contact.gap
-        # round-off below the plane (e.g. from mesh generators) counts as touching
+        # Contact nodes (no node with a constrained component), their obstacles' frames and the shift d.
+        self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
+        cmap = self.contact
+        check_not_overlapping(self.obstacles, cmap.coordinates, comm=comm)
+        gap = cmap.gap
+        # round-off below the surface (e.g. from mesh generators) counts as touching (only without δ: an
+        # indentation's overlap is genuine)
         size = comm.allreduce(float(np.abs(msh.geometry.x).max(initial=0.0)), op=MPI.MAX)
         gap[(gap < 0.0) & (gap > -1e-12 * size)] = 0.0
-        bad = gap < 0.0
-        check_all(
-            comm,
-            not np.any(bad),
-            f"contact node at height {gap[bad][0] if np.any(bad) else 0.0!r} lies inside the obstacle "
-            "x3 <= 0 (initial penetration is not supported)",
-        )
+        #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
+        self.obstacle_displacement = np.array([o.displacement for o in self.obstacles],
+                                              dtype=np.float64).reshape(-1, 3)[cmap.obstacle_index]
+        #: The constant part sⁱ = (−T δ, g) of the local block vⁱ = Rᵢᵀũⁱ + sⁱ, shape (m, 3).
+        self.local_shift = local_shift(cmap.frames, gap, self.obstacle_displacement)
         self.friction = self._friction_at_contact_nodes(friction)
         self.shift = self.A.createVecRight()
         self.shift.setOptionsPrefix(f"{prefix}shift_")
         self.shift.set(0.0)
-        self.shift.array[self.contact.local_dofs[:, 2]] = gap
+        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
         # l = l̃ + A d (see the module docstring for the derivation).
         self.rhs = self.A.createVecRight()
         self.rhs.setOptionsPrefix(f"{prefix}rhs_")

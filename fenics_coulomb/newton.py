@@ -35,6 +35,7 @@ from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.newton_operator import MATRIX_FREE_PCS, NewtonOperator
+from fenics_coulomb.obstacles import conjugate, to_global, to_local
 from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditioner re-exported)
     AUTO_ILU_FALLBACK_ITS,
@@ -123,6 +124,8 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         self.rows = ContactRows(self.A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
+        #: Frames R = (t₁, t₂, n) of the contact nodes (columns), shape (m, 3, 3).
+        self.frames = model.contact.frames
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
                              model.V.mesh.topology.cell_type.name)
@@ -204,12 +207,16 @@ class SCDNewtonSolver:
 
     # -- the approximation step -------------------------------------------------------------------
     def approximation_step(self, u: Array, r: Array) -> Iterate:
-        """The approximation step (6.17) at u with residual r: d̂ = (γI + Q)⁻¹(γ u − r) and ‖ŷ‖."""
+        """The approximation step (6.17) at u with residual r: d̂ = (γI + Q)⁻¹(γ u − r) and ‖ŷ‖.
+
+        On contact node i the resolvent acts in the node's frame: (vⁱ, zⁱ) = J̃(Rᵢᵀ(γ uⁱ − rⁱ)) and
+        eⁱ = uⁱ − Rᵢ vⁱ (Cartesian), see :mod:`fenics_coulomb.obstacles`.
+        """
         gamma = self.gamma
         e = r / gamma
         uc = u[self.cdofs]
-        v, z = resolvent(gamma * uc - r[self.cdofs], gamma, self.model.friction)
-        e[self.cdofs] = uc - v
+        v, z = resolvent(to_local(self.frames, gamma * uc - r[self.cdofs]), gamma, self.model.friction)
+        e[self.cdofs] = uc - to_global(self.frames, v)
         return Iterate(u, r, e, v, z, self.norm(e))
 
     def norm(self, e: Array) -> float:
@@ -229,6 +236,10 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
+        # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see
+        # fenics_coulomb.obstacles); the identity frame leaves them unchanged. The Newton operator (shell or
+        # explicit rows) receives these rotated blocks.
+        left, right = conjugate(self.frames, left), conjugate(self.frames, right)
         self.operator.update(left, right)
         self.step.right_hand_side(self, it.e, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
@@ -409,6 +420,7 @@ class SCDNewtonSolver:
             states=states,
             normal_force=-it.z[:, 2].copy(),
             tangential_force=-it.z[:, :2].copy(),
+            contact_force=-to_global(self.frames, it.z),
             gap=it.v[:, 2].copy(),
             gamma=self.gamma,
             timings=dict(self.timings),
@@ -453,7 +465,7 @@ class SCDNewtonSolver:
 
     def is_separated(self, result: SolveResult) -> bool:
         """True on all ranks if no contact node of ``result`` touches or penetrates the obstacle."""
-        gap = result.displacement[self.cdofs[:, 2]] + self.model.contact.gap
+        gap = to_local(self.frames, result.displacement[self.cdofs])[:, 2] + self.model.contact.gap
         return bool(self.comm.allreduce(bool(np.all(gap > 0.0)), op=MPI.LAND))
 
     def destroy(self) -> None:

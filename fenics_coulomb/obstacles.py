@@ -92,6 +92,15 @@ M̂ᵀ = 𝓡ᵀ Mᵀ, so q̂ solves Mᵀ q̂ = A e − γ e − Mᵀ ê (Cartes
 contact nodes), p̂ = q̂ + ê and Δu = 𝓡 Δû: Δuⁱ = Rᵢ Xⁱ p̂ⁱ − eⁱ = (Bⁱ)ᵀ p̂ⁱ − eⁱ on contact nodes, Δu = q̂
 elsewhere.
 
+In the solver (:mod:`fenics_coulomb.newton`) the contact rows are in addition multiplied from the left by
+Rᵢ — an orthogonal change of the node's three equations, so Δu and every residual norm stay the same — so the
+blocks become Rᵢ Bⁱ Rᵢᵀ and Rᵢ Cⁱ Rᵢᵀ (:func:`conjugate`): the Cartesian blocks of the rotated SCD
+subspaces (rge(Rᵢ X, Rᵢ Y) = rge(Rᵢ X Rᵢᵀ, Rᵢ Y Rᵢᵀ)). Then the steps of :mod:`fenics_coulomb.steps` run
+unchanged on the Cartesian e (4a: right-hand side −(B γe + C e) with the conjugated blocks = Rᵢ times the one
+above; 4b: Mᵀ with M = 𝓡 M̂ 𝓡ᵀ is solved for the Cartesian q = 𝓡 q̂, and Δuⁱ = (Rᵢ Bⁱ Rᵢᵀ)ᵀ pⁱ − eⁱ). Row
+rotation alone (Bⁱ Rᵢᵀ) would be as correct but leaves zero diagonal entries where the frame permutes the
+axes (a cylinder's t₁ = a = e₂), on which ILU(0) breaks down.
+
 Outputs: the contact force on the body is −Rᵢ zⁱ (Cartesian), its normal part λ = −z₃ ≥ 0, the tangential
 force −Rᵢ (z₁, z₂, 0) (a true 3-vector), the gap v₃ = g + n·ũ ≥ 0, the slip v₁₂.
 
@@ -222,6 +231,12 @@ def to_global(R: Array, v: npt.ArrayLike) -> Array:
 def rotate_rows(R: Array, B: npt.ArrayLike) -> Array:
     """Bᵢ Rᵢᵀ for 3×3 row blocks Bᵢ acting on local components: the same rows acting on Cartesian ones."""
     return np.einsum("iab,icb->iac", np.asarray(B, dtype=np.float64), R)
+
+
+def conjugate(R: Array, B: npt.ArrayLike) -> Array:
+    """Rᵢ Bᵢ Rᵢᵀ: a 3×3 block acting on local components as the block of the Cartesian map (see the module
+    docstring, "In the solver")."""
+    return np.einsum("iab,ibc,idc->iad", R, np.asarray(B, dtype=np.float64), R)
 
 
 def local_shift(R: Array, g: npt.ArrayLike, offset: npt.ArrayLike | None = None) -> Array:

@@ -13,13 +13,23 @@ lengths in the mesh's unit L):
 ``contact_pressure``
     Normal contact force λ = −ϑ ≥ 0 per contact node (the paper's normal nodal force, GPa·L²); 0 elsewhere.
 ``tangential_force``
-    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², vector with zero
-    normal component); it opposes the slip on sliding nodes. 0 elsewhere.
+    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², a Cartesian 3-vector
+    ⊥ the node's obstacle normal: its t₁, t₂ components mapped back to x, y, z); it opposes the slip on
+    sliding nodes. 0 elsewhere.
+``contact_traction``
+    The contact force on the body per unit contact area (GPa, Cartesian vector): the nodal contact force
+    divided by the node's share of the contact surface (the lumped facet areas ∫ φᵢ ds over the contact
+    boundary), comparable with a pressure distribution. 0 elsewhere.
+``gap``
+    The linearized gap g + n·ũ on contact nodes (L, ≥ 0 at a solution); 0 elsewhere.
+``contact_normal``
+    The outward unit normal n of each contact node's obstacle; 0 elsewhere.
 
-HDF5 layout (one file, one mesh for the whole series): ``/Mesh/mesh/geometry`` (N × 3 float64 vertex
-coordinates in the global P1 vertex numbering), ``/Mesh/mesh/topology`` (cells × vertices, int64 global vertex
-numbers, VTK/XDMF vertex order) and ``/Function/<field>/<k>`` (N × block size) for the k-th time. The XML uses no
-XInclude; every grid repeats the (shared) geometry and topology data items.
+All fields go through :class:`XDMFTimeSeries` (:func:`write_xdmf`). HDF5 layout (one file, one mesh for the
+whole series): ``/Mesh/mesh/geometry`` (N × 3 float64 vertex coordinates in the global P1 vertex numbering),
+``/Mesh/mesh/topology`` (cells × vertices, int64 global vertex numbers, VTK/XDMF vertex order) and
+``/Function/<field>/<k>`` (N × block size) for the k-th time. The XML uses no XInclude; every grid repeats
+the (shared) geometry and topology data items.
 """
 
 
@@ -43,9 +53,11 @@ from petsc4py import PETSc
 import dolfinx
 import dolfinx.cpp.io
 import dolfinx.fem
+import dolfinx.fem.petsc
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
+import ufl
 
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.problem import interpolate_displacement
@@ -64,33 +76,58 @@ def block_to_scalar_dofs(V: dolfinx.fem.FunctionSpace, S: dolfinx.fem.FunctionSp
     return mapping
 
 
-def contact_functions(
-    model: ContactModel, result: SolveResult
-) -> tuple[dolfinx.fem.Function, dolfinx.fem.Function, dolfinx.fem.Function, dolfinx.fem.Function]:
-    """Return the output Functions (displacement, contact_state, contact_pressure, tangential_force)."""
+def contact_areas(model: ContactModel) -> npt.NDArray[np.float64]:
+    """Each owned contact node's share of the contact surface, ∫ φᵢ ds over the contact boundary (lumped facet
+    areas; collective)."""
+    if not model.markers:
+        return np.zeros(model.contact.size)
+    msh = model.V.mesh
+    S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
+    v = ufl.TestFunction(S)
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=model.facet_tags)
+    form = dolfinx.fem.form(sum((v * ds(tag) for tag in model.markers[1:]), v * ds(model.markers[0])))
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    values = b.getArray(readonly=True).copy()
+    b.destroy()
+    return values[block_to_scalar_dofs(model.V, S)[model.contact.blocks]]
+
+
+def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
+    """The output Functions (displacement, contact_state, contact_pressure, tangential_force,
+    contact_traction, gap, contact_normal); see the module docstring."""
     V = model.V
     msh = V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
     cmap = model.contact
     to_scalar = block_to_scalar_dofs(V, S)
+    scalar_dofs = to_scalar[cmap.blocks]
+    vector_dofs = cmap.local_dofs.ravel()
+
+    def point_field(space: dolfinx.fem.FunctionSpace, name: str, dofs: npt.NDArray[np.int32],
+                    values: npt.ArrayLike, fill: float = 0.0) -> dolfinx.fem.Function:
+        f = dolfinx.fem.Function(space, name=name)
+        f.x.array[:] = fill
+        f.x.array[dofs] = np.ravel(values)
+        f.x.scatter_forward()  # owned contact nodes were set on their owner: make the ghosts agree
+        return f
 
     u = dolfinx.fem.Function(V, name="displacement")
     u.x.petsc_vec.array[:] = result.displacement
     u.x.scatter_forward()
-
-    state = dolfinx.fem.Function(S, name="contact_state")
-    state.x.array[:] = -1.0
-    state.x.array[to_scalar[cmap.blocks]] = result.states
-    pressure = dolfinx.fem.Function(S, name="contact_pressure")
-    pressure.x.array[:] = 0.0
-    pressure.x.array[to_scalar[cmap.blocks]] = result.normal_force
-    tangential = dolfinx.fem.Function(V, name="tangential_force")
-    tangential.x.array[:] = 0.0
-    tangential.x.array[cmap.local_dofs[:, :2].ravel()] = result.tangential_force.ravel()
-    # Owned contact nodes were set on their owner: make the ghosts agree.
-    for f in (state, pressure, tangential):
-        f.x.scatter_forward()
-    return u, state, pressure, tangential
+    tangential = np.einsum("iab,ib->ia", cmap.frames[:, :, :2], result.tangential_force)  # t₁, t₂ → x, y, z
+    areas = contact_areas(model)
+    force = result.contact_force if result.contact_force.shape == (cmap.size, 3) else np.zeros((cmap.size, 3))
+    traction = np.divide(force, areas[:, None], out=np.zeros_like(force), where=areas[:, None] > 0)
+    return (
+        u,
+        point_field(S, "contact_state", scalar_dofs, result.states, fill=-1.0),
+        point_field(S, "contact_pressure", scalar_dofs, result.normal_force),
+        point_field(V, "tangential_force", vector_dofs, tangential),
+        point_field(V, "contact_traction", vector_dofs, traction),
+        point_field(S, "gap", scalar_dofs, result.gap),
+        point_field(V, "contact_normal", vector_dofs, cmap.normals),
+    )
 
 
 #: Categories of the (categorical) ``contact_state`` field.

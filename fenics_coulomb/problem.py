@@ -30,7 +30,7 @@ import ufl
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model import ContactModel, Friction
 from fenics_coulomb.newton import SCDNewtonSolver
-from fenics_coulomb.obstacles import Plane
+from fenics_coulomb.obstacles import Obstacle
 from fenics_coulomb.records import SolveResult
 from fenics_coulomb.settings import SolverSettings
 
@@ -82,7 +82,9 @@ class ContactProblem:
             constrained component is never a contact node.
         contact: The facet tags and the markers of the contact boundary.
         friction: Coulomb coefficient: a number or a scalar field (a Function, interpolated at the nodes).
-        obstacle: The rigid obstacle; default the plane x3 = 0 (half-space x3 <= 0).
+        obstacles: The rigid obstacles (:class:`~fenics_coulomb.obstacles.Plane`, ``Sphere``, ``Cylinder``,
+            each possibly moved by its ``displacement`` δ); default the plane x3 = 0 (half-space x3 <= 0).
+            Each contact node belongs to the obstacle with the smallest gap.
         settings: Solver settings (a :class:`~fenics_coulomb.settings.SolverSettings` or a dict of its
             fields), including the predictor and the no-contact shortcut.
         petsc_options_prefix: Options prefix of every PETSc object of the problem (required, non-empty).
@@ -101,7 +103,7 @@ class ContactProblem:
         bcs: Sequence[dolfinx.fem.DirichletBC] = (),
         contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None = None,
         friction: Friction = 0.0,
-        obstacle: Plane | None = None,
+        obstacles: Sequence[Obstacle] | Obstacle | None = None,
         settings: SolverSettings | dict[str, Any] | None = None,
         *,
         petsc_options_prefix: str,
@@ -117,7 +119,7 @@ class ContactProblem:
         if contact is None:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         t0 = time.perf_counter()
-        self._model = ContactModel(a, L, bcs, contact, friction, obstacle, petsc_options_prefix,
+        self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
                                    form_compiler_options, jit_options)
         #: Wall time of building the model (form compilation and assembly) on this rank.
         self.model_time = time.perf_counter() - t0

@@ -54,7 +54,9 @@ class SolveResult:
         sets: Set of (6.9) per owned contact node at the final iterate.
         states: OPEN/STICK/SLIP per owned contact node.
         normal_force: Normal contact force λ = −ϑ >= 0 per owned contact node.
-        tangential_force: Tangential contact force on the body, −g ∈ R² (opposite to slip).
+        tangential_force: Tangential contact force on the body in the node's frame (t₁, t₂ components),
+            −g ∈ R² (opposite to the slip).
+        contact_force: The contact force on the body per owned contact node, Cartesian, −Rᵢ zⁱ, shape (m, 3).
         gap: Final gap per owned contact node (from the approximation step, d̂3 >= 0).
         gamma: γ used in the approximation step.
         timings: Wall time per phase in seconds (this rank).
@@ -79,6 +81,7 @@ class SolveResult:
     tangential_force: Array
     gap: Array
     gamma: float
+    contact_force: Array = field(default_factory=lambda: np.zeros((0, 3)))
     timings: dict[str, float] = field(default_factory=dict)
     pc: str = ""
     n: int = 0

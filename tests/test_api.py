@@ -290,13 +290,19 @@ def test_predictor_and_no_contact_shortcut(predictor):
 
 def test_obstacle_plane_from_obstacles_module():
     """The obstacle is fenics_coulomb.obstacles.Plane (default x3 = 0): a plane lowered by h gives every gap + h;
-    a normal other than e3 (per-node frames are not in the solver yet) is refused with InputError."""
+    a tilted plane gives each node its signed distance (per-node frames); a non-obstacle is an InputError."""
     from fenics_coulomb import Plane
 
     comm = MPI.COMM_WORLD
+    tilted = Plane(normal=(0.01, 0.0, 1.0))
     with user_problem(comm, cells=(4, 2, 2)) as default, \
-            user_problem(comm, cells=(4, 2, 2), obstacle=Plane(point=(0.0, 0.0, -0.01))) as lowered:
+            user_problem(comm, cells=(4, 2, 2), obstacles=Plane(point=(0.0, 0.0, -0.01))) as lowered, \
+            user_problem(comm, cells=(4, 2, 2), obstacles=[tilted]) as tilted_problem:
         gap = default.model.contact.gap
         assert gap.size == 0 or np.allclose(lowered.model.contact.gap, gap + 0.01, rtol=0, atol=1e-15)
-    with pytest.raises(InputError, match="normal"):
-        user_problem(comm, cells=(4, 2, 2), obstacle=Plane(normal=(0.01, 0.0, 1.0)))
+        x = tilted_problem.model.contact.coordinates
+        nu = np.array([0.01, 0.0, 1.0]) / np.linalg.norm([0.01, 0.0, 1.0])
+        assert np.allclose(tilted_problem.model.contact.gap, x @ nu, rtol=0, atol=1e-15)
+        assert np.allclose(tilted_problem.model.contact.normals, nu, rtol=0, atol=1e-15)
+    with pytest.raises(InputError, match="obstacles"):
+        user_problem(comm, cells=(4, 2, 2), obstacles=["plane"])

@@ -117,8 +117,9 @@ def test_time_series_roundtrip(cell, mpi_tmp_path):
 
 
 def test_solution_file(mpi_tmp_path):
-    """solution.xdmf of a run: ONE grid with all four fields, float64 except the categorical contact_state;
-    the fields agree with summary.json."""
+    """solution.xdmf of a run: ONE grid with all seven fields, float64 except the categorical contact_state;
+    the fields agree with summary.json and with the default plane's frame (n = e3, tangential force ⊥ n,
+    gap ≥ 0, traction along the pressure)."""
     out = mpi_tmp_path / "run"
     assert main(["--lev", "1", "--out", str(out), "--quiet", "--no-plots"]) == 0
     MPI.COMM_WORLD.barrier()
@@ -127,13 +128,24 @@ def test_solution_file(mpi_tmp_path):
     info = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
     assert info["converged"] == "true" and "1 stick" in info["contact_state"]
     items = {a.get("Name"): a.find("DataItem") for a in grid.findall("Attribute")}
-    assert list(items) == ["displacement", "contact_state", "contact_pressure", "tangential_force"]
+    assert list(items) == ["displacement", "contact_state", "contact_pressure", "tangential_force",
+                           "contact_traction", "gap", "contact_normal"]
     for name, item in items.items():
         expected = ("Int", "4") if name == "contact_state" else ("Float", "8")
         assert (item.get("NumberType"), item.get("Precision")) == expected
     summary = json.loads((out / "summary.json").read_text())
     with h5py.File(out / "solution.h5", "r") as h5:
         state = h5["Function/contact_state/0"][:]
+        fields = {name: h5[f"Function/{name}/0"][:] for name in
+                  ("contact_pressure", "tangential_force", "contact_traction", "gap", "contact_normal")}
+    contact = state >= 0
+    assert np.array_equal(fields["contact_normal"][contact], np.tile([0.0, 0.0, 1.0], (contact.sum(), 1)))
+    assert not fields["contact_normal"][~contact].any() and not fields["gap"][~contact].any()
+    assert np.all(fields["tangential_force"][:, 2] == 0.0) and fields["tangential_force"][contact, :2].any()
+    assert np.all(fields["gap"][contact] >= -1e-10) and np.any(fields["gap"][contact] > 0.0)
+    pressed = fields["contact_pressure"] > 0.0
+    assert np.all(fields["contact_traction"][pressed, 2] > 0.0)
+    assert not fields["contact_traction"][~pressed, 2].any()
     counts = {name: int(np.sum(state == code)) for code, name in enumerate(("open", "stick", "slip"))}
     assert counts == summary["state_counts"] and np.sum(state == -1) == state.size - summary["p"]
     assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "summary.json"]
