@@ -11,7 +11,7 @@ thresholds do not depend on units:
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
 * ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
-* ``slip_direction``: on nodes sliding by more than 1e-6 of the largest slip, max ‖t + F λ s/‖s‖‖ / max λ
+* ``slip_direction``: on nodes sliding by more than 1e-6 of the largest slip (and 1e-9 δ), max ‖t + F λ s/‖s‖‖ / max λ
   (the friction force opposes the slip s = ũ₁₂);
 * ``reaction_balance``: ‖Σ contact forces + Σ Dirichlet reactions + applied resultant‖ / max(‖applied resultant‖,
   ‖Σ contact forces‖),
@@ -97,15 +97,22 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["cone"] = _gmax(comm, tnorm - F * lam) / max(lam_scale, tiny)
     snorm = np.hypot(slip[:, 0], slip[:, 1])
     smax = _gmax(comm, snorm)
-    sliding = snorm > 1e-6 * smax if smax > 0 else np.zeros_like(snorm, dtype=bool)
+    # sliding: more than 1e-6 of the largest slip and more than round-off of the displacement scale (when every
+    # node sticks, the slips are round-off and have no direction)
+    sliding = snorm > max(1e-6 * smax, 1e-9 * gap_scale) if smax > 0 else np.zeros_like(snorm, dtype=bool)
     Fn = np.broadcast_to(np.asarray(F, dtype=np.float64), lam.shape)
     mismatch = t[sliding] + (Fn * lam)[sliding, None] * slip[sliding] / snorm[sliding, None]
     out["slip_direction"] = _gmax(comm, np.hypot(mismatch[:, 0], mismatch[:, 1])) / max(lam_scale, tiny)
 
     # Global balance with the clamped reactions from an assembly without boundary conditions.
-    full = unconstrained_residual(model, displacement)
     clamped_blocks = np.unique(model.dirichlet_rows // 3)
-    local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
+    if model.coupling is None:
+        full = unconstrained_residual(model, displacement)
+        local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
+    else:  # contact pairs, u = M z: the contact forces are internal (Σ_j φ_sj = 1), so the residual summed over
+        # every node (supports, slave and master nodes; zero elsewhere) balances the applied load
+        full = unconstrained_residual(model, model.physical(displacement))
+        local = full[: model.V.dofmap.index_map.size_local].sum(axis=0)
     total = np.asarray(comm.allreduce(local, op=MPI.SUM))
     applied = model.total_load()
     contact_total = np.asarray(comm.allreduce(f.sum(axis=0), op=MPI.SUM))

@@ -43,6 +43,9 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.contact import ContactMap
+from fenics_coulomb.pairing import ContactPair, Pairing, pair_surfaces
+from fenics_coulomb.preconditioner import rigid_body_modes
+from fenics_coulomb.two_body import body_rigid_modes, check_rigid_support, connected_bodies, coupling_matrix
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.obstacles import (
     DEFAULT_PLANE,
@@ -104,12 +107,13 @@ class ContactModel:
         a: ufl.Form,
         L: ufl.Form | None,
         bcs: Sequence[dolfinx.fem.DirichletBC],
-        contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]],
+        contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None,
         friction: Friction,
         obstacles: Sequence[Obstacle] | None = None,
         prefix: str = "coulomb_",
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
+        contact_pairs: Sequence[ContactPair] | None = None,
     ) -> None:
         V = function_space(a)
         msh = V.mesh
@@ -117,12 +121,28 @@ class ContactModel:
         self.V = V
         self.comm = comm
         self.bcs = list(bcs)
-        facet_tags, markers = contact
+        pairs = list(contact_pairs or [])
+        #: Two bodies: the pairing, M = I + Φ and the stiffness without Dirichlet rows (None for one body).
+        self.pairing: Pairing | None = None
+        self.coupling: PETSc.Mat | None = None
+        self.A_free: PETSc.Mat | None = None
+        if pairs:
+            if contact is not None or obstacles:
+                raise InputError("contact_pairs: give either contact pairs or a contact boundary with obstacles, "
+                                 "not both (two bodies against rigid obstacles are not supported yet)")
+            bad = [q for q in pairs if not isinstance(q, ContactPair)]
+            if bad:
+                raise InputError(f"contact_pairs: {bad[0]!r} is not a ContactPair")
+            facet_tags, markers = pairs[0].facet_tags, []
+        elif contact is None:
+            raise InputError("contact: give the facet tags and the markers of the contact boundary")
+        else:
+            facet_tags, markers = contact
         self.facet_tags = facet_tags
         self.markers = [int(m) for m in markers]
         if isinstance(obstacles, Obstacle):
             obstacles = [obstacles]
-        self.obstacles: list[Obstacle] = list(obstacles) if obstacles else [DEFAULT_PLANE]
+        self.obstacles: list[Obstacle] = list(obstacles) if obstacles else ([] if pairs else [DEFAULT_PLANE])
         # Validate everything before the first collective call: all ranks hold the same values.
         bad_obstacles = [o for o in self.obstacles if not isinstance(o, Obstacle)]
         if bad_obstacles:
@@ -144,21 +164,25 @@ class ContactModel:
         owned = dirichlet[dirichlet < 3 * size_local]
         num_dirichlet = comm.allreduce(int(owned.size), op=MPI.SUM)
 
-        # Stiffness with the Dirichlet rows/columns replaced by a scaled identity.
-        self.A = dolfinx.fem.petsc.assemble_matrix(self.a, bcs=self.bcs)
-        self.A.assemble()
-        self.A.setOptionsPrefix(f"{prefix}A_")
-        self.dirichlet_rows = owned
-        self.dirichlet_diagonal = self._scale_dirichlet_rows(owned)
-
-        # Load vector l̃ (see the module docstring) and the contact nodes (no node with a constrained component)
-        self.load = self.A.createVecRight()
-        self.load.setOptionsPrefix(f"{prefix}load_")
-        self.assemble_load()
-        self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
-        check_not_overlapping(self.obstacles, self.contact.coordinates, comm=comm)
         self._size = comm.allreduce(float(np.abs(msh.geometry.x).max(initial=0.0)), op=MPI.MAX)
-        self.friction = self._friction_at_contact_nodes(friction)
+        self.dirichlet_rows = owned
+        self.load = None
+        if pairs:
+            self._create_two_body(pairs, dirichlet, prefix)
+        else:
+            # Stiffness with the Dirichlet rows/columns replaced by a scaled identity.
+            self.A = dolfinx.fem.petsc.assemble_matrix(self.a, bcs=self.bcs)
+            self.A.assemble()
+            self.A.setOptionsPrefix(f"{prefix}A_")
+            self.dirichlet_diagonal = self._scale_dirichlet_rows(owned)
+            # Load vector l̃ (see the module docstring) and the contact nodes (no node with a constrained
+            # component)
+            self.load = self.A.createVecRight()
+            self.load.setOptionsPrefix(f"{prefix}load_")
+            self.assemble_load()
+            self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
+            check_not_overlapping(self.obstacles, self.contact.coordinates, comm=comm)
+            self.friction = self._friction_at_contact_nodes(friction)
         self.shift = self.A.createVecRight()
         self.shift.setOptionsPrefix(f"{prefix}shift_")
         self.rhs = self.A.createVecRight()
@@ -173,6 +197,76 @@ class ContactModel:
         #: p of the paper: number of contact nodes.
         self.p = self.contact.num_global
 
+    def _create_two_body(self, pairs: list[ContactPair], dirichlet: npt.NDArray[np.int32], prefix: str) -> None:
+        """Ã = Mᵀ A_free M with the Dirichlet rows and columns of s I, the pairing and l̃_z
+        (:mod:`fenics_coulomb.two_body` derives it; collective)."""
+        V, comm = self.V, self.comm
+        #: Body of every local DOF block (connected components of the mesh) and their number.
+        self.body_of_block, self.num_bodies = connected_bodies(V)
+        check_rigid_support(V, self.body_of_block, self.num_bodies, self.dirichlet_rows)
+        self.pairing = pairing = pair_surfaces(V, pairs, np.unique(dirichlet // 3))
+        self.coupling = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix)
+        self.A_free = dolfinx.fem.petsc.assemble_matrix(self.a)
+        self.A_free.assemble()
+        self.A_free.setOptionsPrefix(f"{prefix}A_free_")
+        self.A = self.A_free.ptap(self.coupling)
+        self.A.setOptionsPrefix(f"{prefix}A_")
+        r0 = V.dofmap.index_map.local_range[0]
+        self.A.zeroRowsColumns((self.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
+        self.dirichlet_diagonal = self._scale_dirichlet_rows(self.dirichlet_rows)
+        self.load = self.A.createVecRight()
+        self.load.setOptionsPrefix(f"{prefix}load_")
+        self.assemble_load()
+        blocks = pairing.blocks
+        offsets = np.arange(3, dtype=np.int32)
+        self.contact = ContactMap(
+            blocks=blocks, local_dofs=(3 * blocks[:, None] + offsets).astype(np.int32),
+            global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
+            coordinates=pairing.coordinates, gap=pairing.gap, frames=pairing.frames,
+            obstacle_index=pairing.pair_index, num_global=pairing.num_global)
+        self.friction = np.ascontiguousarray(pairing.friction, dtype=np.float64)
+
+    def near_nullspace(self) -> PETSc.NullSpace:
+        """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""
+        if self.coupling is None:
+            return rigid_body_modes(self.V)
+        return body_rigid_modes(self.V, self.body_of_block, self.num_bodies, self.coupling)
+
+    def physical(self, z: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """u = M z on the owned DOFs (the identity for one body; collective for two)."""
+        if self.coupling is None:
+            return np.array(z, dtype=np.float64)
+        x, y = self.coupling.createVecs()
+        x.array[:] = z
+        self.coupling.mult(x, y)
+        u = y.getArray(readonly=True).copy()
+        x.destroy()
+        y.destroy()
+        return u
+
+    def relative(self, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """z = M⁻¹ u = (I − Φ) u = 2u − M u on the owned DOFs (the identity for one body; collective for two)."""
+        if self.coupling is None:
+            return np.array(u, dtype=np.float64)
+        return 2.0 * np.asarray(u, dtype=np.float64) - self.physical(u)
+
+    def master_forces(self, contact_force: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The reaction on the master nodes, f_j = −Σ_s φ_sj f_s, on the owned DOFs (collective; two bodies).
+
+        Args:
+            contact_force: Cartesian force on each owned slave contact node, shape (m, 3).
+        """
+        assert self.coupling is not None, "master forces exist for contact pairs only"
+        x, y = self.coupling.createVecs()
+        x.set(0.0)
+        x.array[self.contact.local_dofs] = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3)
+        self.coupling.multTranspose(x, y)  # Mᵀ f = f + Φᵀ f
+        y.axpy(-1.0, x)
+        out = -y.getArray(readonly=True).copy()
+        x.destroy()
+        y.destroy()
+        return out
+
     def assemble_load(self) -> None:
         """(Re-)assemble l̃ from the current values of L's coefficients and of the Dirichlet values (collective).
 
@@ -180,12 +274,36 @@ class ContactModel:
         owners (reverse scatter), then set the Dirichlet rows to s g (see the module docstring). Call
         :meth:`place` afterwards to update l = l̃ + A d.
         """
+        if self.coupling is not None:
+            self._assemble_two_body_load()
+            return
         b = dolfinx.fem.petsc.assemble_vector(self.L)
         dolfinx.fem.petsc.apply_lifting(b, [self.a], bcs=[self.bcs])
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         dolfinx.fem.petsc.set_bc(b, self.bcs, alpha=self.dirichlet_diagonal)
         b.copy(self.load)
         b.destroy()
+
+    def _assemble_two_body_load(self) -> None:
+        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.two_body`)."""
+        assert self.coupling is not None and self.A_free is not None
+        l = dolfinx.fem.petsc.assemble_vector(self.L)
+        l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        g = dolfinx.fem.Function(self.V)
+        g.x.array[:] = 0.0
+        for bc in self.bcs:
+            bc.set(g.x.array)
+        x_d = self.A.createVecRight()
+        x_d.array[:] = g.x.array[: x_d.getLocalSize()]
+        t, y = self.A_free.createVecs()
+        self.coupling.mult(x_d, t)
+        self.A_free.mult(t, y)
+        y.scale(-1.0)
+        y.axpy(1.0, l)  # y = l − A_free M x_D
+        self.coupling.multTranspose(y, self.load)
+        self.load.array[self.dirichlet_rows] = self.dirichlet_diagonal * x_d.array[self.dirichlet_rows]
+        for vec in (l, x_d, t, y):
+            vec.destroy()
 
     def place(
         self,
@@ -207,6 +325,9 @@ class ContactModel:
             previous_obstacle_displacements: δ_{k−1} per obstacle, shape (number of obstacles, 3); None for 0.
         """
         obstacles = list(obstacles)
+        if self.pairing is not None:
+            self._place_pairs(previous_displacement)
+            return
         if len(obstacles) != len(self.obstacles) or any(
                 o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
             raise InputError("obstacles: a placement may only change the obstacles' displacements")
@@ -232,6 +353,18 @@ class ContactModel:
         self.shift.set(0.0)
         self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
         # l = l̃ + A d (see the module docstring for the derivation).
+        self.A.mult(self.shift, self.rhs)
+        self.rhs.axpy(1.0, self.load)
+
+    def _place_pairs(self, previous_displacement: npt.NDArray[np.float64] | None) -> None:
+        """The shift of contact pairs: frames and gaps fixed by the pairing, the tangential offset w_{k−1}."""
+        cmap = self.contact
+        self.obstacle_displacement = np.zeros((cmap.size, 3))
+        offset = None if previous_displacement is None else np.asarray(previous_displacement,
+                                                                         dtype=np.float64).reshape(-1, 3)
+        self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
+        self.shift.set(0.0)
+        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
         self.A.mult(self.shift, self.rhs)
         self.rhs.axpy(1.0, self.load)
 
@@ -278,5 +411,6 @@ class ContactModel:
 
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
-        for obj in (self.A, self.load, self.shift, self.rhs):
-            obj.destroy()
+        for obj in (self.A, self.load, self.shift, self.rhs, self.coupling, self.A_free):
+            if obj is not None:
+                obj.destroy()

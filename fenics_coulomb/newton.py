@@ -156,7 +156,8 @@ class SCDNewtonSolver:
         settings = self.settings
         self._default_options = {k: v for k, v in default_options(self.pc).items() if k not in self._user_options}
         self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
-                                               settings.tol, settings.gmres_restart, settings.ksp_max_it)
+                                               settings.tol, settings.gmres_restart, settings.ksp_max_it,
+                                               self.model.near_nullspace)
         with self.petsc_options():
             self.ksp.setFromOptions()
 

@@ -7,6 +7,8 @@ prefix, so ``-<prefix>ksp_*`` / ``-<prefix>pc_*`` options tune it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -118,12 +120,14 @@ def create_ksp(
     tol: float,
     restart: int,
     max_it: int,
+    near_nullspace: Callable[[], PETSc.NullSpace] | None = None,
 ) -> tuple[PETSc.KSP, PETSc.NullSpace | None]:
     """Create the KSP of the Newton matrix M (stiffness A) with the preconditioner ``pc_name``.
 
     ``gamg`` preconditions with A, which never changes: PETSc sets the AMG hierarchy up at the first solve
     and reuses it for every Newton matrix (only the contact rows differ from A). ``gamg-newton`` builds it on
-    M every step. Both get the rigid-body near-nullspace of V. Call ``ksp.setFromOptions()`` afterwards.
+    M every step. Both get the rigid-body near-nullspace of V, or ``near_nullspace()`` (e.g. the modes of two
+    bodies in the variables of :mod:`fenics_coulomb.two_body`). Call ``ksp.setFromOptions()`` afterwards.
 
     Returns:
         The KSP and the near-nullspace it uses (the caller destroys both), or None.
@@ -147,7 +151,7 @@ def create_ksp(
             pc.setFactorSolverType("mumps")
     elif pc_name in ("gamg", "gamg-newton"):
         pc.setType("gamg")
-        nullspace = rigid_body_modes(V)
+        nullspace = near_nullspace() if near_nullspace is not None else rigid_body_modes(V)
         (A if pc_name == "gamg" else M).setNearNullSpace(nullspace)
     elif pc_name == "hypre":
         pc.setType("hypre")

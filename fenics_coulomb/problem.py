@@ -41,6 +41,7 @@ from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model import ContactModel, Friction
 from fenics_coulomb.newton import SCDNewtonSolver
 from fenics_coulomb.obstacles import Obstacle
+from fenics_coulomb.pairing import ContactPair
 from fenics_coulomb.records import SolveResult
 from fenics_coulomb.settings import SolverSettings
 
@@ -101,6 +102,10 @@ class ContactProblem:
         petsc_options: PETSc options (without prefix) of the Newton systems' KSP and preconditioner.
         form_compiler_options: FFCx options.
         jit_options: JIT options.
+        contact_pairs: Two (or more) elastic bodies, disconnected parts of the mesh, in contact: the
+            :class:`~fenics_coulomb.pairing.ContactPair` s (slave and master facet tags, friction); replaces
+            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of :mod:`fenics_coulomb.two_body`;
+            :attr:`u` and the result's ``displacement`` are the physical u = M z.
 
     Raises:
         InputError: for bad input (on every rank, before the first collective call where possible).
@@ -120,17 +125,18 @@ class ContactProblem:
         petsc_options: dict[str, Any] | None = None,
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
+        contact_pairs: Sequence[ContactPair] | None = None,
     ) -> None:
         self._model: ContactModel | None = None
         self._solver: SCDNewtonSolver | None = None
         if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
             raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
         self.settings = _settings(settings)
-        if contact is None:
+        if contact is None and not contact_pairs:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
-                                   form_compiler_options, jit_options)
+                                   form_compiler_options, jit_options, contact_pairs)
         #: Wall time of building the model (form compilation and assembly) on this rank.
         self.model_time = time.perf_counter() - t0
         self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
@@ -213,7 +219,7 @@ class ContactProblem:
         """Forget the load path's history, or set it to a known previous step (collective with ``u``).
 
         Args:
-            u: The displacement of the previous step (on any mesh, interpolated), or None for ũ₀ = 0.
+            u: The (physical) displacement of the previous step (on any mesh, interpolated), or None for ũ₀ = 0.
             step: The number of that step (the next solve is step ``step + 1``).
             obstacle_displacements: δ of that step per obstacle, shape (number of obstacles, 3); None for 0.
         """
@@ -225,7 +231,7 @@ class ContactProblem:
             if delta.shape != (len(self._obstacles), 3) or not np.all(np.isfinite(delta)):
                 raise InputError(f"reset: obstacle_displacements of shape {delta.shape}: need finite values of "
                                  f"shape ({len(self._obstacles)}, 3)")
-        self._previous = None if u is None else interpolate_displacement(u, self.model.V)
+        self._previous = None if u is None else self.model.relative(interpolate_displacement(u, self.model.V))
         self._previous_delta = delta
         self._step = int(step)
 
@@ -249,7 +255,7 @@ class ContactProblem:
         values are imposed on each (collective)."""
         model = self.model
         if u0 is not None:
-            start = interpolate_displacement(u0, model.V)
+            start = model.relative(interpolate_displacement(u0, model.V))
         elif self._previous is not None:
             start = self._previous.copy()
         else:
@@ -314,7 +320,11 @@ class ContactProblem:
     def _finish(self, result: SolveResult, commit: bool = False) -> dolfinx.fem.Function:
         result.timings["model"] = self.model_time
         if commit:
-            self._commit(result)
+            self._commit(result)  # the history is kept in the model's unknown (z for contact pairs)
+        if self.model.coupling is not None:
+            result.relative_displacement = result.displacement
+            result.displacement = self.model.physical(result.displacement)
+            result.master_force = self.model.master_forces(result.contact_force)
         self.u.x.petsc_vec.array[:] = result.displacement
         self.u.x.scatter_forward()
         return self.u

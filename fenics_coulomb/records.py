@@ -65,6 +65,9 @@ class SolveResult:
         p: Contact nodes (global).
         counts: Global open/stick/slip counts at the final iterate.
         linear: Whether the result is the one linear solve of the predictor or the no-contact shortcut.
+        relative_displacement: Contact pairs: the solver's unknown z (w_s on the slave contact nodes), owned
+            DOFs; None for one body.
+        master_force: Contact pairs: the reaction on the master nodes f_j = −Σ_s φ_sj f_s, owned DOFs.
     """
 
     u: Array
@@ -88,6 +91,8 @@ class SolveResult:
     p: int = 0
     counts: dict[str, int] = field(default_factory=dict)
     linear: bool = False
+    relative_displacement: Array | None = None
+    master_force: Array | None = None
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes (collective)."""

@@ -1,0 +1,243 @@
+"""Two elastic bodies in contact through contact pairs (issue 18): the change of variables u = M z.
+
+Two disjoint blocks of one hexahedral mesh: the lower block [0, 2]×[0, 1]×[−1, 0] (its top is the master
+surface), the upper block [0, 2]×[0, 1]×[g, 1 + g] (its bottom is the slave surface). Checked: a rigid master
+(every master-body node prescribed to δ) equals the one-body solve against the plane moved by δ (1e-8); two
+deformable bodies agree with the independent Alart–Curnier solver in u with the coupling w = G u (1e-7), obey
+the physics, and each body's force from its own residual is equal and opposite; a load path on a pair;
+1 rank = 2 ranks with master facets on another rank than their slave nodes; bad input.
+"""
+
+from __future__ import annotations
+
+import basix.ufl
+from mpi4py import MPI
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+import pytest
+import ufl
+from conftest import gather_by_coordinates, global_norm
+
+from fenics_coulomb import ContactProblem, Plane
+from fenics_coulomb.checks import physics_residuals, unconstrained_residual
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.pairing import ContactPair
+
+MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP = 1, 2, 3, 4
+TIGHT = {"rtol": 1e-12, "tol": 1e-12}
+PHYSICS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",
+           "reaction_balance")
+
+
+def _grid(x0, x1, n):
+    xs = [np.linspace(x0[i], x1[i], n[i] + 1) for i in range(3)]
+    X = np.stack(np.meshgrid(*xs, indexing="ij"), -1).reshape(-1, 3)
+    idx = np.arange(X.shape[0]).reshape(n[0] + 1, n[1] + 1, n[2] + 1)
+    corners = [idx[di:n[0] + di, dj:n[1] + dj, dk:n[2] + dk].ravel()
+               for dk in (0, 1) for dj in (0, 1) for di in (0, 1)]  # DOLFINx's tensor-product vertex order
+    return X, np.stack(corners, 1)
+
+
+def two_blocks(comm: MPI.Comm, gap: float = 1e-3, lower=(4, 4, 2), upper=(4, 4, 2)):
+    """The two blocks as one mesh with facet tags MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP."""
+    if comm.rank == 0:
+        X1, C1 = _grid([0, 0, -1], [2, 1, 0], lower)
+        X2, C2 = _grid([0, 0, gap], [2, 1, 1 + gap], upper)
+        X, C = np.vstack([X1, X2]), np.vstack([C1, C2 + len(X1)]).astype(np.int64)
+    else:
+        X, C = np.zeros((0, 3)), np.zeros((0, 8), dtype=np.int64)
+    element = ufl.Mesh(basix.ufl.element("Lagrange", "hexahedron", 1, shape=(3,)))
+    msh = dolfinx.mesh.create_mesh(comm, C, X, element)
+    msh.topology.create_connectivity(2, 3)
+    planes = [(MASTER, 0.0), (SLAVE, gap), (LOWER_BOTTOM, -1.0), (UPPER_TOP, 1.0 + gap)]
+    facets = [dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x, z=z: np.isclose(x[2], z)) for _, z in planes]
+    indices = np.hstack(facets).astype(np.int32)
+    values = np.hstack([np.full(f.size, tag, np.int32) for (tag, _), f in zip(planes, facets)])
+    order = np.argsort(indices)
+    return msh, dolfinx.mesh.meshtags(msh, 2, indices[order], values[order])
+
+
+def elasticity(V, E=70.0, nu=0.3, upper=None):
+    """Isotropic Lamé form; ``upper`` = (E, ν) of the upper body (x3 > 0) if it differs."""
+    mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
+    if upper is not None:
+        above = ufl.SpatialCoordinate(V.mesh)[2] > 0.0
+        E2, nu2 = upper
+        mu = ufl.conditional(above, E2 / (2 * (1 + nu2)), mu)
+        lmbda = ufl.conditional(above, E2 * nu2 / ((1 + nu2) * (1 - 2 * nu2)), lmbda)
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+
+    def eps(w):
+        return ufl.sym(ufl.grad(w))
+
+    return ufl.inner(2 * mu * eps(u) + lmbda * ufl.tr(eps(u)) * ufl.Identity(3), eps(v)) * ufl.dx
+
+
+def pressed_blocks(comm, top=(0.0015, 0.0, -0.004), **mesh_args):
+    """Lower block (E = 70, ν = 0.2) clamped at its bottom, the softer upper block (E = 20, ν = 0.45) with its
+    top moved by ``top`` (a Constant): their different lateral expansion makes the interface slip."""
+    msh, ft = two_blocks(comm, **mesh_args)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    value = dolfinx.fem.Constant(msh, np.asarray(top, dtype=np.float64))
+    bcs = [dolfinx.fem.dirichletbc(value, dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V),
+           dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)]
+    return V, ft, elasticity(V, 70.0, 0.2, upper=(20.0, 0.45)), bcs, value
+
+
+def owned(problem):
+    return problem.u.x.petsc_vec.getArray(readonly=True).copy()
+
+
+def assert_physics(problem, result, label=""):
+    checks = physics_residuals(problem.model, result.relative_displacement)
+    for key in PHYSICS:
+        assert checks[key] < 1e-8, (label, key, checks[key])
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_rigid_master_equals_the_moved_plane(friction):
+    """Every node of the lower (master) body prescribed to δ: the pair equals the one-body solve of the upper
+    block against the plane x3 = 0 moved by δ, on the same mesh (1e-8)."""
+    delta = np.array([0.0005, 0.0002, 0.0003])
+    msh, ft = two_blocks(MPI.COMM_WORLD)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    a = elasticity(V)
+    top = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP))
+    lower = dolfinx.fem.locate_dofs_geometrical(V, lambda x: x[2] <= 1e-9)
+    bcs = [dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.004]), top, V),
+           dolfinx.fem.dirichletbc(delta, lower, V)]
+    with ContactProblem(a, None, bcs, contact_pairs=[ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)],
+                        settings=TIGHT, petsc_options_prefix="pair_") as problem:
+        _, result = problem.solve()
+        assert result.converged and result.counts["open"] < problem.p
+        assert_physics(problem, result)
+        pair = owned(problem)
+    plane = Plane(point=[0, 0, 0], normal=[0, 0, 1], displacement=delta)
+    with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), friction=friction, obstacles=[plane], settings=TIGHT,
+                        petsc_options_prefix="plane_") as problem:
+        _, reference = problem.solve()
+        one = owned(problem)
+    assert global_norm(pair - one) <= 1e-8 * global_norm(one)
+    if friction > 0:
+        assert reference.counts["slip"] + reference.counts["stick"] > 0
+
+
+def _coupling_rows(pairing, n):
+    """G with (G u)_s = u_s − Σ_j φ_sj u_j, built here from the pairing's stencils (serial)."""
+    import scipy.sparse as sp
+
+    m = len(pairing.blocks)
+    rows, cols, data = [], [], []
+    for c in range(3):
+        rows.append(3 * np.arange(m) + c)
+        cols.append(3 * pairing.blocks + c)
+        data.append(np.ones(m))
+        for j in range(pairing.master_blocks.shape[1]):
+            ok = pairing.master_blocks[:, j] >= 0
+            rows.append(3 * np.arange(m)[ok] + c)
+            cols.append(3 * pairing.master_blocks[ok, j] + c)
+            data.append(-pairing.weights[ok, j])
+    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * m, n))
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_two_deformable_bodies_agree_with_brute_force(friction):
+    """Both blocks deformable (non-matching resolutions), the upper one pushed down and sideways: the SCD solve in
+    z and the Alart–Curnier solver in u (K without Dirichlet rows, the coupling w = G u) agree (1e-7); the
+    physics holds; the master reaction is −Σ φ f; each body's force from its own residual is equal and opposite."""
+    import scipy.sparse as sp
+    from brute_force import solve_contact
+
+    V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_SELF, lower=(4, 4, 2), upper=(4, 4, 3))
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
+    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="bf_") as problem:
+        uh, result = problem.solve()
+        assert result.converged
+        assert_physics(problem, result)
+        model = problem.model
+        ip, ix, vals = model.A_free.getValuesCSR()
+        K = sp.csr_matrix((vals, ix, ip), shape=model.A_free.getSize())
+        G = _coupling_rows(model.pairing, K.shape[0])
+        g = dolfinx.fem.Function(V)
+        g.x.array[:] = np.nan
+        for bc in bcs:
+            bc.set(g.x.array)
+        D = np.flatnonzero(~np.isnan(g.x.array))
+        sol = solve_contact(K, np.zeros(K.shape[0]), np.arange(3 * len(model.pairing.blocks)).reshape(-1, 3),
+                            model.pairing.gap, friction, frames=model.pairing.frames, coupling=G,
+                            dirichlet=(D, g.x.array[D]))
+        u = owned(problem)
+        assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u)
+        force = np.einsum("iab,ib->ia", model.pairing.frames, sol.force)
+        assert np.abs(force - result.contact_force).max() <= 1e-7 * np.abs(force).max()
+        # the force on each body from its own residual K u − l (no Dirichlet node on either surface's free part)
+        full = unconstrained_residual(model, u)
+        slave_force = full[model.pairing.blocks].sum(axis=0)
+        master_nodes = np.unique(model.pairing.master_blocks[model.pairing.master_blocks >= 0])
+        master_force = full[master_nodes].sum(axis=0)
+        assert np.allclose(slave_force, result.contact_force.sum(axis=0), rtol=0, atol=1e-10 * abs(slave_force[2]))
+        assert np.linalg.norm(slave_force + master_force) <= 1e-8 * np.linalg.norm(slave_force)
+        assert np.allclose(result.master_force.reshape(-1, 3)[master_nodes], full[master_nodes], rtol=0,
+                           atol=1e-10 * abs(slave_force[2]))
+        if friction > 0:
+            assert abs(slave_force[0]) > 1e-3 * abs(slave_force[2])  # the shear is carried by friction
+
+
+def test_load_path_on_a_pair():
+    """Press, then shear in two steps, then reverse: friction on the increment of the relative slip; each step
+    obeys the physics on its increment; the reversal leaves a state that differs from the static solve."""
+    V, ft, a, bcs, top = pressed_blocks(MPI.COMM_WORLD, top=(0.0, 0.0, -0.004))
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3)
+    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="tbpath_") as problem:
+        for k, shear in enumerate([0.0, 0.0006, -0.0002]):
+            top.value[0] = shear
+            _, result = problem.solve()
+            assert result.converged and problem.step == k + 1
+            assert_physics(problem, result, f"step {k + 1}")
+        path_end = owned(problem)
+        problem.reset()
+        problem.solve()
+        static = owned(problem)
+    assert global_norm(path_end - static) > 1e-4 * global_norm(static)
+
+
+def test_one_rank_equals_two_ranks():
+    """The pressed and sheared blocks on COMM_WORLD (GAMG) and on COMM_SELF (LU) agree at every node (1e-8); on
+    several ranks some slave node's master facet has a node owned by another rank."""
+    results = []
+    for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
+        V, ft, a, bcs, _ = pressed_blocks(comm, lower=(5, 3, 2), upper=(5, 3, 2))
+        pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3)
+        # GAMG with the bodies' near-nullspace (I − Φ) r_b on this communicator, ILU or LU alone
+        settings = {**TIGHT, "pc": "gamg" if comm is MPI.COMM_WORLD else "lu"}
+        with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=settings,
+                            petsc_options_prefix=f"tb{comm.size}_") as problem:
+            _, result = problem.solve()
+            assert result.converged
+            if comm.size > 1:
+                imap = V.dofmap.index_map
+                lo, hi = imap.local_range
+                stencil = problem.model.pairing.master_blocks
+                foreign = np.any((stencil >= 0) & ((stencil < lo) | (stencil >= hi)))
+                assert comm.allreduce(bool(foreign), op=MPI.LOR)
+            results.append(gather_by_coordinates(V, owned(problem), comm))
+    (x0, u0), (x1, u1) = results
+    assert np.allclose(x0, x1)
+    assert np.abs(u0 - u1).max() <= 1e-8 * np.abs(u1).max()
+
+
+def test_bad_input():
+    """A body without supports, pairs together with obstacles: InputError naming the problem."""
+    msh, ft = two_blocks(MPI.COMM_WORLD)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    a = elasticity(V)
+    bottom = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER)
+    with pytest.raises(InputError, match="body 1 .* rigid motions"):
+        ContactProblem(a, None, [bottom], contact_pairs=[pair], petsc_options_prefix="bad_")
+    with pytest.raises(InputError, match="not both"):
+        ContactProblem(a, None, [bottom], contact_pairs=[pair], obstacles=[Plane(point=[0, 0, 0], normal=[0, 0, 1])],
+                       petsc_options_prefix="bad_")
