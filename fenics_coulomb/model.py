@@ -133,7 +133,9 @@ class ContactModel:
             bad = [q for q in pairs if not isinstance(q, ContactPair)]
             if bad:
                 raise InputError(f"contact_pairs: {bad[0]!r} is not a ContactPair")
-            facet_tags, markers = pairs[0].facet_tags, []
+            # the slave surfaces are the contact boundary (nodal areas of the tractions, figures)
+            facet_tags = pairs[0].facet_tags
+            markers = sorted({int(t) for q in pairs for t in np.atleast_1d(q.slave)})
         elif contact is None:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         else:
