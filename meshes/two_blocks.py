@@ -81,10 +81,10 @@ def _grid(origin: npt.ArrayLike, size: npt.ArrayLike, n: Sequence[int],
 
 
 def body_partitioner(num_lower: int, vertices_per_cell: int) -> Callable:
-    """A partitioner (for 2 ranks or more) putting the lower body's cells on rank 0 and the upper's on rank 1.
+    """A partitioner (for 2 ranks or more) putting the first body's cells on rank 0 and the others on rank 1.
 
     Args:
-        num_lower: Number of lower-body cells (they come first in the input order of :func:`two_blocks`).
+        num_lower: Number of cells of the first body (they come first in the input order of :func:`boxes_mesh`).
         vertices_per_cell: 8 (hexahedra) or 4 (tetrahedra).
     """
     from dolfinx import cpp
@@ -97,6 +97,40 @@ def body_partitioner(num_lower: int, vertices_per_cell: int) -> Callable:
         return cpp.graph.AdjacencyList_int32(dest)
 
     return partition
+
+
+def boxes_mesh(comm: MPI.Comm, boxes: Sequence[tuple[Sequence[float], Sequence[float], Sequence[int]]],
+               cell_type: str = "hexahedron", partitioner: Callable | str | None = None
+               ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
+    """Disjoint structured boxes in one mesh, cell tags 1, 2, ... per box (in the order given).
+
+    Args:
+        comm: Communicator of the mesh (collective).
+        boxes: (origin, size, cells per direction) of each box.
+        cell_type: "hexahedron" (Q1) or "tetrahedron" (P1).
+        partitioner: A DOLFINx cell partitioner, "bodies" (box 1 on rank 0, the others on rank 1, see
+            :func:`body_partitioner`) or None (deterministic recursive coordinate bisection).
+    """
+    if cell_type not in ("hexahedron", "tetrahedron"):
+        raise ValueError(f"cell_type {cell_type!r}: choose 'hexahedron' or 'tetrahedron'")
+    grids = [_grid(origin, size, n, cell_type) for origin, size, n in boxes]
+    first = np.cumsum([0] + [g[0].shape[0] for g in grids])
+    ends = np.cumsum([g[1].shape[0] for g in grids])
+    nv = grids[0][1].shape[1]
+    if comm.rank == 0:
+        x = np.concatenate([g[0] for g in grids])
+        cells = np.concatenate([g[1] + f for g, f in zip(grids, first, strict=False)])
+    else:
+        x, cells = np.zeros((0, 3)), np.zeros((0, nv), dtype=np.int64)
+    if partitioner is None:
+        partitioner = create_partitioner(comm, x)
+    elif partitioner == "bodies":
+        partitioner = body_partitioner(int(ends[0]), nv)
+    domain = ufl.Mesh(basix.ufl.element("Lagrange", cell_type, 1, shape=(3,)))
+    msh = dolfinx.mesh.create_mesh(comm, cells, x, domain, partitioner=partitioner)
+    num_cells = msh.topology.index_map(3).size_local
+    body = (np.searchsorted(ends, msh.topology.original_cell_index[:num_cells], side="right") + 1).astype(np.int32)
+    return msh, dolfinx.mesh.meshtags(msh, 3, np.arange(num_cells, dtype=np.int32), body)
 
 
 def two_blocks(comm: MPI.Comm = MPI.COMM_WORLD, *, lower: Sequence[float] = (1.0, 1.0, 0.5),
@@ -122,30 +156,12 @@ def two_blocks(comm: MPI.Comm = MPI.COMM_WORLD, *, lower: Sequence[float] = (1.0
     Returns:
         The mesh with cell tags (``BODIES``) and facet tags (``TAGS``).
     """
-    if cell_type not in ("hexahedron", "tetrahedron"):
-        raise ValueError(f"cell_type {cell_type!r}: choose 'hexahedron' or 'tetrahedron'")
     Lx, Ly, H = (float(v) for v in lower)
-    xa, cells_a = _grid((0.0, 0.0, -H), (Lx, Ly, H), n_lower, cell_type)
-    xb, cells_b = _grid((upper_origin[0], upper_origin[1], gap), upper, n_upper, cell_type)
-    num_lower = cells_a.shape[0]
-    if comm.rank == 0:
-        x = np.concatenate([xa, xb])
-        cells = np.concatenate([cells_a, cells_b + xa.shape[0]])
-    else:
-        x, cells = np.zeros((0, 3)), np.zeros((0, cells_a.shape[1]), dtype=np.int64)
-    if partitioner is None:
-        partitioner = create_partitioner(comm, x)
-    elif partitioner == "bodies":
-        partitioner = body_partitioner(num_lower, cells_a.shape[1])
-    domain = ufl.Mesh(basix.ufl.element("Lagrange", cell_type, 1, shape=(3,)))
-    msh = dolfinx.mesh.create_mesh(comm, cells, x, domain, partitioner=partitioner)
+    boxes = [((0.0, 0.0, -H), (Lx, Ly, H), n_lower), ((upper_origin[0], upper_origin[1], gap), upper, n_upper)]
+    msh, cell_tags = boxes_mesh(comm, boxes, cell_type, partitioner)
+    body = cell_tags.values
 
     tdim, fdim = 3, 2
-    num_cells = msh.topology.index_map(tdim).size_local
-    body = np.where(msh.topology.original_cell_index[:num_cells] < num_lower, BODIES["lower"],
-                    BODIES["upper"]).astype(np.int32)
-    cell_tags = dolfinx.mesh.meshtags(msh, tdim, np.arange(num_cells, dtype=np.int32), body)
-
     msh.topology.create_connectivity(fdim, tdim)
     facets = dolfinx.mesh.exterior_facet_indices(msh.topology)
     f2c = msh.topology.connectivity(fdim, tdim)
@@ -153,8 +169,7 @@ def two_blocks(comm: MPI.Comm = MPI.COMM_WORLD, *, lower: Sequence[float] = (1.0
     on_lower = body[owner] == BODIES["lower"]
     mid = dolfinx.mesh.compute_midpoints(msh, fdim, facets)
     tol = 1e-10 * max(Lx, Ly, H, *upper)
-    x0, y0 = upper_origin
-    ax, ay, h = upper
+    h = float(upper[2])
     values = np.zeros(facets.size, dtype=np.int32)
     z = mid[:, 2]
     values[on_lower] = np.where(np.abs(z[on_lower]) < tol, TAGS["lower_top"],
