@@ -38,7 +38,7 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   master body (d points into it: −d is in C) is paired with g < 0 (n = −d/|d| at an edge/vertex, n_f inside
   a facet; g = d·n = −|d|). When both hold (only possible for a cone containing a line), +d is used.
 * Several pairs: a node belongs to the pair with the smallest |g| among those where it is a contact node
-  (ties: the first pair).
+  (ties, |g| equal within 1e-10 × the largest bounding-box diagonal of the pairs' M ∪ S: the first pair).
 
 Dist(d, C) for a polyhedral cone in ℝ³ is evaluated exactly via Carathéodory: the minimum of the
 non-negative least-squares residuals over the single generators and the pairs of generators, and 0 when d
@@ -604,8 +604,11 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     for i, p in enumerate(per_pair):
         pos = np.searchsorted(allnodes, p["nodes"])
         absg[i, pos[p["contact"]]] = np.abs(p["g"][p["contact"]])
-    winner = np.argmin(absg, axis=0) if per_pair else np.zeros(0, np.intp)
-    is_contact = np.isfinite(absg[winner, np.arange(allnodes.size)]) if per_pair else np.zeros(0, bool)
+    # ties: |g| within TIE_TOL × the largest surfaces' size of the pairs (round-off of g is not a preference)
+    tie = TIE_TOL * max((p["body"] for p in per_pair), default=0.0)
+    best = absg.min(axis=0) if per_pair else np.zeros(0)
+    winner = np.argmax(absg <= best + tie, axis=0) if per_pair else np.zeros(0, np.intp)
+    is_contact = np.isfinite(best)
     blocks = allnodes[is_contact].astype(np.int32)
     winner = winner[is_contact]
     m = blocks.size
