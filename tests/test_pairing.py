@@ -62,8 +62,9 @@ def master_facets(msh: dolfinx.mesh.Mesh, facet_tags, tag: int) -> np.ndarray:
     """Vertex coordinates (k, nv, 3) of the facets with ``tag`` on all ranks, from the mesh geometry."""
     facets = facet_tags.find(tag)
     msh.topology.create_connectivity(2, 3)
-    nodes = dolfinx.mesh.entities_to_geometry(msh, 2, facets)
     nv = 4 if msh.topology.cell_name() == "hexahedron" else 3
+    # (entities_to_geometry raises SIGFPE on an empty list in DOLFINx 0.9)
+    nodes = dolfinx.mesh.entities_to_geometry(msh, 2, facets) if facets.size else np.zeros((0, nv), np.int32)
     return np.concatenate(msh.comm.allgather(msh.geometry.x[nodes].reshape(-1, nv, 3)))
 
 
