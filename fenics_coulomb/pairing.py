@@ -229,13 +229,12 @@ def _closest_triangle(p: Array, X: Array) -> tuple[Array, Array, Array]:
     inside = (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
     w = np.stack([1 - l1 - l2, l1, l2], axis=1)
     candidates = [(A + l1[:, None] * e1 + l2[:, None] * e2, w, inside)]
-    zero = np.zeros_like(l1)
     for i, j in ((0, 1), (1, 2), (2, 0)):
         q, t = _segment(p, X[:, i], X[:, j])
         we = np.zeros((p.shape[0], 3))
         we[:, i], we[:, j] = 1 - t, t
         candidates.append((q, we, np.ones_like(inside)))
-    return _pick(p, candidates, zero)
+    return _pick(p, candidates)
 
 
 def _quad_map(X: Array, xi: Array, eta: Array) -> tuple[Array, Array, Array]:
@@ -254,23 +253,26 @@ def _closest_quad(p: Array, X: Array) -> tuple[Array, Array, Array]:
     """Closest points of bilinear quadrilaterals X (k, 4, 3) to p (k, 3): (points, weights (k, 4), distance)."""
     k = p.shape[0]
     xi, eta = np.full(k, 0.5), np.full(k, 0.5)
-    c = X[:, 0] - X[:, 1] - X[:, 2] + X[:, 3]
-    converged = np.zeros(k, dtype=bool)
     scale = np.maximum(_norm(X[:, 3] - X[:, 0]), _norm(X[:, 2] - X[:, 1]))
-    for _ in range(50):  # Newton on the stationarity of ½|x − p|², vectorized over the pairs
-        x, xx, xe = _quad_map(X, xi, eta)
-        r = x - p
+    active = np.arange(k)
+    for _ in range(50):  # Newton on the stationarity of ½|x − p|², vectorized over the pairs still moving
+        Xa, pa, xa, ea = X[active], p[active], xi[active], eta[active]
+        x, xx, xe = _quad_map(Xa, xa, ea)
+        r = x - pa
         g1, g2 = _dot(xx, r), _dot(xe, r)
         h11, h22, h12 = _dot(xx, xx), _dot(xe, xe), _dot(xx, xe)
-        full = h12 + _dot(r, c)
+        full = h12 + _dot(r, Xa[:, 0] - Xa[:, 1] - Xa[:, 2] + Xa[:, 3])
         det_full = h11 * h22 - full * full
         h12 = np.where(det_full > 1e-12 * h11 * h22, full, h12)  # Gauss–Newton where not positive definite
         det = np.maximum(h11 * h22 - h12 * h12, np.finfo(float).tiny)
         dxi = -(h22 * g1 - h12 * g2) / det
         deta = -(h11 * g2 - h12 * g1) / det
-        xi, eta = np.clip(xi + dxi, -0.5, 1.5), np.clip(eta + deta, -0.5, 1.5)
-        converged = np.maximum(np.abs(dxi), np.abs(deta)) <= 1e-14
-        if converged.all():
+        xa, ea = np.clip(xa + dxi, -0.5, 1.5), np.clip(ea + deta, -0.5, 1.5)
+        xi[active], eta[active] = xa, ea
+        # done: converged, or pushed to the clipping box (far outside the patch: the edges hold the minimum)
+        moving = (np.maximum(np.abs(dxi), np.abs(deta)) > 1e-14) & (np.abs(xa - 0.5) < 1) & (np.abs(ea - 0.5) < 1)
+        active = active[moving]
+        if active.size == 0:
             break
     x, xx, xe = _quad_map(X, xi, eta)
     r = x - p
@@ -287,17 +289,17 @@ def _closest_quad(p: Array, X: Array) -> tuple[Array, Array, Array]:
         else:
             a, b = (zeros if fixed == "xi0" else ones), t
         candidates.append((q, _quad_weights(a, b), np.ones(k, dtype=bool)))
-    return _pick(p, candidates, zeros)
+    return _pick(p, candidates)
 
 
-def _pick(p: Array, candidates: list, zero: Array) -> tuple[Array, Array, Array]:
+def _pick(p: Array, candidates: list) -> tuple[Array, Array, Array]:
     """The nearest valid candidate (the first on exact ties)."""
     dist = np.stack([np.where(ok, _norm(q - p), np.inf) for q, _, ok in candidates])
     best = np.argmin(dist, axis=0)
     rows = np.arange(p.shape[0])
     q = np.stack([c[0] for c in candidates])[best, rows]
     w = np.stack([c[1] for c in candidates])[best, rows]
-    return q, w, dist[best, rows] + zero
+    return q, w, dist[best, rows]
 
 
 def _reference(w: Array) -> tuple[Array, Array]:
@@ -342,8 +344,8 @@ class _Surface:
         return _Surface(self.X[first], self.blocks[first], self.sign[first])
 
 
-def _local_facets(V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags,
-                  tags: Sequence[int]) -> npt.NDArray[np.int32]:
+def _local_facets(facet_tags: dolfinx.mesh.MeshTags, tags: Sequence[int]) -> npt.NDArray[np.int32]:
+    """This rank's facets carrying any of ``tags``, ascending."""
     found = [facet_tags.find(t) for t in tags]
     return np.unique(np.concatenate(found)).astype(np.int32) if found else np.zeros(0, np.int32)
 
@@ -552,7 +554,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     for label, pair in zip(labels, pairs, strict=True):
         both = []
         for key, tags in (("slave", pair.slave_tags), ("master", pair.master_tags)):
-            facets = _local_facets(V, pair.facet_tags, tags)
+            facets = _local_facets(pair.facet_tags, tags)
             counts.append([pair.facet_tags.find(t).size for t in tags])
             inner = np.setdiff1d(facets, exterior)
             if inner.size and not message:

@@ -23,7 +23,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.pairing import ContactPair, pair_surfaces
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
-from two_blocks import TAGS, boxes_mesh, two_blocks  # noqa: E402
+from two_blocks import TAGS, boxes_mesh, two_blocks
 
 CELLS = ["hexahedron", "tetrahedron"]
 NONE = np.zeros(0, dtype=np.int32)
@@ -80,6 +80,62 @@ def check_common(V, P, data) -> None:
     assert np.all(np.diff(P.blocks) > 0) and (P.blocks < V.dofmap.index_map.size_local).all()
 
 
+def check_tie_rule(b, V, data, cell: str, expect_shared: int) -> None:
+    """Among the flat master facets (z = 0) containing x_m, φ is that of the one with the lexicographically
+    smallest sorted global vertex indices (the vertices found by coordinates from the mesh geometry)."""
+    facets = master_facets(b.mesh, b.facet_tags, TAGS["lower_top"])
+    X = global_coordinates(V)
+    lower = np.unique(lower_blocks(b, V))
+    _, idx = cKDTree(X[lower]).query(facets.reshape(-1, 3))
+    keys = np.sort(lower[idx].reshape(facets.shape[:2]), axis=1)
+    keys = np.unique(keys, axis=0, return_index=True)
+    facets = facets[keys[1]]
+    keys = keys[0]
+    xy = facets[:, :, :2]
+    p = data["xm"][:, None, None, :2]
+    if cell == "hexahedron":  # axis-aligned rectangles
+        contains = ((p >= xy.min(axis=1)[None, :, None] - 1e-12) & (p <= xy.max(axis=1)[None, :, None] + 1e-12))
+        contains = contains.all(axis=(2, 3))
+    else:  # barycentric coordinates in the plane
+        T = np.stack([xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]], axis=2)  # (k, 2, 2)
+        lam = np.einsum("kab,mkb->mka", np.linalg.inv(T), data["xm"][:, None, :2] - xy[None, :, 0])
+        contains = (lam >= -1e-12).all(axis=2) & (lam.sum(axis=2) <= 1 + 1e-12)
+    assert contains.any(axis=1).all()
+    shared = contains.sum(axis=1) > 1
+    assert shared.sum() >= expect_shared, "the mesh should put some slave nodes on master edges or vertices"
+    nv = keys.shape[1]
+    got = np.sort(data["mb"], axis=1)[:, -nv:]  # the −1 padding of triangles sorts first
+    for i in range(data["x"].shape[0]):  # a loop in the test oracle only
+        candidates = keys[contains[i]]
+        expected = candidates[np.lexsort(candidates.T[::-1])[0]]
+        assert (got[i] == expected).all(), (data["x"][i], got[i], candidates)
+
+
+@pytest.mark.parametrize("cell", CELLS)
+def test_matching_touching(cell):
+    """Matching meshes at gap 0: every slave node sits on a master vertex (a different DOF: Φ² holds),
+    g = 0, n = the normalized sum of the facet normals there (e₃), φ = 1 at that vertex."""
+    b = two_blocks(MPI.COMM_WORLD, cell_type=cell, gap=0.0, n_upper=(2, 2, 1))
+    V = space(b.mesh)
+    P = pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"])], NONE)
+    data = gathered(V, P)
+    assert P.num_global == 9
+    check_common(V, P, data)
+    assert np.allclose(data["g"], 0, atol=1e-15) and np.allclose(data["n"], [0, 0, 1], atol=1e-12)
+    one = np.argmax(data["w"], axis=1)
+    assert np.allclose(data["w"].max(axis=1), 1.0, atol=1e-12)
+    assert np.allclose(data["mx"][np.arange(9), one], data["x"], atol=1e-14)
+    check_tie_rule(b, V, data, cell, expect_shared=9)
+
+
+def lower_blocks(b, V) -> np.ndarray:
+    """Global DOF blocks of the lower body (cell tag 1), on every rank."""
+    cells = b.cell_tags.find(1)
+    local = np.unique(V.dofmap.list[cells]).astype(np.int32)
+    local = local[local < V.dofmap.index_map.size_local]
+    return np.concatenate(V.mesh.comm.allgather(V.dofmap.index_map.local_to_global(local)))
+
+
 # -- flat non-matching boxes ------------------------------------------------------------------------------
 @pytest.mark.parametrize("partitioner", [None, "bodies"])
 @pytest.mark.parametrize("cell", CELLS)
@@ -99,34 +155,7 @@ def test_flat_non_matching(cell, partitioner):
     assert np.allclose(data["xm"], data["x"] * [1, 1, 0], atol=1e-13)
     assert (data["pair"] == 0).all() and (data["F"] == 0.3).all()
 
-    # the tie rule: among the facets containing x_m, the one with the lexicographically smallest sorted
-    # global vertex indices (vertices found by coordinates from the mesh geometry)
-    facets = master_facets(b.mesh, b.facet_tags, TAGS["lower_top"])
-    X = global_coordinates(V)
-    lower = np.flatnonzero(X[:, 2] < 0.01)
-    _, idx = cKDTree(X[lower]).query(facets.reshape(-1, 3))
-    keys = np.sort(lower[idx].reshape(facets.shape[:2]), axis=1)
-    keys = np.unique(keys, axis=0, return_index=True)
-    facets = facets[keys[1]]
-    keys = keys[0]
-    xy = facets[:, :, :2]
-    p = data["xm"][:, None, None, :2]
-    if cell == "hexahedron":  # axis-aligned rectangles
-        contains = ((p >= xy.min(axis=1)[None, :, None] - 1e-12) & (p <= xy.max(axis=1)[None, :, None] + 1e-12))
-        contains = contains.all(axis=(2, 3))
-    else:  # barycentric coordinates in the plane
-        T = np.stack([xy[:, 1] - xy[:, 0], xy[:, 2] - xy[:, 0]], axis=2)  # (k, 2, 2)
-        lam = np.einsum("kab,mkb->mka", np.linalg.inv(T), data["xm"][:, None, :2] - xy[None, :, 0])
-        contains = (lam >= -1e-12).all(axis=2) & (lam.sum(axis=2) <= 1 + 1e-12)
-    assert contains.any(axis=1).all()
-    shared = contains.sum(axis=1) > 1
-    assert shared.sum() >= 2, "the mesh should put some slave nodes on master edges"
-    nv = keys.shape[1]
-    got = np.sort(data["mb"], axis=1)[:, -nv:]  # the −1 padding of triangles sorts first
-    for i in range(data["x"].shape[0]):  # a loop in the test oracle only
-        candidates = keys[contains[i]]
-        expected = candidates[np.lexsort(candidates.T[::-1])[0]]
-        assert (got[i] == expected).all(), (data["x"][i], got[i], candidates)
+    check_tie_rule(b, V, data, cell, expect_shared=2)
 
 
 # -- a curved bilinear master ----------------------------------------------------------------------------
@@ -336,7 +365,7 @@ def test_bad_tags_and_space():
                       NONE)
     with pytest.raises(InputError, match="slave tag 42"):
         pair_surfaces(V, [ContactPair(b.facet_tags, slave=[2, 42], master=1)], NONE)
-    with pytest.raises(InputError, match="vector P1 .* or Q1"):
+    with pytest.raises(InputError, match=r"vector P1 .* or Q1"):
         pair_surfaces(space(b.mesh, 2), [ContactPair(b.facet_tags, slave=2, master=1)], NONE)
     # an interior facet layer (z = −0.25 inside the lower block)
     msh = b.mesh
@@ -361,8 +390,9 @@ def test_pair_validation(kwargs, match):
 
 
 # -- 1 rank = 2 ranks -----------------------------------------------------------------------------------
+@pytest.mark.parametrize("partitioner", ["bodies", None])
 @pytest.mark.parametrize("cell", CELLS)
-def test_ranks_agree(cell):
+def test_ranks_agree(cell, partitioner):
     """The same pairing on COMM_SELF and on all ranks (bodies on different ranks: every master facet on
     another rank than its slave nodes), compared by coordinates."""
     def run(comm, partitioner):
@@ -375,9 +405,9 @@ def test_ranks_agree(cell):
                           NONE)
         return P, gathered(V, P)
 
-    P, many = run(MPI.COMM_WORLD, "bodies")
+    P, many = run(MPI.COMM_WORLD, partitioner)
     _, one = run(MPI.COMM_SELF, None)
-    if MPI.COMM_WORLD.size > 1:
+    if MPI.COMM_WORLD.size > 1 and partitioner == "bodies":
         assert (P.size == 0) == (MPI.COMM_WORLD.rank == 0)  # slave nodes on rank 1, master facets on rank 0
     assert many["x"].shape[0] == one["x"].shape[0] == 30
     for key in ("x", "xm", "g", "n", "w", "mx"):  # master stencils as vertex coordinates (global numbers differ)
