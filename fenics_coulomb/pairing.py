@@ -22,7 +22,10 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   best one (h = the diameter of the best facet) at a distance within 1e-10 h of the best distance.
   φ_j = the shape functions at x_m of the facet of T whose SORTED GLOBAL vertex (DOF-block) indices are
   lexicographically smallest (P1: barycentric; Q1: bilinear); x_m is that facet's point, so
-  Σ_j φ_j x_j = x_m exactly up to round-off and Σ_j φ_j = 1.
+  Σ_j φ_j x_j = x_m exactly up to round-off and Σ_j φ_j = 1. On a shared edge or vertex every facet of T
+  gives the same non-zero φ_j (conforming P1/Q1 shape functions restrict to the edge's linear ones, and to
+  1 at a vertex): the rule only fixes which zero-weight vertices are listed, so the stencil does not depend
+  on the global numbering (which depends on the partition).
 * n_f(x) = the outward unit normal of facet f at x: of the plane (triangle) or of the bilinear surface,
   ±(x_ξ × x_η)/|x_ξ × x_η| at (ξ, η) — the sign fixed per facet so that it points out of the MASTER body
   (away from the centroid of the facet's cell, evaluated at the facet centre).
