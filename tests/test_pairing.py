@@ -235,19 +235,61 @@ def test_brute_force_sampling(cell):
     assert (dist >= near - spacing).all()
 
 
+def _box_minimum(f, starts: np.ndarray) -> float:
+    """min of f over [0, 1]² by L-BFGS-B from the best of the grid points ``starts``."""
+    start = starts[np.argmin([f(q) for q in starts])]
+    res = minimize(f, start, bounds=[(0, 1), (0, 1)], method="L-BFGS-B", options=dict(ftol=1e-15, gtol=1e-12))
+    return float(np.sqrt(min(res.fun, f(start))))
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("nv", [3, 4])
+def test_closest_point_kernels(nv):
+    """The facet kernels on random (non-planar) facets and points beside, above and below them: the distance
+    equals scipy's minimum over the facet's parametrization (a collapsed square for triangles), the
+    weights reproduce the point and sum to 1."""
+    from fenics_coulomb.pairing import _closest_quad, _closest_triangle
+
+    rng = np.random.default_rng(7)
+    k = 60
+    square = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], dtype=float)[:nv]
+    X = square + rng.uniform(-1, 1, (k, nv, 3)) * [0.15, 0.15, 0.3]
+    p = rng.uniform([-0.6, -0.6, -1.0], [1.6, 1.6, 1.0], (k, 3))
+    q, w, dist = (_closest_quad if nv == 4 else _closest_triangle)(p, X)
+    assert np.allclose(w.sum(axis=1), 1, atol=1e-13) and (w >= -1e-13).all()
+    assert np.allclose(np.einsum("kj,kjc->kc", w, X), q, atol=1e-13)
+    assert np.allclose(np.linalg.norm(q - p, axis=1), dist, atol=1e-14)
+    g = np.linspace(0, 1, 21)
+    starts = np.stack(np.meshgrid(g, g), axis=-1).reshape(-1, 2)
+    for i in range(k):  # a loop in the test oracle only
+        if nv == 4:
+            def x(z, V=X[i]):
+                return V[0] * (1 - z[0]) * (1 - z[1]) + V[1] * z[0] * (1 - z[1]) + V[2] * (1 - z[0]) * z[1] \
+                    + V[3] * z[0] * z[1]
+        else:
+            def x(z, V=X[i]):
+                return V[0] + z[0] * ((V[1] - V[0]) + z[1] * (V[2] - V[1]))
+        best = _box_minimum(lambda z, x=x, pi=p[i]: float(np.sum((x(z) - pi) ** 2)), starts)
+        assert abs(dist[i] - best) <= 1e-7, (i, dist[i], best)
+        assert dist[i] <= best + 1e-12
+
+
 # -- the normal cone at a convex corner --------------------------------------------------------------------
+@pytest.mark.parametrize("y0", [0.25, 0.75])
 @pytest.mark.parametrize("cell", CELLS)
-def test_convex_corner(cell):
-    """A slave node beyond M's outer edge is free; with the side in M it is paired with n = d/|d|."""
+def test_convex_corner(cell, y0):
+    """A slave node beyond M's outer edge is free; with the sides in M it is paired with n = d/|d| (in the
+    cone of the top and side normals: at the edge x = 1, and at the corner vertex (1, 1, 0) when y0 = 0.75)."""
     gap = 0.05
-    b = two_blocks(MPI.COMM_WORLD, cell_type=cell, gap=gap, upper_origin=(0.75, 0.25), upper=(0.5, 0.5, 0.25),
-                   n_upper=(4, 2, 1))
+    b = two_blocks(MPI.COMM_WORLD, cell_type=cell, gap=gap, upper_origin=(0.75, y0), upper=(0.5, 0.5, 0.25),
+                   n_upper=(4, 4, 1))
     V = space(b.mesh)
     top = pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"])],
                         NONE)
     data = gathered(V, top)
-    assert (data["x"][:, 0] <= 1 + 1e-12).all()
-    assert top.num_global == 3 * 3  # x = 0.75, 0.875, 1 (at x = 1: d ∥ the top's normal, on its outer edge)
+    assert (data["x"][:, :2] <= 1 + 1e-12).all()
+    # x (and y) = 0.75, 0.875, 1 (at 1: d ∥ the top's normal, on its outer edge)
+    assert top.num_global == (3 * 5 if y0 == 0.25 else 3 * 3)
     assert np.allclose(data["g"], gap) and np.allclose(data["n"], [0, 0, 1], atol=1e-12)
 
     both = pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"],
@@ -255,14 +297,15 @@ def test_convex_corner(cell):
                           NONE)
     data = gathered(V, both)
     check_common(V, both, data)
-    assert both.num_global == 5 * 3
-    beyond = data["x"][:, 0] > 1 + 1e-12
-    d = data["x"] - np.stack([np.minimum(data["x"][:, 0], 1.0), data["x"][:, 1], 0 * data["x"][:, 2]], axis=1)
-    assert np.allclose(data["xm"], data["x"] - d, atol=1e-13)
+    assert both.num_global == 5 * 5
+    x = data["x"]
+    beyond = (x[:, 0] > 1 + 1e-12) | (x[:, 1] > 1 + 1e-12)
+    d = x - np.stack([np.minimum(x[:, 0], 1.0), np.minimum(x[:, 1], 1.0), 0 * x[:, 2]], axis=1)
+    assert np.allclose(data["xm"], x - d, atol=1e-13)
     assert np.allclose(data["g"], np.linalg.norm(d, axis=1), atol=1e-13)
     assert np.allclose(data["n"][beyond], d[beyond] / np.linalg.norm(d[beyond], axis=1)[:, None], atol=1e-12)
     assert np.allclose(data["n"][~beyond], [0, 0, 1], atol=1e-12)
-    assert beyond.sum() == 6
+    assert beyond.sum() == (10 if y0 == 0.25 else 16)
 
 
 # -- search distance, several pairs -------------------------------------------------------------------------
