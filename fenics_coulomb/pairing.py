@@ -548,18 +548,22 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                         f"{V.dofmap.bs}")
     msh.topology.create_connectivity(tdim - 1, tdim)
     msh.topology.create_connectivity(tdim, tdim - 1)
-    exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)
+    exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)  # owned exterior facets
+    num_owned = msh.topology.index_map(tdim - 1).size_local
 
     # tags: every tag must be carried by some facet, and only by boundary facets
     labels = [f"contact pair {i + 1}" + (f" ({pair.name!r})" if pair.name else "") for i, pair in enumerate(pairs)]
     surfaces: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]] = []
     counts, message = [], ""
     for label, pair in zip(labels, pairs, strict=True):
+        if pair.facet_tags.dim != tdim - 1 and not message:
+            message = f"{label}: facet_tags of dimension {pair.facet_tags.dim}: must tag facets (dimension {tdim - 1})"
+            continue
         both = []
         for key, tags in (("slave", pair.slave_tags), ("master", pair.master_tags)):
             facets = _local_facets(pair.facet_tags, tags)
             counts.append([pair.facet_tags.find(t).size for t in tags])
-            inner = np.setdiff1d(facets, exterior)
+            inner = np.setdiff1d(facets[facets < num_owned], exterior)  # each rank checks its owned facets
             if inner.size and not message:
                 mid = dolfinx.mesh.compute_midpoints(msh, tdim - 1, inner[:1])[0]
                 message = (f"{label}: {key} tag(s) {list(tags)} mark an interior facet (midpoint "
@@ -572,7 +576,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     for label, pair in zip(labels, pairs, strict=True):
         for key, tags in (("slave", pair.slave_tags), ("master", pair.master_tags)):
             for t in tags:
-                if total[position] == 0 and not message:
+                if not message and total[position] == 0:
                     message = f"{label}: {key} tag {t}: no facet carries it (an unknown tag or an empty surface)"
                 position += 1
     check_all(comm, not message, message)

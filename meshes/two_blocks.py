@@ -100,7 +100,8 @@ def body_partitioner(num_lower: int, vertices_per_cell: int) -> Callable:
 
 
 def boxes_mesh(comm: MPI.Comm, boxes: Sequence[tuple[Sequence[float], Sequence[float], Sequence[int]]],
-               cell_type: str = "hexahedron", partitioner: Callable | str | None = None
+               cell_type: str = "hexahedron", partitioner: Callable | str | None = None,
+               ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none
                ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
     """Disjoint structured boxes in one mesh, cell tags 1, 2, ... per box (in the order given).
 
@@ -110,6 +111,7 @@ def boxes_mesh(comm: MPI.Comm, boxes: Sequence[tuple[Sequence[float], Sequence[f
         cell_type: "hexahedron" (Q1) or "tetrahedron" (P1).
         partitioner: A DOLFINx cell partitioner, "bodies" (box 1 on rank 0, the others on rank 1, see
             :func:`body_partitioner`) or None (deterministic recursive coordinate bisection).
+        ghost_mode: Ghosting of the default partitioner (``shared_facet``: a layer of ghost cells).
     """
     if cell_type not in ("hexahedron", "tetrahedron"):
         raise ValueError(f"cell_type {cell_type!r}: choose 'hexahedron' or 'tetrahedron'")
@@ -123,12 +125,13 @@ def boxes_mesh(comm: MPI.Comm, boxes: Sequence[tuple[Sequence[float], Sequence[f
     else:
         x, cells = np.zeros((0, 3)), np.zeros((0, nv), dtype=np.int64)
     if partitioner is None:
-        partitioner = create_partitioner(comm, x)
+        partitioner = create_partitioner(comm, x, ghost_mode)
     elif partitioner == "bodies":
         partitioner = body_partitioner(int(ends[0]), nv)
     domain = ufl.Mesh(basix.ufl.element("Lagrange", cell_type, 1, shape=(3,)))
     msh = dolfinx.mesh.create_mesh(comm, cells, x, domain, partitioner=partitioner)
-    num_cells = msh.topology.index_map(3).size_local
+    cmap = msh.topology.index_map(3)
+    num_cells = cmap.size_local + cmap.num_ghosts
     body = (np.searchsorted(ends, msh.topology.original_cell_index[:num_cells], side="right") + 1).astype(np.int32)
     return msh, dolfinx.mesh.meshtags(msh, 3, np.arange(num_cells, dtype=np.int32), body)
 
@@ -137,7 +140,8 @@ def two_blocks(comm: MPI.Comm = MPI.COMM_WORLD, *, lower: Sequence[float] = (1.0
                n_lower: Sequence[int] = (4, 4, 2), upper_origin: Sequence[float] = (0.25, 0.25),
                upper: Sequence[float] = (0.5, 0.5, 0.25), n_upper: Sequence[int] = (3, 3, 2), gap: float = 0.0,
                cell_type: str = "hexahedron", lower_top: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
-               partitioner: Callable | str | None = None) -> TwoBlocks:
+               partitioner: Callable | str | None = None,
+               ghost_mode: dolfinx.mesh.GhostMode = dolfinx.mesh.GhostMode.none) -> TwoBlocks:
     """The lower block [0, Lx]×[0, Ly]×[−H, 0] and the upper block [x0, x0+ax]×[y0, y0+ay]×[gap, gap+h].
 
     Args:
@@ -152,13 +156,14 @@ def two_blocks(comm: MPI.Comm = MPI.COMM_WORLD, *, lower: Sequence[float] = (1.0
         lower_top: Optional Δz(x, y) bending the lower block's top (see the module docstring).
         partitioner: A DOLFINx cell partitioner, "bodies" (:func:`body_partitioner`) or None (deterministic
             recursive coordinate bisection).
+        ghost_mode: Ghosting of the default partitioner.
 
     Returns:
         The mesh with cell tags (``BODIES``) and facet tags (``TAGS``).
     """
     Lx, Ly, H = (float(v) for v in lower)
     boxes = [((0.0, 0.0, -H), (Lx, Ly, H), n_lower), ((upper_origin[0], upper_origin[1], gap), upper, n_upper)]
-    msh, cell_tags = boxes_mesh(comm, boxes, cell_type, partitioner)
+    msh, cell_tags = boxes_mesh(comm, boxes, cell_type, partitioner, ghost_mode)
     body = cell_tags.values
 
     tdim, fdim = 3, 2

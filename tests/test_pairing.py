@@ -410,6 +410,8 @@ def test_bad_tags_and_space():
         pair_surfaces(V, [ContactPair(b.facet_tags, slave=[2, 42], master=1)], NONE)
     with pytest.raises(InputError, match=r"vector P1 .* or Q1"):
         pair_surfaces(space(b.mesh, 2), [ContactPair(b.facet_tags, slave=2, master=1)], NONE)
+    with pytest.raises(InputError, match="contact pair 1: facet_tags of dimension 3: must tag facets"):
+        pair_surfaces(V, [ContactPair(b.cell_tags, slave=2, master=1)], NONE)
     # an interior facet layer (z = −0.25 inside the lower block)
     msh = b.mesh
     msh.topology.create_entities(2)
@@ -433,14 +435,17 @@ def test_pair_validation(kwargs, match):
 
 
 # -- 1 rank = 2 ranks -----------------------------------------------------------------------------------
-@pytest.mark.parametrize("partitioner", ["bodies", None])
+@pytest.mark.parametrize("partitioner", ["bodies", None, "ghosted"])
 @pytest.mark.parametrize("cell", CELLS)
 def test_ranks_agree(cell, partitioner):
     """The same pairing on COMM_SELF and on all ranks (bodies on different ranks: every master facet on
     another rank than its slave nodes), compared by coordinates."""
     def run(comm, partitioner):
         b = two_blocks(comm, cell_type=cell, gap=0.45, upper_origin=(0.6, 0.2), upper=(0.6, 0.6, 0.2),
-                       n_upper=(5, 4, 1), n_lower=(4, 3, 2), partitioner=partitioner,
+                       n_upper=(5, 4, 1), n_lower=(4, 3, 2),
+                       partitioner=None if partitioner == "ghosted" else partitioner,
+                       ghost_mode=dolfinx.mesh.GhostMode.shared_facet if partitioner == "ghosted"
+                       else dolfinx.mesh.GhostMode.none,
                        lower_top=lambda x, y: 0.2 * x * (1 + y))
         V = space(b.mesh)
         P = pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"],
@@ -448,7 +453,7 @@ def test_ranks_agree(cell, partitioner):
                           NONE)
         return P, gathered(V, P)
 
-    P, many = run(MPI.COMM_WORLD, partitioner)
+    P, many = run(MPI.COMM_WORLD, partitioner)  # "ghosted": a layer of ghost cells (shared_facet)
     _, one = run(MPI.COMM_SELF, None)
     if MPI.COMM_WORLD.size > 1 and partitioner == "bodies":
         assert (P.size == 0) == (MPI.COMM_WORLD.rank == 0)  # slave nodes on rank 1, master facets on rank 0
