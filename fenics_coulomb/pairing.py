@@ -2,8 +2,13 @@ r"""Node-to-surface pairing of two elastic bodies (issue 18): slave nodes, close
 
 A :class:`ContactPair` names a slave surface S and a master surface M (facet tag values of one mesh's facet
 tags) and a Coulomb coefficient F. :func:`pair_surfaces` computes, once and in the REFERENCE configuration,
-for every slave vertex the data of the change of variables u = (I + Φ) z of :mod:`fenics_coulomb` 's two-body
-model: the closest master point, the stencil φ_j of master vertices, the gap and the frame.
+for every slave vertex the data of the two-body model's change of variables u = (I + Φ) z: the closest
+master point, the stencil φ_j of master vertices (Φ's slave-row, master-column blocks φ_j I₃), the gap and
+the frame::
+
+    pairs = [ContactPair(facet_tags, slave=2, master=1, friction=0.3, name="press")]
+    pairing = pair_surfaces(V, pairs, excluded=dirichlet_blocks)   # collective
+    # pairing.blocks[i] (local, owned) ↔ pairing.master_blocks[i] (global, −1 padded) with pairing.weights[i]
 
 Geometry (exactly the model of issue 18)
 ----------------------------------------
@@ -28,7 +33,8 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   on the global numbering (which depends on the partition).
 * n_f(x) = the outward unit normal of facet f at x: of the plane (triangle) or of the bilinear surface,
   ±(x_ξ × x_η)/|x_ξ × x_η| at (ξ, η) — the sign fixed per facet so that it points out of the MASTER body
-  (away from the centroid of the facet's cell, evaluated at the facet centre).
+  (away from the centroid of the facet's cell, evaluated at the facet centre; a bilinear facet that is not
+  folded keeps that orientation everywhere).
 * x_m in the interior of its facet (|T| = 1 and the reference coordinates farther than 1e-10 from the
   facet's boundary): n = n_f(x_m). Otherwise (x_m on an edge or vertex, shared by the facets T or on M's
   outer boundary): n = d/|d|, d = x_s − x_m; when |d| <= 1e-10 h: n = the normalized sum of n_f(x_m), f ∈ T.
@@ -49,17 +55,20 @@ is a non-negative combination of three independent generators.
 
 Checks (InputError, one line, the same on every rank before the next collective call)
 -------------------------------------------------------------------------------------
-V not a vector P1/Q1 space; a tag that no facet carries on any rank; a tagged facet that is not on the
-mesh boundary; Φ² ≠ 0 (a contact node that is itself a vertex of a master facet used by any contact node,
-both nodes named by coordinates); an overlap at the reference configuration: a contact node with
-g < −1e-6 × the diagonal of the bounding box of M ∪ S (node and depth named, the deepest over all ranks).
+V not a vector P1/Q1 space; facet tags of another dimension than the facets'; a tag that no facet carries
+on any rank; a tagged facet that is not on the mesh boundary; Φ² ≠ 0 (a contact node that is itself a
+vertex of a master facet used by any contact node, both nodes named by coordinates); an overlap at the
+reference configuration: a contact node with g < −1e-6 × the diagonal of the bounding box of M ∪ S (node
+and depth named, the deepest over all ranks). Invalid ContactPair fields (friction, search distance, tags,
+name) are rejected when the pair is created.
 A pair with no contact node is a logged warning (rank 0), not an error.
 
 Parallel
 --------
 Every rank gathers every pair's whole master surface (vertex coordinates, global DOF-block indices, outward
 orientation; facets deduplicated by their global vertices), so the pairing of a slave node does not depend
-on where the master facets are: 1 rank and N ranks give the same pairing (up to the local numbering).
+on where the master facets are: 1 rank and N ranks give the same pairing (up to the numbering, and the
+zero-weight vertices listed for a node on a shared edge or vertex, see the tie rule).
 """
 
 from __future__ import annotations
