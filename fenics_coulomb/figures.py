@@ -241,17 +241,18 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
     deltas = {n: np.array([[0.0, 0.0, 0.0]] + [s["obstacle_displacements"][n] for s in steps]) for n in names}
     ranges = {(n, c): float(np.ptp(d[:, c])) for n, d in deltas.items() for c in range(3)}
     moving = [key for key, r in ranges.items() if r > 0]
-    fig, ax = plt.subplots(figsize=(6, 4.5))
     marker = {"marker": "o", "ms": 3}
     if moving:
         top = max(ranges.values())
-        for name, c in moving:
-            if ranges[(name, c)] < 1e-3 * top:
-                continue
-            ax.plot(deltas[name][:, c], force[:, c], label=f"{name}: F{c + 1} against δ{c + 1}", **marker)
-        ax.set_xlabel("obstacle displacement δ (L)")
-        ax.set_ylabel("total contact force on the body (GPa·L²)")
+        moving = [key for key in moving if ranges[key] >= 1e-3 * top]
+        fig, axes = plt.subplots(1, len(moving), figsize=(5.5 * len(moving), 4.5), squeeze=False)
+        for ax, (name, c) in zip(axes[0], moving, strict=True):
+            ax.plot(deltas[name][:, c], force[:, c], **marker)
+            ax.set_xlabel(f"displacement δ{c + 1} of obstacle {name} (L)")
+            ax.set_ylabel(f"total contact force F{c + 1} on the body (GPa·L²)")
+        ax = axes[0][0]
     else:
+        fig, ax = plt.subplots(figsize=(6, 4.5))
         ramp = all(s["substeps"] == 1 for s in steps) and all(
             abs(s["load_factor"] - s["time"] / steps[-1]["time"]) < 1e-12 for s in steps)
         x = np.array([0.0] + [s["load_factor"] if ramp else s["time"] for s in steps])
@@ -259,14 +260,15 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
             ax.plot(x, force[:, c], label=f"F{c + 1}", **marker)
         ax.set_xlabel("load factor" if ramp else "step")
         ax.set_ylabel("total contact force on the body (GPa·L²)")
-    failed = [i + 1 for i, s in enumerate(steps) if not s["converged"]]
-    if failed:
-        ax.plot([], [], " ", label=f"last point NOT converged (step {steps[-1]['time']:g})")
-    ax.grid(True, alpha=0.3)
-    for text in ax.legend(fontsize=8).get_texts():
-        text.set_parse_math(False)
+    for axis in fig.axes:
+        axis.grid(True, alpha=0.3)
+    if not steps[-1]["converged"]:
+        ax.plot([], [], " ", label=f"last point NOT converged (t = {steps[-1]['time']:g})")
+    if ax.get_legend_handles_labels()[0]:
+        for text in ax.legend(fontsize=8).get_texts():
+            text.set_parse_math(False)
     if title:
-        ax.set_title(title, parse_math=False)
+        fig.suptitle(title, parse_math=False)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)

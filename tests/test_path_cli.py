@@ -290,3 +290,27 @@ def test_real_command_two_ranks_equals_one(tmp_path):
     files = json.loads((two / "summary.json").read_text())["files"]
     assert {"path.csv", "path.png", "solution.xdmf", "summary.json"} <= set(files)
     assert (two / "path.png").stat().st_size > 0
+
+
+def test_drag_path_hysteresis(mpi_tmp_path):
+    """demos/scenes/cylinder_drag_path.toml: the pressed cylinder dragged to +δ, back to −δ and forward again.
+    With friction the tangential force at δ1 = 0 depends on the direction of the motion (a hysteresis loop,
+    slip at the turning points); without friction the path is reversible (the same force both ways, 1e-8)."""
+    scene = str(ROOT / "demos" / "scenes" / "cylinder_drag_path.toml")
+    forces = {}
+    for friction in ("0.3", "0"):
+        out = mpi_tmp_path / f"drag{friction}"
+        assert run("--scene", scene, "--friction", friction, "--no-plots", "--out", str(out)) == 0
+        steps = json.loads((out / "summary.json").read_text())["steps"]
+        delta = {s["time"]: s["obstacle_displacements"]["roller"] for s in steps}
+        assert delta[2.0] == [0.004, 0.0, -0.01] and delta[3.0] == [-0.004, 0.0, -0.01]
+        assert delta[2.5][0] == 0.0 and delta[3.5][0] == 0.0
+        forces[friction] = {s["time"]: np.asarray(s["contact_force"]) for s in steps}
+        if friction != "0":
+            slip = {s["time"]: s["state_counts"]["slip"] for s in steps}
+            assert slip[2.0] > 0 and slip[3.0] > 0 and slip[2.5] == 0  # the turning points slip
+    back, forward = forces["0.3"][2.5][0], forces["0.3"][3.5][0]
+    scale = abs(forces["0.3"][2.0][0])
+    assert back < forward and forward - back > 1e-2 * scale
+    free = forces["0"]
+    assert abs(free[2.5][0] - free[3.5][0]) <= 1e-8 * abs(free[2.0][0])
