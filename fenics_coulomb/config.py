@@ -34,6 +34,11 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     rtol = 1e-12            # the paper's reduction (default 1e-8)
     pc = "auto"             # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
     start = "zero"
+
+    [[path.step]]           # optional: a quasi-static load path (fenics_coulomb.path), one table per step;
+    substeps = 3            # what a step does not set is the scene's value (per boundary, per obstacle)
+    [[path.step]]
+    tractions = { right = [0.17, 0.1, 0.0] }   # also prescribed = {...}, move = { name = δ }, body_force
 """
 
 from __future__ import annotations
