@@ -56,11 +56,15 @@ def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.flo
     uh = dolfinx.fem.Function(model.V)
     uh.x.petsc_vec.array[:] = displacement
     uh.x.scatter_forward()
-    form = dolfinx.fem.form(ufl.action(model.a_ufl, uh) - model.L_ufl)
-    b = dolfinx.fem.petsc.assemble_vector(form)
+    # K ũ and l̃⁰ assembled apart: a and L may integrate over measures with different subdomain data (e.g.
+    # dx(body) with cell tags in a and the default L's plain dx), which one form cannot combine
+    b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.action(model.a_ufl, uh)))
+    load = dolfinx.fem.petsc.assemble_vector(model.L)
+    b.axpy(-1.0, load)
     b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     full = b.getArray(readonly=True).reshape(-1, 3).copy()
     b.destroy()
+    load.destroy()
     return full
 
 

@@ -24,6 +24,12 @@ lengths in the mesh's unit L):
     The linearized gap g + n·ũ on contact nodes (L, ≥ 0 at a solution); 0 elsewhere.
 ``contact_normal``
     The outward unit normal n of each contact node's obstacle; 0 elsewhere.
+``master_reaction``
+    Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.two_body`): the reaction on each master node,
+    f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
+    slave contact nodes, ``displacement`` is the physical u = M z, ``gap`` is g + n·w with the relative
+    displacement w_s = u_s − Σ_j φ_sj u_j, and ``contact_normal`` is the master's outward normal at the
+    closest point.
 
 All fields go through :class:`XDMFTimeSeries` (:func:`write_xdmf`). HDF5 layout (one file, one mesh for the
 whole series): ``/Mesh/mesh/geometry`` (N × 3 float64 vertex coordinates in the global P1 vertex numbering),
@@ -95,7 +101,7 @@ def contact_areas(model: ContactModel) -> npt.NDArray[np.float64]:
 
 def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
     """The output Functions (displacement, contact_state, contact_pressure, tangential_force,
-    contact_traction, gap, contact_normal); see the module docstring."""
+    contact_traction, gap, contact_normal, and master_reaction for contact pairs); see the module docstring."""
     V = model.V
     msh = V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
@@ -119,7 +125,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     areas = contact_areas(model)
     force = result.contact_force if result.contact_force.shape == (cmap.size, 3) else np.zeros((cmap.size, 3))
     traction = np.divide(force, areas[:, None], out=np.zeros_like(force), where=areas[:, None] > 0)
-    return (
+    fields = (
         u,
         point_field(S, "contact_state", scalar_dofs, result.states, fill=-1.0),
         point_field(S, "contact_pressure", scalar_dofs, result.normal_force),
@@ -128,6 +134,84 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         point_field(S, "gap", scalar_dofs, result.gap),
         point_field(V, "contact_normal", vector_dofs, cmap.normals),
     )
+    if model.coupling is None:
+        return fields
+    reaction = dolfinx.fem.Function(V, name="master_reaction")
+    if result.master_force is not None:
+        reaction.x.petsc_vec.array[:] = result.master_force
+    reaction.x.scatter_forward()
+    return (*fields, reaction)
+
+
+def pair_forces(model: ContactModel, result: SolveResult,
+                pairs: Sequence[Any] | None = None) -> list[dict[str, Any]]:
+    """Per contact pair, the total force on each body from that body's own residual (collective; the same list
+    on all ranks; empty for one body).
+
+    The residual K u − l̃⁰ of the physical displacement u, assembled WITHOUT boundary conditions
+    (:func:`fenics_coulomb.checks.unconstrained_residual`), is the force the other body and the supports exert
+    on each node. Summed over the pair's slave contact nodes it is the force on the slave body; summed over
+    the master nodes of the facets the pair's contact nodes use (the stencils φ_sj) it is the force on the
+    master body. Equilibrium (Σ_j φ_sj = 1) makes them equal and opposite; a supported (Dirichlet) node among
+    either set adds its support reaction (counted in ``prescribed_nodes``), and a master node shared by
+    several pairs' stencils counts for each of them.
+
+    Args:
+        model: The model of a solve with contact pairs.
+        result: Its result (``displacement`` = the physical u).
+        pairs: The :class:`~fenics_coulomb.pairing.ContactPair` s in the order given to the problem, for
+            their names and tags (optional).
+
+    Returns:
+        One dict per pair: ``pair`` (index), ``name``, ``slave``/``master`` tags (when ``pairs`` is given),
+        ``contact_nodes``, ``master_nodes``, ``prescribed_nodes``, ``force_on_slave_body`` and
+        ``force_on_master_body`` (3-vectors from the residuals), ``contact_force`` (Σ of the solver's force
+        on the slave contact nodes) and ``balance`` = ‖slave + master‖ / ‖slave‖.
+    """
+    from fenics_coulomb.checks import unconstrained_residual
+
+    pairing = model.pairing
+    if pairing is None:
+        return []
+    comm = model.comm
+    imap = model.V.dofmap.index_map
+    n, r0 = imap.size_local, int(imap.local_range[0])
+    pairs = list(pairs if pairs is not None else getattr(model, "pairs", None) or [])
+    count = max(len(pairs), comm.allreduce(int(pairing.pair_index.max(initial=-1)) + 1, op=MPI.MAX))
+    full = unconstrained_residual(model, result.displacement)
+    prescribed = np.zeros(n, dtype=bool)
+    prescribed[model.dirichlet_rows // 3] = True
+    force = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)
+    out: list[dict[str, Any]] = []
+    for k in range(count):
+        mine = pairing.pair_index == k
+        slave = pairing.blocks[mine]
+        stencil = pairing.master_blocks[mine]
+        used = np.unique(stencil[stencil >= 0])
+        used = np.unique(np.concatenate(comm.allgather(used))).astype(np.int64)
+        master = (used[(used >= r0) & (used < r0 + n)] - r0).astype(np.int32)
+        local = np.concatenate([full[slave].sum(axis=0), full[master].sum(axis=0), force[mine].sum(axis=0),
+                                [slave.size, master.size, prescribed[slave].sum() + prescribed[master].sum()]])
+        total = np.asarray(comm.allreduce(local, op=MPI.SUM))
+        on_slave, on_master = total[0:3], total[3:6]
+        scale = float(np.linalg.norm(on_slave))
+        entry: dict[str, Any] = {"pair": k}
+        if k < len(pairs):
+            q = pairs[k]
+            entry["name"] = getattr(q, "name", None)
+            entry["slave"] = [int(t) for t in np.atleast_1d(q.slave)]
+            entry["master"] = [int(t) for t in np.atleast_1d(q.master)]
+        entry.update({
+            "contact_nodes": int(total[9]),
+            "master_nodes": int(total[10]),
+            "prescribed_nodes": int(total[11]),
+            "force_on_slave_body": [float(c) for c in on_slave],
+            "force_on_master_body": [float(c) for c in on_master],
+            "contact_force": [float(c) for c in total[6:9]],
+            "balance": float(np.linalg.norm(on_slave + on_master) / scale) if scale > 0 else 0.0,
+        })
+        out.append(entry)
+    return out
 
 
 #: Categories of the (categorical) ``contact_state`` field.
@@ -529,9 +613,12 @@ def software_versions() -> dict[str, str]:
 
 def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
     """Global summary of a solve (collective; identical on all ranks): the result's own summary, the software
-    versions and ``extra``."""
+    versions, for contact pairs the force on each body per pair (``contact_pairs``, :func:`pair_forces`) and
+    ``extra``."""
     comm = model.V.mesh.comm
     data = result.summary(comm)
+    if model.coupling is not None:
+        data["contact_pairs"] = pair_forces(model, result)
     data["versions"] = software_versions()
     if extra:
         data.update(extra)
