@@ -18,7 +18,9 @@
 #
 # ```
 # python3 demos/mindlin.py --quick                       # a coarse mesh, a few steps (seconds)
-# mpirun -n 2 python3 demos/mindlin.py --out docs/mindlin   # the numbers and figures of docs/mindlin
+# python3 demos/mindlin.py --out docs/mindlin              # the numbers and figures of docs/mindlin (4 min)
+# mpirun -n 2 python3 demos/mindlin.py --out out/mindlin    # the same on 2 ranks
+# python3 demos/mindlin.py --redraw --out docs/mindlin     # figures and README.md again from summary.json
 # ```
 
 # %%
@@ -26,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import json
 import logging
 import sys
@@ -46,7 +49,7 @@ import ufl
 from fenics_coulomb import ContactProblem, Sphere
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.partition import box_partitioner
-from fenics_coulomb.resolvent import OPEN, SLIP, STICK
+from fenics_coulomb.resolvent import OPEN, STICK
 
 logger = logging.getLogger("mindlin")
 
@@ -169,7 +172,7 @@ def graded_coordinates(h: float, core: float, length: float, growth: float) -> n
         nodes.append(nodes[-1] + step)
     nodes = np.asarray(nodes)
     # stretch the graded part so that the last node is exactly ``length``
-    n_core = int(round(core / h)) + 1
+    n_core = round(core / h) + 1
     graded = nodes[n_core - 1:]
     nodes[n_core - 1:] = graded[0] + (graded - graded[0]) * (length - graded[0]) / (graded[-1] - graded[0])
     return nodes
@@ -211,7 +214,7 @@ def graded_block(comm: MPI.Comm, spec: MeshSpec, a: float = A_TARGET) -> tuple[d
              (SIDES, lambda p: np.isclose(np.abs(p[0]), W) | np.isclose(np.abs(p[1]), W))]
     facets = [dolfinx.mesh.locate_entities_boundary(msh, fdim, f) for _, f in where]
     indices = np.hstack(facets).astype(np.int32)
-    values = np.hstack([np.full(f.size, tag, np.int32) for (tag, _), f in zip(where, facets)])
+    values = np.hstack([np.full(f.size, tag, np.int32) for (tag, _), f in zip(where, facets, strict=True)])
     indices, first = np.unique(indices, return_index=True)  # an edge facet keeps its first tag
     return msh, dolfinx.mesh.meshtags(msh, fdim, indices, values[first])
 
@@ -282,7 +285,9 @@ def separating_radius(r: npt.ArrayLike, inner: npt.ArrayLike) -> float:
     radius = np.bincount(ring, weights=r, minlength=rings.size) / size
     n_inner = np.bincount(ring, weights=inner.astype(np.float64), minlength=rings.size)
     # threshold k: the first k rings inside; misplaced = outer nodes within + inner nodes beyond
-    errors = np.concatenate([[0], np.cumsum(size - n_inner)]) + n_inner.sum() - np.concatenate([[0], np.cumsum(n_inner)])
+    outer_within = np.concatenate([[0], np.cumsum(size - n_inner)])
+    inner_beyond = n_inner.sum() - np.concatenate([[0], np.cumsum(n_inner)])
+    errors = outer_within + inner_beyond
     ks = np.flatnonzero(errors == errors.min())
     ks = ks[(ks > 0) & (ks < rings.size)] if np.any((ks > 0) & (ks < rings.size)) else ks
     mids = 0.5 * (radius[np.clip(ks - 1, 0, rings.size - 1)] + radius[np.clip(ks, 0, rings.size - 1)])
@@ -488,7 +493,7 @@ def md_curves(cycle: Cycle, friction: float = FRICTION, points: int = 200) -> tu
     targets = [0.0] + [s.delta_t for s in cycle.steps if s.branch != "normal"]
     model = Masing(friction * cycle.force_n, cycle.delta_star)
     ds, qs = [0.0], [0.0]
-    for start, end in zip(targets[:-1], targets[1:]):
+    for start, end in itertools.pairwise(targets):
         for d in np.linspace(start, end, max(2, points // len(targets)))[1:]:
             ds.append(float(d))
             qs.append(model.step(float(d))[0])
@@ -539,7 +544,8 @@ def plot(cycle: Cycle, out: Path, friction: float = FRICTION) -> list[str]:
     left.set_xlabel("step")
     left.set_title("stick radius per step")
     left.set_ylabel("stick radius c / a")
-    left.set_ylim(0.0, 1.1)
+    left.set_ylim(0.0, 1.2)
+    left.xaxis.get_major_locator().set_params(integer=True)
     left.legend(fontsize=8)
     first = [cycle.steps[0]] + [s for s in steps if s.branch == "loading"]
     x = np.linspace(0.0, max(s.force_t / fp for s in first), 100)
@@ -549,7 +555,7 @@ def plot(cycle: Cycle, out: Path, friction: float = FRICTION) -> list[str]:
     right.set_xlabel("Q / (F P)")
     right.set_title("first loading: Cattaneo–Mindlin")
     right.set_ylabel("stick radius c / a")
-    right.set_ylim(0.0, 1.1)
+    right.set_ylim(0.0, 1.2)
     right.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(out / "stick_radius.png", dpi=120)
@@ -604,6 +610,23 @@ def readme(cycle: Cycle, numbers: dict[str, float], command: str, ranks: int, wa
         + f" | {s.counts.get('stick', 0)}/{s.counts.get('slip', 0)} | {s.newton_iterations} | {s.krylov_iterations} |"
         for s in cycle.steps)
     n = numbers
+    W, D = cycle.spec.width * A_TARGET, cycle.spec.depth * A_TARGET
+    comparison = "\n".join(f"| {what} | {fe} | {theory} |" for what, fe, theory in (
+        ("Q/FP at the end of the first loading (δ_t = Δ)", f"{n['q_end_loading_over_fp']:.4f}",
+         f"{n['cm_end_loading_over_fp']:.4f} (error {n['err_end_loading']:+.1%})"),
+        ("largest \\|Q − Q_MD\\|/FP over the path", f"{n['max_err_over_fp']:.4f}", "0"),
+        ("Q/FP at δ_t = 0 on unloading (residual force)", f"{n['residual_unloading_over_fp']:+.4f}",
+         f"{n['md_residual_unloading_over_fp']:+.4f}"),
+        ("loop closure (Q_end − Q at the end of loading)/FP", f"{n['closure_over_fp']:+.4f}", "0"),
+        ("loop area ∮Q dδ_t (energy per cycle, kN·mm)", f"{n['loop_area']:.4e}",
+         f"{n['md_loop_area_same_steps']:.4e} (same steps), {n['md_loop_area_exact']:.4e} (exact)"),
+        ("stick radius: mean / largest \\|c − c_MD\\|/a",
+         f"{n['mean_stick_radius_err_over_a']:.3f} / {n['max_stick_radius_err_over_a']:.3f}",
+         f"h/a = {cycle.spec.h:.3f}"),
+        ("largest change of P during the cycle", f"{n['max_normal_force_change']:.2e}", "0 (uncoupled)"),
+        ("largest physics residual of a step (equilibrium, Signorini, cone, slip direction, balance)",
+         f"{n['max_physics_residual']:.1e}", ""),
+    ))
     return f"""# Mindlin–Deresiewicz: a rigid sphere pressed on a block and dragged back and forth
 
 Generated by `{command}` ({ranks} rank(s), {wall:.0f} s wall time on the shared 2-core machine) from
@@ -612,9 +635,9 @@ Generated by `{command}` ({ranks} rank(s), {wall:.0f} s wall time on the shared 
 `stick_radius.png`.
 
 **Set-up.** A rigid sphere (R = {RADIUS:g} mm) is pressed δ_n = {DEPTH:g} mm into an elastic block
-(E = {E:g} GPa, ν = {NU}, F = {friction}; [−{cycle.spec.width * A_TARGET:g}, {cycle.spec.width * A_TARGET:g}]² × [−{cycle.spec.depth * A_TARGET:g}, 0] mm,
-clamped bottom, free sides, Q1 hexahedra of edge h = {cycle.spec.h:.3g} a near the contact graded outward; {cycle.unknowns}
-unknowns, {cycle.contact_nodes} contact nodes) in step 1, then dragged along x by the obstacle displacement
+(E = {E:g} GPa, ν = {NU}, F = {friction}; [−{W:g}, {W:g}]² × [−{D:g}, 0] mm, clamped bottom, free sides,
+Q1 hexahedra of edge h = {cycle.spec.h:.3g} a near the contact graded outward; {cycle.unknowns} unknowns,
+{cycle.contact_nodes} contact nodes) in step 1, then dragged along x by the obstacle displacement
 δ_t: 0 → +Δ → −Δ → +Δ, Δ = {cycle.amplitude / ds:.2f} δ_t*, one solve per step, friction on each step's slip
 increment. Step 1 gives P = {cycle.force_n:.4f} kN and, by Hertz's a³ = 3PR/(4E*), a = {a:.4f} mm (the
 closed nodes reach a = {cycle.contact_radius:.3f} mm, resolution h); from these δ_t* = 3FP(2 − ν)/(16Ga)
@@ -632,23 +655,18 @@ closed nodes reach a = {cycle.contact_radius:.3f} mm, resolution h); from these 
 
 | quantity | FE | theory |
 |---|---:|---:|
-| Q/FP at the end of the first loading (δ_t = Δ) | {n['q_end_loading_over_fp']:.4f} | {n['cm_end_loading_over_fp']:.4f} (error {n['err_end_loading']:+.1%}) |
-| largest \\|Q − Q_MD\\|/FP over the path | {n['max_err_over_fp']:.4f} | 0 |
-| Q/FP at δ_t = 0 on unloading (residual force) | {n['residual_unloading_over_fp']:+.4f} | {n['md_residual_unloading_over_fp']:+.4f} |
-| loop closure (Q_end − Q at the end of loading)/FP | {n['closure_over_fp']:+.4f} | 0 |
-| loop area ∮Q dδ_t (energy per cycle, kN·mm) | {n['loop_area']:.4e} | {n['md_loop_area_same_steps']:.4e} (same steps), {n['md_loop_area_exact']:.4e} (exact) |
-| stick radius: mean / largest \\|c − c_MD\\|/a | {n['mean_stick_radius_err_over_a']:.3f} / {n['max_stick_radius_err_over_a']:.3f} | h/a = {cycle.spec.h:.3f} |
-| largest change of P during the cycle | {n['max_normal_force_change']:.2e} | 0 (uncoupled) |
-| largest physics residual of a step (equilibrium, Signorini, cone, slip direction, balance) | {n['max_physics_residual']:.1e} | |
+{comparison}
 
 {DISCUSSION}
 """
 
 
-def write_outputs(cycle: Cycle, out: Path, command: str, wall: float, friction: float = FRICTION) -> dict:
+def write_outputs(cycle: Cycle, out: Path, command: str, wall: float, friction: float = FRICTION,
+                  ranks: int | None = None) -> dict:
     """mindlin.csv, summary.json, the figures and README.md into ``out`` (rank 0 writes)."""
     numbers = evaluate(cycle, friction)
     comm = MPI.COMM_WORLD
+    ranks = comm.size if ranks is None else ranks
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
         with open(out / "mindlin.csv", "w", newline="") as f:
@@ -658,15 +676,27 @@ def write_outputs(cycle: Cycle, out: Path, command: str, wall: float, friction: 
         data = {"setup": {"E": E, "nu": NU, "friction": friction, "sphere_radius": RADIUS, "depth": DEPTH,
                           "mesh": asdict(cycle.spec), "unknowns": cycle.unknowns, "contact_nodes": cycle.contact_nodes,
                           "P": cycle.force_n, "a_hertz": cycle.hertz_radius, "a_nodes": cycle.contact_radius,
-                          "delta_star": cycle.delta_star, "amplitude": cycle.amplitude, "ranks": comm.size,
+                          "delta_star": cycle.delta_star, "amplitude": cycle.amplitude, "ranks": ranks,
                           "wall_time_s": wall, "command": command},
                 "comparison": numbers,
-                "steps": [{k: v for k, v in asdict(s).items()} for s in cycle.steps]}
+                "steps": [asdict(s) for s in cycle.steps]}
         (out / "summary.json").write_text(json.dumps(data, indent=1) + "\n")
         plot(cycle, out, friction)
-        (out / "README.md").write_text(readme(cycle, numbers, command, comm.size, wall, friction))
+        (out / "README.md").write_text(readme(cycle, numbers, command, ranks, wall, friction))
     comm.barrier()
     return numbers
+
+
+def load_cycle(path: Path) -> tuple[Cycle, str, float, float, int]:
+    """A run's cycle, command, wall time, friction and ranks from its summary.json (to redraw the figures and
+    README.md after a change of their code without solving again)."""
+    data = json.loads(Path(path).read_text())
+    setup = data["setup"]
+    steps = [Step(**step) for step in data["steps"]]
+    cycle = Cycle(steps=steps, force_n=setup["P"], contact_radius=setup["a_nodes"], hertz_radius=setup["a_hertz"],
+                  delta_star=setup["delta_star"], amplitude=setup["amplitude"], unknowns=setup["unknowns"],
+                  contact_nodes=setup["contact_nodes"], spec=MeshSpec(**setup["mesh"]))
+    return cycle, setup["command"], setup["wall_time_s"], setup["friction"], setup["ranks"]
 
 
 # %% [markdown]
@@ -687,8 +717,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--pc", default="gamg", help="preconditioner (ILU stagnates at ν = 0.45)")
     parser.add_argument("--out", default=None, help="write mindlin.csv, summary.json, figures, README.md here")
     parser.add_argument("-v", "--verbose", action="store_true", help="the Newton iterations too")
+    parser.add_argument("--redraw", action="store_true",
+                        help="only redraw the figures and README.md of --out from its summary.json")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
+    if args.redraw:
+        if not args.out:
+            parser.error("--redraw needs --out")
+        cycle, command, wall, friction, ranks = load_cycle(Path(args.out) / "summary.json")
+        write_outputs(cycle, Path(args.out), command, wall, friction, ranks)
+        return 0
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")
     logger.setLevel(logging.INFO)
     spec = QUICK_MESH if args.quick else MeshSpec()
