@@ -122,6 +122,41 @@ def test_the_state_depends_on_the_path_and_the_loop_closes(cycle):
     assert global_norm(u[end.step] - u[end_loading.step]) < 0.1 * drag
 
 
+def test_outputs_and_redraw(cycle, mpi_tmp_path):
+    """write_outputs: one CSV row per step, summary.json with the comparison, both figures, the README table;
+    --redraw rebuilds the same README and comparison from summary.json alone."""
+    import csv
+    import json
+
+    out = mpi_tmp_path / "mindlin"
+    numbers = demo["write_outputs"](cycle, out, "python3 demos/mindlin.py --quick", 1.0)
+    rows = list(csv.DictReader((out / "mindlin.csv").open()))
+    assert [int(r["step"]) for r in rows] == [s.step for s in cycle.steps]
+    assert set(demo["CSV_FIELDS"]) <= set(rows[0])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["comparison"] == pytest.approx(numbers)
+    assert summary["setup"]["ranks"] == MPI.COMM_WORLD.size
+    assert (out / "hysteresis.png").stat().st_size > 0 and (out / "stick_radius.png").stat().st_size > 0
+    readme = (out / "README.md").read_text()
+    assert readme.count("| loading |") == 2 and readme.count("| reloading |") == 4
+    MPI.COMM_WORLD.barrier()
+    if MPI.COMM_WORLD.rank == 0:
+        (out / "README.md").unlink()
+    MPI.COMM_WORLD.barrier()
+    assert demo["main"](["--redraw", "--out", str(out)]) == 0
+    assert (out / "README.md").read_text() == readme
+
+
+@pytest.mark.parametrize("flags", [["--amplitude", "1.0"], ["--amplitude", "-0.5"], ["--friction", "0"],
+                                   ["--substeps", "0"], ["--h", "nan"], ["--redraw"]])
+def test_bad_flags_exit_2(flags, capsys):
+    """Bad demo flags: exit 2 with one line naming the value, on every rank, before any MPI call."""
+    with pytest.raises(SystemExit) as exit_info:
+        demo["main"](flags)
+    assert exit_info.value.code == 2
+    assert flags[0] in capsys.readouterr().err
+
+
 @pytest.mark.serial
 def test_masing_bookkeeping_and_the_dissipation_formula():
     """The theory's code: the virgin curve's initial stiffness 8Ga/(2 − ν) and gross sliding at δ_t*; the
