@@ -44,7 +44,14 @@ import ufl
 
 from fenics_coulomb.contact import ContactMap
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, local_shift, to_global
+from fenics_coulomb.obstacles import (
+    DEFAULT_PLANE,
+    Obstacle,
+    check_not_overlapping,
+    closest_obstacle,
+    local_shift,
+    to_global,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -144,41 +151,19 @@ class ContactModel:
         self.dirichlet_rows = owned
         self.dirichlet_diagonal = self._scale_dirichlet_rows(owned)
 
-        # Load vector l̃ (see the module docstring): assemble, lift the Dirichlet values into the right-hand
-        # side, add the ghost contributions to their owners (reverse scatter), then set the Dirichlet rows.
-        b = dolfinx.fem.petsc.assemble_vector(self.L)
-        dolfinx.fem.petsc.apply_lifting(b, [self.a], bcs=[self.bcs])
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        dolfinx.fem.petsc.set_bc(b, self.bcs, alpha=self.dirichlet_diagonal)
+        # Load vector l̃ (see the module docstring) and the contact nodes (no node with a constrained component)
         self.load = self.A.createVecRight()
         self.load.setOptionsPrefix(f"{prefix}load_")
-        b.copy(self.load)
-        b.destroy()
-
-        # Contact nodes (no node with a constrained component), their obstacles' frames and the shift d.
+        self.assemble_load()
         self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
-        cmap = self.contact
-        check_not_overlapping(self.obstacles, cmap.coordinates, comm=comm)
-        gap = cmap.gap
-        # round-off below the surface (e.g. from mesh generators) counts as touching (only without δ: an
-        # indentation's overlap is genuine)
-        size = comm.allreduce(float(np.abs(msh.geometry.x).max(initial=0.0)), op=MPI.MAX)
-        gap[(gap < 0.0) & (gap > -1e-12 * size)] = 0.0
-        #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
-        self.obstacle_displacement = np.array([o.displacement for o in self.obstacles],
-                                              dtype=np.float64).reshape(-1, 3)[cmap.obstacle_index]
-        #: The constant part sⁱ = (−T δ, g) of the local block vⁱ = Rᵢᵀũⁱ + sⁱ, shape (m, 3).
-        self.local_shift = local_shift(cmap.frames, gap, self.obstacle_displacement)
+        check_not_overlapping(self.obstacles, self.contact.coordinates, comm=comm)
+        self._size = comm.allreduce(float(np.abs(msh.geometry.x).max(initial=0.0)), op=MPI.MAX)
         self.friction = self._friction_at_contact_nodes(friction)
         self.shift = self.A.createVecRight()
         self.shift.setOptionsPrefix(f"{prefix}shift_")
-        self.shift.set(0.0)
-        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
-        # l = l̃ + A d (see the module docstring for the derivation).
         self.rhs = self.A.createVecRight()
         self.rhs.setOptionsPrefix(f"{prefix}rhs_")
-        self.A.mult(self.shift, self.rhs)
-        self.rhs.axpy(1.0, self.load)
+        self.place(self.obstacles)
 
         imap = V.dofmap.index_map
         self.num_dofs_global = imap.size_global * 3
@@ -187,6 +172,68 @@ class ContactModel:
         self.n = self.num_dofs_global - num_dirichlet
         #: p of the paper: number of contact nodes.
         self.p = self.contact.num_global
+
+    def assemble_load(self) -> None:
+        """(Re-)assemble l̃ from the current values of L's coefficients and of the Dirichlet values (collective).
+
+        Assemble, lift the Dirichlet values into the right-hand side, add the ghost contributions to their
+        owners (reverse scatter), then set the Dirichlet rows to s g (see the module docstring). Call
+        :meth:`place` afterwards to update l = l̃ + A d.
+        """
+        b = dolfinx.fem.petsc.assemble_vector(self.L)
+        dolfinx.fem.petsc.apply_lifting(b, [self.a], bcs=[self.bcs])
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        dolfinx.fem.petsc.set_bc(b, self.bcs, alpha=self.dirichlet_diagonal)
+        b.copy(self.load)
+        b.destroy()
+
+    def place(
+        self,
+        obstacles: Sequence[Obstacle],
+        previous_displacement: npt.NDArray[np.float64] | None = None,
+        previous_obstacle_displacements: npt.ArrayLike | None = None,
+    ) -> None:
+        """Place the obstacles at their displacements and set the shift d and l = l̃ + A d (collective).
+
+        The frames, gaps and obstacle of every contact node are those of the placed obstacles. The local shift
+        is sⁱ = (−T o, g) with the tangential offset o = ũ_{k−1} + δ_k − δ_{k−1} of a load path's step k
+        (:mod:`fenics_coulomb.path` semantics: the slip is the increment T(ũ_k − ũ_{k−1}) − T(δ_k − δ_{k−1}));
+        without a previous step o = δ_k, the static problem.
+
+        Args:
+            obstacles: The obstacles (the same kinds and geometry as at construction; only their displacements
+                may differ).
+            previous_displacement: ũ_{k−1} at the owned contact nodes, Cartesian, shape (m, 3); None for 0.
+            previous_obstacle_displacements: δ_{k−1} per obstacle, shape (number of obstacles, 3); None for 0.
+        """
+        obstacles = list(obstacles)
+        if len(obstacles) != len(self.obstacles) or any(
+                o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
+            raise InputError("obstacles: a placement may only change the obstacles' displacements")
+        self.obstacles = obstacles
+        cmap = self.contact
+        index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates.reshape(-1, 3))
+        # round-off below the surface (e.g. from mesh generators) counts as touching
+        gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
+        cmap.obstacle_index = index
+        cmap.gap = np.ascontiguousarray(gap)
+        cmap.frames = np.ascontiguousarray(frames)
+        delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
+        #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
+        self.obstacle_displacement = delta[index]
+        offset = self.obstacle_displacement
+        if previous_obstacle_displacements is not None:
+            previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
+            offset = offset - previous[index]
+        if previous_displacement is not None:
+            offset = offset + np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
+        #: The constant part sⁱ = (−T o, g) of the local block vⁱ = Rᵢᵀũⁱ + sⁱ, shape (m, 3).
+        self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
+        self.shift.set(0.0)
+        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
+        # l = l̃ + A d (see the module docstring for the derivation).
+        self.A.mult(self.shift, self.rhs)
+        self.rhs.axpy(1.0, self.load)
 
     def _friction_at_contact_nodes(self, friction: Friction) -> float | npt.NDArray[np.float64]:
         """F as a number, or its values at the owned contact nodes for a field (validated on all ranks)."""

@@ -124,8 +124,6 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         self.rows = ContactRows(self.A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
-        #: Frames R = (t₁, t₂, n) of the contact nodes (columns), shape (m, 3, 3).
-        self.frames = model.contact.frames
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
                              model.V.mesh.topology.cell_type.name)
@@ -147,6 +145,11 @@ class SCDNewtonSolver:
         for name in ("u", "r", "b", "x", "Adu", "w"):
             getattr(self, name).setOptionsPrefix(f"{prefix}{name}_")
         self.timings["setup"] = time.perf_counter() - t0
+
+    @property
+    def frames(self) -> Array:
+        """Frames R = (t₁, t₂, n) of the contact nodes (columns), shape (m, 3, 3), as currently placed."""
+        return self.model.contact.frames
 
     def _create_ksp(self) -> None:
         """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""

@@ -6,6 +6,16 @@
                              petsc_options_prefix="coulomb_", petsc_options={"ksp_rtol": 0.1})
     uh, result = problem.solve()
 
+**Load paths.** Each :meth:`ContactProblem.solve` is one step k of a quasi-static path and is kept as the
+history of the next one: change the loads (the values of the Constants and Functions in L and in the
+Dirichlet conditions' values) and the obstacles' displacements (:meth:`ContactProblem.move`) and solve again.
+Step k solves the static problem with the obstacles placed at δ_k and friction on the increment: the slip of a
+contact node is s = T(ũ_k − ũ_{k−1}) − T(δ_k − δ_{k−1}) (T the node's tangent rows at step k; ũ₀ = 0,
+δ₀ = 0), i.e. the previous step enters the local shift (:meth:`ContactModel.place
+<fenics_coulomb.model.ContactModel.place>`) as the gap enters the normal component. The first step is the
+static problem. Step k > 1 starts its Newton iteration from ũ_{k−1}. :meth:`ContactProblem.reset` forgets
+the history (or sets it to a known previous step, to resume a path).
+
 The problem owns the algebraic model (:class:`~fenics_coulomb.model.ContactModel`: A, l̃, d, l, the contact
 nodes) and the SCD semismooth* Newton solver (:class:`~fenics_coulomb.newton.SCDNewtonSolver`: the Newton
 matrix, its KSP). Every PETSc object it creates carries the options prefix; ``petsc_options`` are set under
@@ -131,6 +141,10 @@ class ContactProblem:
         self.n: int = self._model.n
         #: Contact nodes (global).
         self.p: int = self._model.p
+        self._obstacles = list(self._model.obstacles)
+        self._step = 0
+        self._previous: npt.NDArray[np.float64] | None = None
+        self._previous_delta: npt.NDArray[np.float64] | None = None
 
     # -- access ------------------------------------------------------------------------------------
     @property
@@ -164,15 +178,82 @@ class ContactProblem:
         self.settings = settings
         self._solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)
 
+    # -- the load path ------------------------------------------------------------------------------
+    @property
+    def step(self) -> int:
+        """The number of solved (committed) steps of the load path."""
+        return self._step
+
+    @property
+    def obstacles(self) -> list[Obstacle]:
+        """The obstacles as they will be placed in the next solve."""
+        return list(self._obstacles)
+
+    def move(self, obstacle: int | str, displacement: npt.ArrayLike) -> None:
+        """Set the total displacement δ of an obstacle (its index or name) for the next solve.
+
+        Raises:
+            InputError: for an unknown obstacle or a displacement that is not a finite 3-vector.
+        """
+        names = [getattr(o, "name", None) for o in self._obstacles]
+        if isinstance(obstacle, str):
+            if obstacle not in names:
+                raise InputError(f"move: no obstacle named {obstacle!r} (obstacles: {names})")
+            index = names.index(obstacle)
+        elif isinstance(obstacle, int | np.integer) and not isinstance(obstacle, bool) and (
+                0 <= int(obstacle) < len(self._obstacles)):
+            index = int(obstacle)
+        else:
+            raise InputError(f"move: obstacle {obstacle!r} is neither a name nor an index below "
+                             f"{len(self._obstacles)}")
+        self._obstacles[index] = self._obstacles[index].moved(displacement)
+
+    def reset(self, u: dolfinx.fem.Function | None = None, *, step: int = 0,
+              obstacle_displacements: npt.ArrayLike | None = None) -> None:
+        """Forget the load path's history, or set it to a known previous step (collective with ``u``).
+
+        Args:
+            u: The displacement of the previous step (on any mesh, interpolated), or None for ũ₀ = 0.
+            step: The number of that step (the next solve is step ``step + 1``).
+            obstacle_displacements: δ of that step per obstacle, shape (number of obstacles, 3); None for 0.
+        """
+        if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 0:
+            raise InputError(f"reset: step {step!r} must be an integer >= 0")
+        delta = None
+        if obstacle_displacements is not None:
+            delta = np.asarray(obstacle_displacements, dtype=np.float64)
+            if delta.shape != (len(self._obstacles), 3) or not np.all(np.isfinite(delta)):
+                raise InputError(f"reset: obstacle_displacements of shape {delta.shape}: need finite values of "
+                                 f"shape ({len(self._obstacles)}, 3)")
+        self._previous = None if u is None else interpolate_displacement(u, self.model.V)
+        self._previous_delta = delta
+        self._step = int(step)
+
+    def _place(self) -> None:
+        """Re-assemble l̃ from the current loads and place the obstacles with the history's shift."""
+        model = self.model
+        model.assemble_load()
+        previous = None if self._previous is None else self._previous[model.contact.local_dofs]
+        model.place(self._obstacles, previous, self._previous_delta)
+
+    def _commit(self, result: SolveResult) -> None:
+        """Make the converged ``result`` the history of the next step."""
+        self._previous = np.array(result.displacement, dtype=np.float64)
+        self._previous_delta = np.array([o.displacement for o in self._obstacles], dtype=np.float64).reshape(-1, 3)
+        self._step += 1
+
     # -- solving -----------------------------------------------------------------------------------
     def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:
-        """ũ⁽⁰⁾ on the owned DOFs: the paper's u⁽⁰⁾ = 0 of the shifted unknown (ũ = −d) by default, or
-        ``u0`` (on any mesh, interpolated); the Dirichlet values are imposed on either (collective)."""
+        """ũ⁽⁰⁾ on the owned DOFs: the paper's u⁽⁰⁾ = 0 of the shifted unknown (ũ = −d) at the first step of
+        a path and the previous step's solution after it, or ``u0`` (on any mesh, interpolated); the Dirichlet
+        values are imposed on each (collective)."""
         model = self.model
-        if u0 is None:
-            start = -model.shift.getArray(readonly=True).copy()
-        else:
+        if u0 is not None:
             start = interpolate_displacement(u0, model.V)
+        elif self._previous is not None:
+            start = self._previous.copy()
+        else:
+            start = -model.shift.getArray(readonly=True).copy()
         if model.bcs:
             g = dolfinx.fem.Function(model.V)
             g.x.array[:] = np.nan
@@ -185,7 +266,12 @@ class ContactProblem:
 
     def solve(self, u0: dolfinx.fem.Function | None = None, *,
               paper_target: bool = False) -> tuple[dolfinx.fem.Function, SolveResult]:
-        """Solve from ``u0`` (default: the paper's u⁽⁰⁾ = 0 of the shifted unknown).
+        """Solve the next step of the load path from ``u0`` (default: the paper's u⁽⁰⁾ = 0 of the shifted
+        unknown at the first step, the previous step's solution after it); a converged step becomes the
+        history of the next one (see the module docstring).
+
+        The load l̃ is assembled from the current values of the coefficients of L and of the Dirichlet
+        conditions, the obstacles are placed at their current displacements (:meth:`move`).
 
         With ``paper_target`` the stopping target is rtol times the residual of the paper's start instead of
         that of ``u0`` (for a start interpolated from a coarser solution: nested iteration).
@@ -202,15 +288,16 @@ class ContactProblem:
                 :attr:`u` its displacement.
         """
         model, solver, settings = self.model, self.solver, self.settings
+        self._place()
         start = self.initial_displacement(u0)
         if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
             result = solver.solve_linear()
             if model.p == 0:
                 self._log("no contact boundary: one linear solve")
-                return self._finish(result), result
+                return self._finish(result, commit=result.converged), result
             if result.converged and solver.is_separated(result):
                 self._log("the linear solution does not reach the obstacle: it is the solution")
-                return self._finish(result), result
+                return self._finish(result, commit=True), result
             self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
             result = solver.solve(start, solver.paper_start_residual() if paper_target else None)
@@ -218,14 +305,16 @@ class ContactProblem:
             if err.result is not None:
                 self._finish(err.result)
             raise
-        return self._finish(result), result
+        return self._finish(result, commit=True), result
 
     def _log(self, message: str) -> None:
         if self.model.comm.rank == 0:
             logger.info(message)
 
-    def _finish(self, result: SolveResult) -> dolfinx.fem.Function:
+    def _finish(self, result: SolveResult, commit: bool = False) -> dolfinx.fem.Function:
         result.timings["model"] = self.model_time
+        if commit:
+            self._commit(result)
         self.u.x.petsc_vec.array[:] = result.displacement
         self.u.x.scatter_forward()
         return self.u
