@@ -45,10 +45,13 @@ def test_contact_radius_estimator():
 
 
 def _physics(m) -> None:
-    """Equilibrium, Signorini and balance of the solution: the support's reaction carries the contact force."""
-    assert m.max_physics_residual < 1e-6, m.max_physics_residual
-    assert m.reaction_balance < 1e-6
-    assert m.reaction == pytest.approx(m.force, rel=1e-6)
+    """Equilibrium, Signorini and balance of the solution: the support's reaction carries the contact force.
+
+    The balance sums the solver's nodal equilibrium residual (< 1e-8 relative here, measured 2e-9) over ~10⁴
+    free nodes, hence 1e-5 (measured 1e-11 for the block, 1.3e-6 for the hemisphere)."""
+    assert m.max_physics_residual < 1e-8, m.max_physics_residual
+    assert m.reaction_balance < 1e-5
+    assert m.reaction == pytest.approx(m.force, rel=1e-5)
     assert m.force > 0 and m.min_pressure >= 0.0
 
 
