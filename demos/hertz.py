@@ -31,14 +31,15 @@
 #     E* = E/(1 − ν²),   P = (4/3) E* √R δ^{3/2},   a = √(R δ),   p₀ = 3P/(2π a²) = (2E*/π) √(δ/R),
 #
 # equivalently a³ = 3PR/(4E*) from the force. The pressure is p(r) = p₀ √(1 − r²/a²) for r ≤ a and 0
-# outside. δ is the approach of points far from the contact; in a finite body it also contains the body's
-# own compliance (far-field and bulk deformation), which the half-space does not have. The relation
-# between P and a (and p₀) is local and does not depend on it.
+# outside. δ is the approach of points far from the contact. A finite body lacks the half-space's
+# compliance beyond its size: a support at the distance W from the contact removes about 0.7 (a/W) δ
+# (ν = 0.3; the Boussinesq displacement there), so the body is slightly stiffer than Hertz's δ says. The
+# relation between P and a (and p₀) is local and hardly sees it.
 #
 # With friction (F > 0) the surface can no longer slide inward freely: for a rigid indenter on a
-# compressible solid (ν < 0.5) Spence's solution gives a slightly stiffer response with a central stick
-# zone; the 3 % criterion of the comparison is for the frictionless case, the frictional numbers are
-# reported next to it.
+# compressible solid (ν < 0.5) Spence's solution has a central stick zone, a slightly stiffer response and
+# a slightly smaller contact radius for the same load; the 3 % criterion of the comparison is for the
+# frictionless case, the frictional numbers are reported next to it.
 
 # %%
 from __future__ import annotations
@@ -91,7 +92,7 @@ TOP, BOTTOM, SIDES = 1, 2, 3
 LEVELS = {0: (1 / 4, 0.15), 1: (1 / 8, 0.10), 2: (1 / (8 * np.sqrt(2)), 0.07)}
 FAR = {0: 0.1, 1: 0.07, 2: 0.05}
 #: Solver settings: ILU-preconditioned GMRES (GAMG stagnates on these strongly graded tetrahedra), the
-#: residual reduced by 1e-10 so that the support reactions balance the contact force to ~1e-7.
+#: residual reduced by 1e-10 so that the support reactions balance the contact force to ~1e-6 or better.
 SETTINGS = {"pc": "ilu", "rtol": 1e-10}
 
 
