@@ -9,7 +9,8 @@ The load's own residual scale ‖ŷ(ũ = 0)‖ = √(1+γ²)/γ·‖l̃‖ (no c
 is dominated by γ·d when the load is small, and a reduction relative to it alone would accept a field that
 does not resolve the load. The reduction is therefore taken relative to min(‖ŷ⁽⁰⁾‖, 100·‖ŷ(ũ = 0)‖): the
 paper's rule for ordinary loads (‖ŷ⁽⁰⁾‖ is then below the bound), a load-relative rule when the start's
-misfit dwarfs the load.
+misfit dwarfs the load. Without any load (l̃ = 0: the body is driven by its obstacles' displacements alone,
+e.g. a step of a load path that only moves an obstacle) the rule is the paper's, rtol·‖ŷ⁽⁰⁾‖.
 """
 
 from __future__ import annotations
@@ -63,7 +64,9 @@ class StoppingRule:
         # start iterate alone (from the paper's start under a tiny load that would be ~0, and the iteration
         # would chase ‖ŷ‖ → 0 to the iteration limit): the gaps d, the start ũ⁽⁰⁾ and the load's scale ‖l̃‖/γ.
         floor = ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma)
-        target = rtol * min(initial, LOAD_GUARD * load_norm / gamma)
+        # the load guard needs a load: a problem driven only by its obstacles (l̃ = 0) has the paper's rule,
+        # which would otherwise ask for ‖ŷ‖ = 0 and iterate to the round-off floor
+        target = rtol * (min(initial, LOAD_GUARD * load_norm / gamma) if load_norm > 0.0 else initial)
         return cls(rtol, max_it, initial, target, floor)
 
     @property
