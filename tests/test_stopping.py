@@ -23,12 +23,19 @@ def test_load_guard_when_the_start_misfit_dwarfs_the_load():
     assert rule.target == pytest.approx(1e-8 * LOAD_GUARD * 1e-3)
 
 
-def test_obstacle_driven_problem_without_load_uses_the_start():
-    """l̃ = 0 (only an obstacle's displacement drives the body): the paper's rtol·‖ŷ⁽⁰⁾‖, not 0 (which would
-    iterate to the round-off floor)."""
+def test_obstacle_driven_problem_without_load():
+    """l̃ = 0 (only an obstacle's displacement drives the body): relative to the misfit of ũ = 0 (the overlap)
+    when the start's misfit dwarfs it, to the start otherwise, and never 0 (which would iterate to the round-off
+    floor); without any scale the paper's rtol·‖ŷ⁽⁰⁾‖."""
+    rule = StoppingRule.create(1e-6, 50, initial=5e4, shift_norm=1.0, start_norm=2.0, load_norm=0.0, gamma=2.0,
+                               zero_residual=0.5)
+    assert rule.target == pytest.approx(1e-6 * 0.5)
+    assert rule.threshold == rule.target > rule.floor
+    rule = StoppingRule.create(1e-6, 50, initial=0.2, shift_norm=1.0, start_norm=2.0, load_norm=0.0, gamma=2.0,
+                               zero_residual=0.5)
+    assert rule.target == pytest.approx(2e-7)
     rule = StoppingRule.create(1e-6, 50, initial=5.0, shift_norm=1.0, start_norm=2.0, load_norm=0.0, gamma=2.0)
     assert rule.target == pytest.approx(5e-6)
-    assert rule.threshold == rule.target > rule.floor
 
 
 def test_iteration_limit_and_non_finite_residual_raise():
