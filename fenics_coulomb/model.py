@@ -26,6 +26,11 @@ so A ũ = l̃ holds in the D rows exactly when ũ_D = g, and the F rows are the 
 columns of A are those of an identity scaled to s = the mean diagonal of the free rows (so that the
 spectrum used for γ and the preconditioners is not polluted). The D rows belong to the non-contact block R
 of (6.4): contact nodes exclude every node with a constrained component, so d_D = 0 and (A d)_D = 0.
+
+**Two bodies (contact pairs).** With ``contact_pairs`` the model is that of :mod:`fenics_coulomb.two_body`:
+A is Ã = Mᵀ A_free M with the same Dirichlet treatment, l̃ = Mᵀ(l − A_free M x_D), the contact nodes are the
+paired slave nodes with the pairing's frames and gaps, and the unknown is z (w on the slave nodes);
+:meth:`ContactModel.physical` maps it back to u = M z.
 """
 
 from __future__ import annotations
