@@ -1,8 +1,10 @@
 """From a scene (pure data) to the forms, the boundary conditions and a :class:`ContactProblem`.
 
 This is the only place where the command line's model is built; the scene's material is isotropic (the
-Lamé operator in UFL), its Dirichlet boundaries are clamped (u = 0), its loads are constant tractions per
-boundary and a constant body force.
+Lamé operator in UFL), its Dirichlet boundaries are clamped (u = 0), prescribed or rollers, its loads are
+tractions per boundary (constants or expressions) and a constant body force. The load form and the prescribed
+values are built on coefficients (:class:`fenics_coulomb.path.StepLoads`) that a load path changes in place
+between solves.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import ufl
 from fenics_coulomb.config import Scene, read_gmsh
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.materials import Material, epsilon, sigma
+from fenics_coulomb.path import StepLoads, scene_state, step_state
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scene import GAP_PROFILES, Body, GapFunction, create_cuboid
 
@@ -98,13 +101,16 @@ def clamp(V: dolfinx.fem.FunctionSpace, body: Body) -> dolfinx.fem.DirichletBC:
     return dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V)
 
 
-def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene
+def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene,
+                         prescribed: dict[str, dolfinx.fem.Constant] | None = None,
                          ) -> tuple[list[dolfinx.fem.DirichletBC], dict[str, np.ndarray]]:
     """The scene's clamped, prescribed and roller conditions and the DOF blocks each boundary owns.
 
     A node shared by several boundaries takes the first one of: clamped, prescribed (in scene order), roller;
     so a clamped boundary wins over a prescribed one on shared edges. Returns the conditions and, per
-    boundary name, its local DOF blocks (for its reaction force).
+    boundary name, its local DOF blocks (for its reaction force). ``prescribed`` (boundary name → a vector
+    Constant) makes the prescribed conditions hold those Constants (changed in place along a load path)
+    instead of the scene's fixed values.
     """
     bcs: list[dolfinx.fem.DirichletBC] = []
     groups: dict[str, np.ndarray] = {}
@@ -116,7 +122,8 @@ def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene
         taken = dofs
     for name, value in scene.prescribed.items():
         dofs = np.setdiff1d(boundary_nodes(V, body, [name], "prescribed"), taken).astype(np.int32)
-        bcs.append(dolfinx.fem.dirichletbc(np.asarray(value, dtype=PETSc.ScalarType), dofs, V))
+        held = prescribed[name] if prescribed is not None else np.asarray(value, dtype=PETSc.ScalarType)
+        bcs.append(dolfinx.fem.dirichletbc(held, dofs, V))
         groups[name] = dofs
         taken = np.union1d(taken, dofs).astype(np.int32)
     fdim = body.mesh.topology.dim - 1
@@ -146,6 +153,8 @@ class Built:
     mesh_time: float = 0.0
     #: Local DOF blocks per Dirichlet boundary name (for the reactions).
     dirichlet_groups: dict[str, np.ndarray] | None = None
+    #: The load coefficients (tractions, body force, prescribed values) a load path sets for each step.
+    loads: StepLoads | None = None
 
 
 def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_prefix: str = "coulomb_",
@@ -156,13 +165,15 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     body = build_body(scene, comm)
     mesh_time = time.perf_counter() - t0
     material = scene.material.material()
-    tractions = {body.tag(name): value for name, value in scene.traction_table().items()}
-    force = scene.load.body_force
     V = dolfinx.fem.functionspace(body.mesh, ("Lagrange", 1, (body.mesh.geometry.dim,)))
-    a, L = isotropic_forms(V, material, body.facet_tags, tractions, (force[0], force[1], force[2]))
-    bcs, groups = dirichlet_conditions(V, body, scene)
+    a, _ = isotropic_forms(V, material, body.facet_tags, {})
+    states = [step_state(scene, step) for step in scene.path]
+    names = {name for state in states for name in state.tractions} | set(scene.traction_table())
+    loads = StepLoads(V, body.facet_tags, {name: body.tag(name) for name in names}, scene_state(scene), states)
+    L = loads.form(ufl.TestFunction(V))
+    bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed)
     contact = (body.facet_tags, [body.tag(name) for name in body.contact])
     problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
                              obstacles=scene.obstacles or None, settings=scene.solver,
                              petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
-    return Built(body, (a, L), bcs, problem, mesh_time, groups)
+    return Built(body, (a, L), bcs, problem, mesh_time, groups, loads)

@@ -124,6 +124,13 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
                    help="nested iteration for the cuboid: solve lev-K, ..., lev-1 first (each to a residual "
                    f"reduction of {NESTED_COARSE_RTOL:g}), each from the previous level's solution interpolated, and "
                    "start lev from the last (default 0: off)")
+    p.add_argument("--steps", type=int, default=None, metavar="N",
+                   help="quasi-static load path: ramp the scene's loads (tractions, body force, prescribed "
+                   "displacements, obstacle displacements) from 0 in N equal steps, friction acting on each step's "
+                   "slip increment (not with a scene's own [[path.step]] path)")
+    p.add_argument("--start-step", type=int, default=None, metavar="K",
+                   help="resume a load path after its step K: --start names the earlier path's solution.xdmf, "
+                   "whose grid of time K is the state of step K; steps K+1..N are solved and written")
     p.add_argument("--predictor", action="store_const", const=True, default=None,
                    help="first solve the linear problem; if it does not touch the obstacle it is the solution")
     p.add_argument("--out", default="out", help="output directory (default ./out)")
@@ -192,6 +199,9 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     nested = args.nested
     check_all(comm, not isinstance(nested, bool) and isinstance(nested, int) and nested >= 0,
               f"--nested {nested!r}: must be an integer >= 0")
+    solves = check_path_arguments(comm, scene, args)
+    if solves is not None:
+        return run_load_path(args, comm, scene, solves, t0)
     if nested:
         check_all(comm, scene.body.shape == "cuboid", "--nested: nested iteration needs the cuboid body (lev)")
         check_all(comm, nested <= scene.body.lev, f"--nested {nested}: more coarser levels than lev = "
@@ -243,6 +253,152 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             flush=True,
         )
         print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
+              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+    return status
+
+
+def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace) -> list | None:
+    """Validate ``--steps``, ``--start-step`` and the scene's path (InputError on every rank); return the
+    path's solves (:func:`fenics_coulomb.path.plan`) or None for a static run (collective)."""
+    from fenics_coulomb.config import MAX_PATH_SOLVES
+    from fenics_coulomb.path import plan
+
+    steps, start_step = getattr(args, "steps", None), getattr(args, "start_step", None)
+    if steps is not None:
+        check_all(comm, not isinstance(steps, bool) and 1 <= steps <= MAX_PATH_SOLVES,
+                  f"--steps {steps!r}: must be an integer in [1, {MAX_PATH_SOLVES}]")
+        check_all(comm, not scene.path, f"--steps {steps}: the scene defines its own load path "
+                  f"({len(scene.path)} [[path.step]] tables); give either --steps or [[path.step]], not both")
+    if steps is None and not scene.path:
+        check_all(comm, start_step is None, f"--start-step {start_step}: only for a load path (--steps N or "
+                  "[[path.step]] tables in the scene)")
+        return None
+    check_all(comm, not args.nested, "--nested: nested iteration is not available for a load path")
+    solves = plan(scene, steps)
+    if start_step is not None:
+        last = solves[-1].step
+        check_all(comm, scene.start not in ("zero", "undeformed"), f"--start-step {start_step}: give the earlier "
+                  "path's solution.xdmf with --start FILE")
+        check_all(comm, not isinstance(start_step, bool) and 1 <= start_step < last,
+                  f"--start-step {start_step}: must lie in [1, {last - 1}] (the path has {last} steps; the last "
+                  "one is solved after it)")
+        message = ""
+        if comm.rank == 0:
+            from fenics_coulomb.output import solution_datasets
+
+            try:
+                info = solution_datasets(Path(scene.start), float(start_step))
+                if not info["converged"]:
+                    message = f"its step {start_step} did not converge"
+            except (OSError, ValueError, KeyError, ET.ParseError) as err:
+                message = f"no step {start_step} in it ({err})"
+            if message:
+                message = f"--start {scene.start!r} --start-step {start_step}: {message}"
+        message = comm.bcast(message, root=0)
+        check_all(comm, not message, message)
+    return solves
+
+
+def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves: list, t0: float) -> int:
+    """Solve a quasi-static load path (``--steps N`` or the scene's ``[[path.step]]``) and write its result set:
+    solution.xdmf with one grid per solve (time = the step number), path.csv, summary.json with "steps",
+    convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
+    stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
+    from fenics_coulomb.figures import write_path_figure
+    from fenics_coulomb.output import XDMFTimeSeries, read_displacement, write_path_csv, write_result_grid
+    from fenics_coulomb.path import obstacle_labels, run_path
+
+    out = prepare_output(comm, args.out)
+    built = build_problem(scene, comm)
+    start_step = getattr(args, "start_step", None)
+    newton_logger = logging.getLogger("fenics_coulomb.newton")
+    problem_logger = logging.getLogger("fenics_coulomb.problem")
+    levels = newton_logger.level, problem_logger.level
+    if not args.verbose:  # one line per step; the Newton lines under -v
+        newton_logger.setLevel(logging.WARNING)
+        problem_logger.setLevel(logging.WARNING)
+    try:
+        with built.problem as problem:
+            model = problem.model
+            labels = obstacle_labels(scene)
+            t_model = time.perf_counter() - t0
+            logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s); load path of %d step(s), "
+                        "%d solve(s)", built.body.description, problem.n, problem.p, scene.friction.coefficient,
+                        comm.size, solves[-1].step, len(solves))
+            u0 = None
+            if start_step is not None:
+                done = [s for s in solves if s.step <= start_step]
+                previous = dolfinx.fem.Function(problem.V)
+                previous.x.petsc_vec.array[:] = read_displacement(Path(scene.start), problem.V,
+                                                                  time=float(start_step))
+                previous.x.scatter_forward()
+                deltas = done[-1].obstacle_displacements or [(0.0, 0.0, 0.0)] * len(problem.obstacles)
+                problem.reset(previous, step=len(done), obstacle_displacements=deltas)
+                todo = solves[len(done):]
+                logger.info("resuming after step %d of %s: solving steps %d..%d", start_step, scene.start,
+                            start_step + 1, solves[-1].step)
+            else:
+                u0 = start_function(scene.start, problem.V)
+                todo = solves
+            t_write = 0.0
+            with out.writing() as tmp:
+                xdmf = XDMFTimeSeries(tmp / "solution.xdmf", model.V.mesh)
+
+                def write_grid(solve, record, result) -> None:  # noqa: ANN001
+                    nonlocal t_write
+                    t = time.perf_counter()
+                    step = (f"step {solve.step}" if solve.substeps == 1
+                            else f"step {solve.step} ({solve.substep}/{solve.substeps})")
+                    write_result_grid(xdmf, model, result, solve.time, step)
+                    t_write += time.perf_counter() - t
+
+                records, result, failure = run_path(problem, built.loads, todo, labels,
+                                                    built.dirichlet_groups or {}, u0, write_grid,
+                                                    last_step=solves[-1].step)
+                t = time.perf_counter()
+                steps = [r.as_dict() for r in records]
+                write_convergence_csv(tmp / "convergence.csv", result, comm)
+                write_path_csv(tmp / "path.csv", steps, comm)
+                files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv"]
+                if not args.no_plots:
+                    from fenics_coulomb.figures import write_figures
+
+                    files += write_figures(tmp, model, result, scene.label)
+                    files += write_path_figure(tmp, steps, scene.label, comm)
+                data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
+                                               "body": built.body.description})
+                data["converged"] = not failure
+                data["reason"] = failure or "converged"
+                data["path"] = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
+                                "start_step": start_step, "start": scene.start if start_step is not None else None,
+                                "ramp_steps": getattr(args, "steps", None)}
+                data["steps"] = steps
+                data["reactions"] = records[-1].reactions
+                data["contact_force"] = records[-1].contact_force
+                data["newton_iterations_total"] = sum(r.newton_iterations for r in records)
+                data["krylov_iterations_total"] = sum(r.krylov_iterations for r in records)
+                data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+                data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
+                data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
+                data["timings_s"]["output"] = comm.allreduce(t_write + time.perf_counter() - t, op=MPI.MAX)
+                data["wall_time_s"] = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+                data["files"] = [*files, "summary.json"]
+                write_summary(tmp / "summary.json", data, comm)
+    finally:
+        newton_logger.setLevel(levels[0])
+        problem_logger.setLevel(levels[1])
+    status = 0
+    if failure:
+        status = EXIT_DIVERGED
+        logger.error("fenics-coulomb: step %g of the load path did not converge: %s; the path stops (%d of %d "
+                     "solves written, the last one NOT converged)", records[-1].time, failure, len(records),
+                     len(todo))
+    if comm.rank == 0:
+        print(f"{'load path completed' if not failure else 'load path STOPPED at step ' + format(records[-1].time, 'g')}: "
+              f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
+              f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
+              f"{args.out}/ ({', '.join(data['files'])})", flush=True)
+        print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
               + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
     return status
 

@@ -34,6 +34,11 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     rtol = 1e-12            # the paper's reduction (default 1e-8)
     pc = "auto"             # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
     start = "zero"
+
+    [[path.step]]           # optional: a quasi-static load path (fenics_coulomb.path), one table per step;
+    substeps = 3            # what a step does not set is the scene's value (per boundary, per obstacle)
+    [[path.step]]
+    tractions = { right = [0.17, 0.1, 0.0] }   # also prescribed = {...}, move = { name = δ }, body_force
 """
 
 from __future__ import annotations
@@ -92,11 +97,14 @@ KINDS: dict[str, dict[str, str]] = {
                "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
                "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
                "predictor": "bool", "no_contact_shortcut": "bool", "start": "str"},
+    "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "body_force": "vector",
+                  "substeps": "int"},
 }
 _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
               "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite",
               "traction": "a list of 3 numbers (finite) or expressions in x1, x2, x3",
-              "components": "a list of distinct components 0, 1, 2"}
+              "components": "a list of distinct components 0, 1, 2",
+              "table": "a table (name = value, ...)"}
 
 #: Largest scene file read (a scene is a few hundred bytes; /dev/zero or a mesh given by mistake is refused).
 MAX_SCENE_BYTES = 1 << 20
@@ -134,6 +142,7 @@ def check_kind(where: str, value: Any, kind: str) -> None:
         and all(is_number(c) or isinstance(c, str) for c in v),
         "components": lambda v: isinstance(v, list) and bool(v) and len(set(map(repr, v))) == len(v)
         and all(isinstance(c, int) and not isinstance(c, bool) and c in (0, 1, 2) for c in v),
+        "table": lambda v: isinstance(v, dict),
     }[kind](value)
     if not ok:
         raise InputError(f"{where} = {value!r}: must be {_KIND_TEXT[kind]}")
@@ -311,6 +320,55 @@ class LoadSection:
         _vector("body_force", self.body_force)
 
 
+#: The most solves a load path may take (its steps' substeps summed; also the largest ``--steps``).
+MAX_PATH_SOLVES = 10_000
+
+
+@dataclass
+class PathStep:
+    """One ``[[path.step]]`` of a quasi-static load path (solved by :mod:`fenics_coulomb.path`).
+
+    Everything a step does not set takes the SCENE's value (not the previous step's): per boundary for
+    ``tractions`` (``[tractions]`` or the ``[load]`` case, times the load scale) and ``prescribed``
+    (``[prescribed]``), per obstacle for ``move`` (its ``displacement``), and ``[load] body_force``.
+    """
+
+    #: Boundary name → traction (3 numbers or expressions in x1, x2, x3; GPa, times ``[load] scale``).
+    tractions: dict[str, list[Any]] = field(default_factory=dict)
+    #: Boundary name (one of the scene's ``[prescribed]``) → its displacement at this step.
+    prescribed: dict[str, list[float]] = field(default_factory=dict)
+    #: Obstacle name → its total displacement δ at this step.
+    move: dict[str, list[float]] = field(default_factory=dict)
+    #: The body force at this step (GPa/L); None: the scene's.
+    body_force: list[float] | None = None
+    #: Reach this step in this many equal increments of every load from the previous step's values.
+    substeps: int = 1
+
+
+def path_steps_from_toml(where: str, value: Any) -> list[PathStep]:
+    """The ``[[path.step]]`` tables of a scene's ``[path]`` section (kinds checked; names checked later by
+    :meth:`Scene.validate`)."""
+    if not isinstance(value, dict):
+        raise InputError(f"{where}: [path] must be a table holding [[path.step]] tables")
+    for key in value:
+        if key != "step":
+            raise InputError(f"{where}: unknown key {key!r} in [path] (allowed: step, as [[path.step]] tables)")
+    tables = value.get("step", [])
+    if not isinstance(tables, list) or not all(isinstance(t, dict) for t in tables):
+        raise InputError(f"{where}: path.step = {tables!r}: must be an array of tables ([[path.step]])")
+    if not tables:
+        raise InputError(f"{where}: [path] has no [[path.step]] table")
+    kinds = KINDS["path.step"]
+    steps = []
+    for i, table in enumerate(tables, 1):
+        for key, item in table.items():
+            if key not in kinds:
+                raise InputError(f"{where}: unknown key {key!r} in [[path.step]] {i} (allowed: {', '.join(kinds)})")
+            check_kind(f"[[path.step]] {i} {key}", item, kinds[key])
+        steps.append(PathStep(**{k: (dict(v) if isinstance(v, dict) else v) for k, v in table.items()}))
+    return steps
+
+
 #: Command-line names of the scene's settings → (section, key); section None is the scene itself.
 FLAGS: dict[str, tuple[str | None, str]] = {
     "lev": ("body", "lev"), "gap": ("body", "gap"), "load": ("load", "case"), "load_scale": ("load", "scale"),
@@ -321,7 +379,7 @@ FLAGS: dict[str, tuple[str | None, str]] = {
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
                             "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None,
-                            "obstacle": list, "prescribed": None, "roller": None}
+                            "obstacle": list, "prescribed": None, "roller": None, "path": list}
 
 
 @dataclass
@@ -343,6 +401,8 @@ class Scene:
     prescribed: dict[str, list[float]] = field(default_factory=dict)
     #: ``[roller]``: boundary name → the components held at 0 (0 = x1, 1 = x2, 2 = x3).
     roller: dict[str, list[int]] = field(default_factory=dict)
+    #: ``[[path.step]]``: the steps of a quasi-static load path; empty: one static solve.
+    path: list[PathStep] = field(default_factory=list)
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -366,6 +426,9 @@ class Scene:
                         if key in kinds:
                             check_kind(f"[[obstacle]] {i + 1} {key}", item, kinds[key])
                 sections[section] = obstacles_from_list(value)
+                continue
+            if section == "path":
+                sections[section] = path_steps_from_toml(where, value)
                 continue
             if not isinstance(value, dict):
                 raise InputError(f"{where}: [{section}] must be a table")
@@ -400,7 +463,7 @@ class Scene:
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
                 start=start, obstacles=sections.get("obstacle", []), prescribed=sections.get("prescribed", {}),
-                roller=sections.get("roller", {}),
+                roller=sections.get("roller", {}), path=sections.get("path", []),
             )
         except TypeError as err:  # unreachable for checked keys; kept as a one-line error
             raise InputError(f"{where}: {err}") from None
@@ -480,6 +543,7 @@ class Scene:
         if largest > MAX_LOAD or max(abs(float(c)) for c in self.load.body_force) > MAX_LOAD:
             raise InputError(f"load scale = {self.load.scale!r}: tractions and body forces (times the scale) must "
                              f"stay below {MAX_LOAD:g} GPa in magnitude")
+        self._validate_path(names, where)
         check_kind("start", self.start, "str")
         if not (self.start in ("zero", "undeformed") or Path(self.start).suffix in (".xdmf", ".h5")):
             raise InputError(f"start {self.start!r}: 'zero', 'undeformed' or a solution.xdmf of an earlier run")
@@ -491,21 +555,69 @@ class Scene:
             raise InputError(f"gamma_scale = {self.solver.gamma_scale!r}: must lie in [{GAMMA_SCALE_RANGE[0]:g}, "
                              f"{GAMMA_SCALE_RANGE[1]:g}]")
 
+    def _validate_path(self, names: dict[str, Any], where: str) -> None:
+        """Check the ``[[path.step]]`` tables: kinds, boundary and obstacle names, values, substeps."""
+        if not isinstance(self.path, list) or not all(isinstance(s, PathStep) for s in self.path):
+            raise InputError(f"path = {self.path!r}: must be a list of [[path.step]] tables")
+        named = [o.name for o in self.obstacles if getattr(o, "name", None)]
+        kinds = KINDS["path.step"]
+        solves = 0
+        for i, step in enumerate(self.path, 1):
+            at = f"[[path.step]] {i}"
+            for key in kinds:
+                value = getattr(step, key)
+                if not (key == "body_force" and value is None):
+                    check_kind(f"{at} {key}", value, kinds[key])
+            if isinstance(step.substeps, bool) or step.substeps < 1:
+                raise InputError(f"{at} substeps = {step.substeps!r}: must be an integer >= 1")
+            solves += step.substeps
+            for name, value in step.tractions.items():
+                if name not in names:
+                    raise InputError(f"{at} tractions: boundary {name!r} {where}")
+                check_kind(f"{at} traction on {name!r}", value, "traction")
+                for c in value:
+                    if isinstance(c, str):
+                        parse_point_expression(c, f"{at} traction expression on {name!r}")
+            for name, value in step.prescribed.items():
+                if name not in self.prescribed:
+                    raise InputError(
+                        f"{at} prescribed: boundary {name!r} is not in the scene's [prescribed] "
+                        f"({', '.join(self.prescribed) or 'empty'}): the Dirichlet boundaries cannot change "
+                        "along a path; give it its initial value in [prescribed]")
+                check_kind(f"{at} prescribed displacement on {name!r}", value, "vector")
+            for name, value in step.move.items():
+                if name not in named:
+                    raise InputError(f"{at} move: no obstacle named {name!r} (named obstacles: "
+                                     f"{', '.join(named) or 'none'}; give the [[obstacle]] a name to move it)")
+                check_kind(f"{at} move of {name!r}", value, "vector")
+            largest = max([abs(float(c)) for v in step.tractions.values() for c in v if not isinstance(c, str)]
+                          + [1.0]) * abs(float(self.load.scale))
+            if largest > MAX_LOAD or max(abs(float(c)) for c in (step.body_force or [0.0])) > MAX_LOAD:
+                raise InputError(f"{at}: tractions (times the load scale {self.load.scale!r}) and body forces must "
+                                 f"stay below {MAX_LOAD:g} GPa in magnitude")
+        if solves > MAX_PATH_SOLVES:
+            raise InputError(f"[[path.step]]: {solves} solves (steps times substeps): at most {MAX_PATH_SOLVES}")
+
     # -- derived data ------------------------------------------------------------------------------
-    def traction_table(self) -> dict[str, tuple[Any, Any, Any]]:
-        """Tractions (GPa) per boundary name: constant components scaled, expression components as compiled
-        functions of points x (shape (3, m)) with the scale applied."""
-        if self.tractions is None:
-            return paper_tractions(self.load.case, self.load.scale) if self.load.case is not None else {}
+    def scaled_traction(self, name: str, value: list[Any]) -> tuple[Any, Any, Any]:
+        """A traction of ``[tractions]`` or a path step times the load scale: constant components as numbers,
+        expression components as compiled functions of points x (shape (3, m))."""
         s = float(self.load.scale)
 
-        def component(name: str, c: Any) -> Any:
+        def component(c: Any) -> Any:
             if isinstance(c, str):
                 f = parse_point_expression(c, f"traction expression on {name!r}")
                 return lambda x: s * f(x)
             return s * float(c)
 
-        return {k: tuple(component(k, c) for c in v) for k, v in self.tractions.items()}  # type: ignore[misc]
+        return tuple(component(c) for c in value)  # type: ignore[return-value]
+
+    def traction_table(self) -> dict[str, tuple[Any, Any, Any]]:
+        """Tractions (GPa) per boundary name: constant components scaled, expression components as compiled
+        functions of points x (shape (3, m)) with the scale applied."""
+        if self.tractions is None:
+            return paper_tractions(self.load.case, self.load.scale) if self.load.case is not None else {}
+        return {k: self.scaled_traction(k, v) for k, v in self.tractions.items()}
 
     @property
     def label(self) -> str:

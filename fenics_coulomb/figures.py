@@ -225,3 +225,63 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
                 logger.warning("fenics-coulomb: warning: %s not written (%s: %s)", name, type(err).__name__, err)
                 (directory / name).unlink(missing_ok=True)
     return comm.bcast(written, root=0)
+
+
+def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
+    """Force–displacement curves of a load path (``steps``: summary.json's "steps") to ``path``.
+
+    When an obstacle moves, the total contact force component along each of its varying displacement
+    components is drawn against that component (the tangential force against the tangential displacement
+    traces a friction hysteresis loop); otherwise the contact force components against the path's time (the
+    step number; the load factor for ``--steps``). Both start at the unloaded state 0.
+    """
+    plt = _pyplot()
+    force = np.array([[0.0, 0.0, 0.0]] + [s["contact_force"] for s in steps])
+    names = list(steps[0]["obstacle_displacements"]) if steps else []
+    deltas = {n: np.array([[0.0, 0.0, 0.0]] + [s["obstacle_displacements"][n] for s in steps]) for n in names}
+    ranges = {(n, c): float(np.ptp(d[:, c])) for n, d in deltas.items() for c in range(3)}
+    moving = [key for key, r in ranges.items() if r > 0]
+    marker = {"marker": "o", "ms": 3}
+    if moving:
+        top = max(ranges.values())
+        moving = [key for key in moving if ranges[key] >= 1e-3 * top]
+        fig, axes = plt.subplots(1, len(moving), figsize=(5.5 * len(moving), 4.5), squeeze=False)
+        for ax, (name, c) in zip(axes[0], moving, strict=True):
+            ax.plot(deltas[name][:, c], force[:, c], **marker)
+            ax.set_xlabel(f"displacement δ{c + 1} of obstacle {name} (L)")
+            ax.set_ylabel(f"total contact force F{c + 1} on the body (GPa·L²)")
+        ax = axes[0][0]
+    else:
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        ramp = all(s["substeps"] == 1 for s in steps) and all(
+            abs(s["load_factor"] - s["time"] / steps[-1]["time"]) < 1e-12 for s in steps)
+        x = np.array([0.0] + [s["load_factor"] if ramp else s["time"] for s in steps])
+        for c in range(3):
+            ax.plot(x, force[:, c], label=f"F{c + 1}", **marker)
+        ax.set_xlabel("load factor" if ramp else "step")
+        ax.set_ylabel("total contact force on the body (GPa·L²)")
+    for axis in fig.axes:
+        axis.grid(True, alpha=0.3)
+    if not steps[-1]["converged"]:
+        ax.plot([], [], " ", label=f"last point NOT converged (t = {steps[-1]['time']:g})")
+    if ax.get_legend_handles_labels()[0]:
+        for text in ax.legend(fontsize=8).get_texts():
+            text.set_parse_math(False)
+    if title:
+        fig.suptitle(title, parse_math=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def write_path_figure(directory: Path, steps: list[dict], label: str, comm: MPI.Comm) -> list[str]:
+    """Draw path.png on rank 0 (a failure is a logged warning); return ["path.png"] or [] on every rank."""
+    written: list[str] = []
+    if comm.rank == 0 and steps:
+        try:
+            plot_path(steps, directory / "path.png", f"Load path, {label}")
+            written.append("path.png")
+        except Exception as err:  # a figure never costs the results
+            logger.warning("fenics-coulomb: warning: path.png not written (%s: %s)", type(err).__name__, err)
+            (directory / "path.png").unlink(missing_ok=True)
+    return comm.bcast(written, root=0)

@@ -427,30 +427,51 @@ def write_xdmf(path: Path, model: ContactModel, result: SolveResult) -> None:
     A solve that did not converge writes its last iterate, named so in the grid and marked by the grid's
     ``converged``/``reason`` information items.
     """
-    functions = contact_functions(model, result)
-    if result.converged:
-        name = "solution"
-    else:
-        name = f"last iterate (NOT converged: {result.reason})"
     with XDMFTimeSeries(path, model.V.mesh) as xdmf:
-        xdmf.write(0.0, functions, dtypes={"contact_state": np.int32}, name=name,
-                   information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
-                                "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items())})
+        write_result_grid(xdmf, model, result, 0.0, "solution")
 
 
-def _last_grid(path: Path) -> ET.Element:
-    """The grid of the last time in an XDMF file written by :class:`XDMFTimeSeries` (or a single grid)."""
+def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveResult, t: float, name: str) -> None:
+    """Append the output fields of a solve as the grid of time ``t`` (collective); a solve that did not converge
+    is named ``last iterate (NOT converged: <reason>)`` (after ``name`` when it is not "solution") and marked
+    by the grid's ``converged``/``reason`` information items."""
+    functions = contact_functions(model, result)
+    if not result.converged:
+        name = ("" if name == "solution" else f"{name}: ") + f"last iterate (NOT converged: {result.reason})"
+    xdmf.write(t, functions, dtypes={"contact_state": np.int32}, name=name,
+               information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
+                            "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items())})
+
+
+def grid_times(path: Path) -> list[float]:
+    """The times of the grids of an XDMF file written by :class:`XDMFTimeSeries` (no MPI)."""
+    root = ET.parse(Path(path).with_suffix(".xdmf")).getroot()
+    grid = root.find("Domain/Grid")
+    if grid is None:
+        return []
+    grids = grid.findall("Grid") if grid.get("GridType") == "Collection" else [grid]
+    return [float(g.find("Time").get("Value", "nan")) if g.find("Time") is not None else float("nan")
+            for g in grids]
+
+
+def _last_grid(path: Path, time: float | None = None) -> ET.Element:
+    """The grid of the last time in an XDMF file written by :class:`XDMFTimeSeries` (or a single grid), or
+    the grid of time ``time``."""
     root = ET.parse(path).getroot()
     domain = root.find("Domain")
     grid = domain.find("Grid") if domain is not None else None
     if grid is None:
         raise ValueError("no Domain/Grid")
-    if grid.get("GridType") == "Collection":
-        children = grid.findall("Grid")
-        if not children:
-            raise ValueError("an empty grid collection")
-        grid = children[-1]
-    return grid
+    children = grid.findall("Grid") if grid.get("GridType") == "Collection" else [grid]
+    if not children:
+        raise ValueError("an empty grid collection")
+    if time is None:
+        return children[-1]
+    for child in children:
+        stamp = child.find("Time")
+        if stamp is not None and float(stamp.get("Value", "nan")) == float(time):
+            return child
+    raise ValueError(f"no grid of time {time:g}")
 
 
 def _h5_item(path: Path, item: ET.Element | None, what: str) -> tuple[Path, str]:
@@ -461,8 +482,9 @@ def _h5_item(path: Path, item: ET.Element | None, what: str) -> tuple[Path, str]
     return path.parent / file, dataset
 
 
-def solution_datasets(path: Path) -> dict[str, Any]:
-    """Locate the mesh and the displacement of the last time of a ``solution.xdmf`` (no MPI).
+def solution_datasets(path: Path, time: float | None = None) -> dict[str, Any]:
+    """Locate the mesh and the displacement of the last time (or of time ``time``, e.g. a path's step number)
+    of a ``solution.xdmf`` (no MPI).
 
     Returns:
         ``cell`` (DOLFINx cell name) and ``(h5 file, dataset)`` pairs for ``topology``, ``geometry`` and
@@ -474,7 +496,7 @@ def solution_datasets(path: Path) -> dict[str, Any]:
     """
     path = Path(path).with_suffix(".xdmf")
     try:
-        grid = _last_grid(path)
+        grid = _last_grid(path, time)
     except ET.ParseError as err:
         raise ValueError(f"not an XDMF file ({err})") from err
     topology = grid.find("Topology")
@@ -485,7 +507,9 @@ def solution_datasets(path: Path) -> dict[str, Any]:
     displacement = [a for a in grid.findall("Attribute") if a.get("Name") == "displacement"]
     if not displacement:
         raise ValueError("no point field 'displacement'")
+    information = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
     return {
+        "converged": information.get("converged", "true") != "false",
         "cell": cells[kind],
         "topology": _h5_item(path, topology.find("DataItem"), "the topology"),  # type: ignore[union-attr]
         "geometry": _h5_item(path, grid.find("Geometry/DataItem"), "the geometry"),
@@ -519,9 +543,10 @@ def _rows(comm: MPI.Comm, total: int) -> tuple[int, int]:
     return total * comm.rank // comm.size, total * (comm.rank + 1) // comm.size
 
 
-def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6) -> npt.NDArray[np.float64]:
-    """Read ``displacement`` (the last time) of an earlier run's solution.xdmf/.h5 and interpolate it onto V
-    (collective).
+def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6,
+                      time: float | None = None) -> npt.NDArray[np.float64]:
+    """Read ``displacement`` (the last time, or the time ``time``: a load path's step number) of an earlier
+    run's solution.xdmf/.h5 and interpolate it onto V (collective).
 
     The old mesh is rebuilt in parallel from row blocks of the file; the meshes need not match (nested
     iteration across levels): the old field is rebuilt as a P1 function on the old mesh and interpolated
@@ -536,7 +561,7 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float =
     import ufl
 
     comm = V.mesh.comm
-    info = solution_datasets(Path(path))
+    info = solution_datasets(Path(path), time)
     (tfile, tset), (gfile, gset), (ufile, uset) = info["topology"], info["geometry"], info["displacement"]
     with h5py.File(tfile, "r") as h5:
         lo, hi = _rows(comm, h5[tset].shape[0])
@@ -616,6 +641,35 @@ def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> No
     path.write_text("\n".join(lines) + "\n")
 
 
+def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Comm) -> None:
+    """One row per solve of a load path on rank 0 (``steps``: summary.json's "steps"): solve, time (the step
+    number), step, substep, load factor, converged, Newton and Krylov iterations, open/stick/slip, the total
+    contact force, the applied load's resultant, the reaction per Dirichlet boundary and δ per obstacle (x, y,
+    z components each; a boundary group "a,b" is named "a+b"), wall time."""
+    if comm.rank != 0 or not steps:
+        return
+    xyz = ("x", "y", "z")
+    reactions = list(steps[0]["reactions"])
+    obstacles = list(steps[0]["obstacle_displacements"])
+    header = ["solve", "time", "step", "substep", "load_factor", "converged", "newton_iterations",
+              "krylov_iterations", "open", "stick", "slip",
+              *[f"contact_force_{c}" for c in xyz], *[f"applied_load_{c}" for c in xyz],
+              *[f"reaction_{name.replace(',', '+')}_{c}" for name in reactions for c in xyz],
+              *[f"delta_{name.replace(',', '+')}_{c}" for name in obstacles for c in xyz], "wall_time_s"]
+    lines = [",".join(header)]
+    for s in steps:
+        counts = s["state_counts"]
+        row = [s["index"], f"{s['time']:.17g}", s["step"], s["substep"], f"{s['load_factor']:.17g}",
+               str(bool(s["converged"])).lower(), s["newton_iterations"], s["krylov_iterations"],
+               counts["open"], counts["stick"], counts["slip"],
+               *[f"{c:.17g}" for c in s["contact_force"]], *[f"{c:.17g}" for c in s["applied_load"]],
+               *[f"{c:.17g}" for name in reactions for c in s["reactions"][name]],
+               *[f"{c:.17g}" for name in obstacles for c in s["obstacle_displacements"][name]],
+               f"{s['wall_time_s']:.6g}"]
+        lines.append(",".join(map(str, row)))
+    path.write_text("\n".join(lines) + "\n")
+
+
 def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
     """Write the summary as JSON on rank 0."""
     if comm.rank == 0:
@@ -624,7 +678,7 @@ def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
 
 #: Files of a result set written before the manifest (``summary.json`` "files") existed.
 RESULT_FILES = ("solution.xdmf", "solution.h5", "summary.json", "convergence.csv", "convergence.png",
-                "contact_states.png", "deformed.png")
+                "contact_states.png", "deformed.png", "path.csv", "path.png")
 
 
 class ResultDirectory:

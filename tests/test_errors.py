@@ -64,6 +64,7 @@ WRONG = {
     "vector": ["[1, 2]", "5", '["a", 1, 2]', "[1, 2, inf]"],
     "traction": ["[1, 2]", "5", "[1, 2, inf]", "[true, 1, 2]"],
     "components": ["[3]", "1", "[0, 0]", "[true]", "[]"],
+    "table": ["5", "[1, 2, 3]", '"top"'],
 }
 #: Every key once, with the wrong values of its kind taken in turn (so every wrong value of every kind is used).
 CASES = [(section, key, WRONG[kind][i % len(WRONG[kind])])
@@ -73,9 +74,9 @@ CASES = [(section, key, WRONG[kind][i % len(WRONG[kind])])
 @pytest.mark.parametrize("section, key, value", CASES, ids=[f"{s}.{k}={v}" for s, k, v in CASES])
 def test_every_scene_key_rejects_a_wrong_type(section, key, value, mpi_tmp_path):
     name = {"boundaries": "left", "tractions": "top", "prescribed": "right", "roller": "left"}.get(section, key)
-    if section == "obstacle":  # an array of tables: the message names the obstacle's number
-        path = shared_file(mpi_tmp_path / "wrong.toml", f"[[obstacle]]\n{name} = {value}\n")
-        match = rf"^\[\[obstacle\]\] 1 {name} = "
+    if section in ("obstacle", "path.step"):  # arrays of tables: the message names the table's number
+        path = shared_file(mpi_tmp_path / "wrong.toml", f"[[{section}]]\n{name} = {value}\n")
+        match = rf"^\[\[{re.escape(section)}\]\] 1 {name} = "
     else:
         path = shared_file(mpi_tmp_path / "wrong.toml", f"[{section}]\n{name} = {value}\n")
         match = rf"^\[{section}\] {name} = "

@@ -1,7 +1,7 @@
 """Two elastic bodies in contact through contact pairs (issue 18): the change of variables u = M z.
 
-Two disjoint blocks of one hexahedral mesh: the lower block [0, 2]×[0, 1]×[−1, 0] (its top is the master
-surface), the upper block [0, 2]×[0, 1]×[g, 1 + g] (its bottom is the slave surface). Checked: a rigid master
+Two disjoint blocks of one hexahedral mesh with non-matching resolutions: the lower block [0, 2]×[0, 1]×[−1, 0]
+(its top is the master surface), the smaller upper block above it (its bottom is the slave surface). Checked: a rigid master
 (every master-body node prescribed to δ) equals the one-body solve against the plane moved by δ (1e-8); two
 deformable bodies agree with the independent Alart–Curnier solver in u with the coupling w = G u (1e-7), obey
 the physics, and each body's force from its own residual is equal and opposite; a load path on a pair;
@@ -10,7 +10,9 @@ the physics, and each body's force from its own residual is equal and opposite; 
 
 from __future__ import annotations
 
-import basix.ufl
+import sys
+from pathlib import Path
+
 from mpi4py import MPI
 
 import dolfinx
@@ -25,38 +27,22 @@ from fenics_coulomb.checks import physics_residuals, unconstrained_residual
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.pairing import ContactPair
 
-MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP = 1, 2, 3, 4
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
+from two_blocks import TAGS  # noqa: E402
+from two_blocks import two_blocks as two_block_mesh  # noqa: E402
+
+MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP = (TAGS[k] for k in ("lower_top", "upper_bottom", "lower_bottom", "upper_top"))
 TIGHT = {"rtol": 1e-12, "tol": 1e-12}
 PHYSICS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",
            "reaction_balance")
 
 
-def _grid(x0, x1, n):
-    xs = [np.linspace(x0[i], x1[i], n[i] + 1) for i in range(3)]
-    X = np.stack(np.meshgrid(*xs, indexing="ij"), -1).reshape(-1, 3)
-    idx = np.arange(X.shape[0]).reshape(n[0] + 1, n[1] + 1, n[2] + 1)
-    corners = [idx[di:n[0] + di, dj:n[1] + dj, dk:n[2] + dk].ravel()
-               for dk in (0, 1) for dj in (0, 1) for di in (0, 1)]  # DOLFINx's tensor-product vertex order
-    return X, np.stack(corners, 1)
-
-
-def two_blocks(comm: MPI.Comm, gap: float = 1e-3, lower=(4, 4, 2), upper=(4, 4, 2)):
-    """The two blocks as one mesh with facet tags MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP."""
-    if comm.rank == 0:
-        X1, C1 = _grid([0, 0, -1], [2, 1, 0], lower)
-        X2, C2 = _grid([0, 0, gap], [2, 1, 1 + gap], upper)
-        X, C = np.vstack([X1, X2]), np.vstack([C1, C2 + len(X1)]).astype(np.int64)
-    else:
-        X, C = np.zeros((0, 3)), np.zeros((0, 8), dtype=np.int64)
-    element = ufl.Mesh(basix.ufl.element("Lagrange", "hexahedron", 1, shape=(3,)))
-    msh = dolfinx.mesh.create_mesh(comm, C, X, element)
-    msh.topology.create_connectivity(2, 3)
-    planes = [(MASTER, 0.0), (SLAVE, gap), (LOWER_BOTTOM, -1.0), (UPPER_TOP, 1.0 + gap)]
-    facets = [dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x, z=z: np.isclose(x[2], z)) for _, z in planes]
-    indices = np.hstack(facets).astype(np.int32)
-    values = np.hstack([np.full(f.size, tag, np.int32) for (tag, _), f in zip(planes, facets)])
-    order = np.argsort(indices)
-    return msh, dolfinx.mesh.meshtags(msh, 2, indices[order], values[order])
+def two_blocks(comm: MPI.Comm, gap: float = 1e-3, lower=(5, 3, 2), upper=(4, 4, 2), partitioner=None):
+    """The lower block [0, 2]×[0, 1]×[−1, 0] and the upper block [0.2, 1.8]×[0.1, 0.9]×[g, 1 + g] with
+    non-matching resolutions (meshes/two_blocks.py): the mesh and its facet tags."""
+    blocks = two_block_mesh(comm, lower=(2.0, 1.0, 1.0), n_lower=lower, upper_origin=(0.2, 0.1),
+                            upper=(1.6, 0.8, 1.0), n_upper=upper, gap=gap, partitioner=partitioner)
+    return blocks.mesh, blocks.facet_tags
 
 
 def elasticity(V, E=70.0, nu=0.3, upper=None):
@@ -151,7 +137,7 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
     import scipy.sparse as sp
     from brute_force import solve_contact
 
-    V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_SELF, lower=(4, 4, 2), upper=(4, 4, 3))
+    V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_SELF, lower=(5, 3, 2), upper=(4, 4, 3))
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
     with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="bf_") as problem:
         uh, result = problem.solve()
@@ -209,7 +195,8 @@ def test_one_rank_equals_two_ranks():
     several ranks some slave node's master facet has a node owned by another rank."""
     results = []
     for comm in (MPI.COMM_WORLD, MPI.COMM_SELF):
-        V, ft, a, bcs, _ = pressed_blocks(comm, lower=(5, 3, 2), upper=(5, 3, 2))
+        # each body on its own rank: every master facet on another rank than its slave nodes
+        V, ft, a, bcs, _ = pressed_blocks(comm, partitioner="bodies" if comm.size > 1 else None)
         pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3)
         # GAMG with the bodies' near-nullspace (I − Φ) r_b on this communicator, ILU or LU alone
         settings = {**TIGHT, "pc": "gamg" if comm is MPI.COMM_WORLD else "lu"}
