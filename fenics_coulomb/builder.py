@@ -22,9 +22,10 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
-from fenics_coulomb.config import Scene, read_gmsh
+from fenics_coulomb.config import Scene, read_gmsh_tags
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.materials import Material, epsilon, sigma
+from fenics_coulomb.pairing import ContactPair
 from fenics_coulomb.path import StepLoads, scene_state, step_state
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scene import GAP_PROFILES, Body, GapFunction, create_cuboid
@@ -42,16 +43,36 @@ def build_body(scene: Scene, comm: MPI.Comm) -> Body:
         body = create_cuboid(comm, spec.lev, gap)
     else:
         assert spec.mesh is not None  # validate() requires it for shape = "mesh"
-        msh, facet_tags = read_gmsh(spec.mesh, comm)
+        msh, cell_tags, facet_tags = read_gmsh_tags(spec.mesh, comm)
         present = np.unique(np.concatenate(comm.allgather(np.unique(facet_tags.values))))
         missing = [f"{n} = {t}" for n, t in scene.boundaries.items() if t not in present]
         check_all(comm, not missing, f"mesh {spec.mesh!r} has no facets tagged {', '.join(missing)}")
+        volumes = np.unique(np.concatenate(comm.allgather(np.unique(cell_tags.values))))
+        missing = [f"{n} = {t}" for n, t in scene.bodies.items() if t not in volumes]
+        check_all(comm, not missing, f"mesh {spec.mesh!r} has no cells tagged {', '.join(missing)} (its volume "
+                  f"tags: {', '.join(map(str, volumes))})")
         cells = msh.topology.index_map(msh.topology.dim).size_global
         body = Body(mesh=msh, facet_tags=facet_tags, boundaries=dict(scene.boundaries),
-                    description=f"mesh {Path(spec.mesh).name} ({cells} cells)")
+                    description=f"mesh {Path(spec.mesh).name} ({cells} cells)", cell_tags=cell_tags)
     body.dirichlet = list(spec.clamped)
     body.contact = list(spec.contact)
     return body
+
+
+def lame_fields(V: dolfinx.fem.FunctionSpace, material: Material, cell_tags: dolfinx.mesh.MeshTags,
+                bodies: dict[int, Material]) -> tuple[dolfinx.fem.Function, dolfinx.fem.Function]:
+    """μ and λ as piecewise-constant (DG0) fields: ``material`` everywhere, ``bodies[tag]`` on the cells tagged
+    ``tag``."""
+    msh = V.mesh
+    Q = dolfinx.fem.functionspace(msh, ("DG", 0))
+    mu, lmbda = dolfinx.fem.Function(Q, name="mu"), dolfinx.fem.Function(Q, name="lambda")
+    mu.x.array[:], lmbda.x.array[:] = material.lame
+    for tag, body_material in bodies.items():
+        dofs = Q.dofmap.list[cell_tags.find(tag)].ravel()
+        mu.x.array[dofs], lmbda.x.array[dofs] = body_material.lame
+    mu.x.scatter_forward()
+    lmbda.x.scatter_forward()
+    return mu, lmbda
 
 
 def isotropic_forms(
@@ -60,16 +81,23 @@ def isotropic_forms(
     facet_tags: dolfinx.mesh.MeshTags,
     tractions: dict[int, tuple[Any, Any, Any]],
     body_force: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    cell_tags: dolfinx.mesh.MeshTags | None = None,
+    bodies: dict[int, Material] | None = None,
 ) -> tuple[ufl.Form, ufl.Form]:
     """The Lamé bilinear form and the load form (tractions per facet tag: constants, or callables of points
-    x (shape (3, m)) interpolated into P1; a constant body force)."""
+    x (shape (3, m)) interpolated into P1; a constant body force). With ``bodies`` (cell tag → material) the
+    Lamé parameters are piecewise constant fields (:func:`lame_fields`), else Constants."""
     msh = V.mesh
-    mu, lmbda = material.lame
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     ds = ufl.Measure("ds", domain=msh, subdomain_data=facet_tags)
     dx = ufl.Measure("dx", domain=msh, metadata={"quadrature_degree": QUADRATURE_DEGREE})
-    mu_c = dolfinx.fem.Constant(msh, PETSc.ScalarType(mu))
-    lmbda_c = dolfinx.fem.Constant(msh, PETSc.ScalarType(lmbda))
+    if bodies:
+        assert cell_tags is not None, "materials per body need the cell tags"
+        mu_c, lmbda_c = lame_fields(V, material, cell_tags, bodies)
+    else:
+        mu, lmbda = material.lame
+        mu_c = dolfinx.fem.Constant(msh, PETSc.ScalarType(mu))
+        lmbda_c = dolfinx.fem.Constant(msh, PETSc.ScalarType(lmbda))
     a = ufl.inner(sigma(u, mu_c, lmbda_c), epsilon(v)) * dx
     f = dolfinx.fem.Constant(msh, np.asarray(body_force, dtype=PETSc.ScalarType))
     L = ufl.inner(f, v) * ufl.dx
@@ -166,14 +194,24 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     mesh_time = time.perf_counter() - t0
     material = scene.material.material()
     V = dolfinx.fem.functionspace(body.mesh, ("Lagrange", 1, (body.mesh.geometry.dim,)))
-    a, _ = isotropic_forms(V, material, body.facet_tags, {})
+    per_body = {scene.bodies[name]: section.material() for name, section in scene.materials.items()}
+    a, _ = isotropic_forms(V, material, body.facet_tags, {}, cell_tags=body.cell_tags, bodies=per_body)
     states = [step_state(scene, step) for step in scene.path]
     names = {name for state in states for name in state.tractions} | set(scene.traction_table())
     loads = StepLoads(V, body.facet_tags, {name: body.tag(name) for name in names}, scene_state(scene), states)
     L = loads.form(ufl.TestFunction(V))
     bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed)
-    contact = (body.facet_tags, [body.tag(name) for name in body.contact])
-    problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=float(scene.friction.coefficient),
-                             obstacles=scene.obstacles or None, settings=scene.solver,
-                             petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
+    friction = float(scene.friction.coefficient)
+    if scene.contact_pairs:
+        pairs = [ContactPair(body.facet_tags, slave=[body.tag(n) for n in q.slave],
+                             master=[body.tag(n) for n in q.master],
+                             friction=friction if q.friction is None else float(q.friction),
+                             search_distance=q.search_distance, name=q.name) for q in scene.contact_pairs]
+        problem = ContactProblem(a, L, bcs=bcs, contact_pairs=pairs, settings=scene.solver,
+                                 petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
+    else:
+        contact = (body.facet_tags, [body.tag(name) for name in body.contact])
+        problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
+                                 obstacles=scene.obstacles or None, settings=scene.solver,
+                                 petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
     return Built(body, (a, L), bcs, problem, mesh_time, groups, loads)

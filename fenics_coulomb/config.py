@@ -35,6 +35,20 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     pc = "auto"             # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
     start = "zero"
 
+    Two elastic bodies (fenics_coulomb.two_body; a gmsh mesh with one volume group per body) replace
+    ``contact`` and ``[[obstacle]]`` by contact pairs, with materials per body:
+
+    [bodies]                # volume physical groups: name = cell tag
+    block = 1
+    ball = 2
+    [material.ball]         # overrides [material] on that body
+    young = 200.0
+    poisson = 0.3
+    [[contact_pair]]        # slave and master: boundary names (lists allowed); friction: default [friction]
+    slave = "curved"
+    master = "block_top"
+    friction = 0.0          # optional: search_distance (default 0.1 × the master's bounding-box diagonal), name
+
     [[path.step]]           # optional: a quasi-static load path (fenics_coulomb.path), one table per step;
     substeps = 3            # what a step does not set is the scene's value (per boundary, per obstacle)
     [[path.step]]
@@ -99,9 +113,13 @@ KINDS: dict[str, dict[str, str]] = {
                "predictor": "bool", "no_contact_shortcut": "bool", "start": "str"},
     "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "body_force": "vector",
                   "substeps": "int"},
+    "bodies": {"*": "int"},
+    "contact_pair": {"slave": "surface", "master": "surface", "friction": "number", "search_distance": "number",
+                     "name": "str"},
 }
 _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
-              "names": "a list of boundary names (strings)", "vector": "a list of 3 numbers, all finite",
+              "names": "a list of boundary names (strings)",
+              "surface": "a boundary name or a non-empty list of boundary names", "vector": "a list of 3 numbers, all finite",
               "traction": "a list of 3 numbers (finite) or expressions in x1, x2, x3",
               "components": "a list of distinct components 0, 1, 2",
               "table": "a table (name = value, ...)"}
@@ -137,6 +155,8 @@ def check_kind(where: str, value: Any, kind: str) -> None:
         "number": is_number,
         "bool": lambda v: isinstance(v, bool),
         "names": lambda v: isinstance(v, list) and all(isinstance(n, str) for n in v),
+        "surface": lambda v: isinstance(v, str) or (isinstance(v, list) and bool(v)
+                                                    and all(isinstance(n, str) for n in v)),
         "vector": lambda v: isinstance(v, list | tuple) and len(v) == 3 and all(is_number(c) for c in v),
         "traction": lambda v: isinstance(v, list | tuple) and len(v) == 3
         and all(is_number(c) or isinstance(c, str) for c in v),
@@ -201,6 +221,13 @@ def check_gap_values(text: str, gap: GapFunction) -> None:
 
 def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
     """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, facet tags)."""
+    msh, _, facet_tags = read_gmsh_tags(path, comm)
+    return msh, facet_tags
+
+
+def read_gmsh_tags(path: str, comm: MPI.Comm
+                   ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
+    """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, cell tags, facet tags)."""
     import gmsh
 
     message = ""
@@ -220,11 +247,11 @@ def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mes
     # The deterministic partitioner, from the coordinates gmsh holds on rank 0 (the rows model_to_mesh gives
     # create_mesh): the same file on the same ranks gives the same partition in every run.
     x = dolfinx.io.gmshio.extract_geometry(gmsh.model) if comm.rank == 0 else np.zeros((0, 3))
-    msh, _, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0,
-                                                         gdim=3, partitioner=create_partitioner(comm, x))
+    msh, cell_tags, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0,
+                                                                 gdim=3, partitioner=create_partitioner(comm, x))
     if comm.rank == 0:
         gmsh.finalize()
-    return msh, facet_tags
+    return msh, cell_tags, facet_tags
 
 
 @dataclass
@@ -369,6 +396,39 @@ def path_steps_from_toml(where: str, value: Any) -> list[PathStep]:
     return steps
 
 
+@dataclass
+class PairSection:
+    """One ``[[contact_pair]]`` table: slave and master surfaces (boundary names), friction and search distance
+    (:class:`fenics_coulomb.pairing.ContactPair`)."""
+
+    slave: list[str] = field(default_factory=list)
+    master: list[str] = field(default_factory=list)
+    #: None: the scene's ``[friction] coefficient``.
+    friction: float | None = None
+    #: None: 0.1 × the master surface's bounding-box diagonal.
+    search_distance: float | None = None
+    name: str | None = None
+
+
+def pairs_from_toml(where: str, value: Any) -> list[PairSection]:
+    """The ``[[contact_pair]]`` tables (kinds checked; a single name is a one-element list)."""
+    if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
+        raise InputError(f"{where}: contact_pair = {value!r}: must be an array of tables ([[contact_pair]])")
+    kinds = KINDS["contact_pair"]
+    pairs = []
+    for i, table in enumerate(value, 1):
+        for key, item in table.items():
+            if key not in kinds:
+                raise InputError(f"{where}: unknown key {key!r} in [[contact_pair]] {i} (allowed: {', '.join(kinds)})")
+            check_kind(f"[[contact_pair]] {i} {key}", item, kinds[key])
+        table = {k: ([v] if k in ("slave", "master") and isinstance(v, str) else v) for k, v in table.items()}
+        for key in ("slave", "master"):
+            if not table.get(key):
+                raise InputError(f"{where}: [[contact_pair]] {i} needs a {key} surface (a boundary name)")
+        pairs.append(PairSection(**table))
+    return pairs
+
+
 #: Command-line names of the scene's settings → (section, key); section None is the scene itself.
 FLAGS: dict[str, tuple[str | None, str]] = {
     "lev": ("body", "lev"), "gap": ("body", "gap"), "load": ("load", "case"), "load_scale": ("load", "scale"),
@@ -379,7 +439,8 @@ FLAGS: dict[str, tuple[str | None, str]] = {
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
                             "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None,
-                            "obstacle": list, "prescribed": None, "roller": None, "path": list}
+                            "obstacle": list, "prescribed": None, "roller": None, "path": list, "bodies": None,
+                            "contact_pair": list}
 
 
 @dataclass
@@ -403,6 +464,12 @@ class Scene:
     roller: dict[str, list[int]] = field(default_factory=dict)
     #: ``[[path.step]]``: the steps of a quasi-static load path; empty: one static solve.
     path: list[PathStep] = field(default_factory=list)
+    #: ``[bodies]``: body name → cell tag of a mesh with several volumes.
+    bodies: dict[str, int] = field(default_factory=dict)
+    #: ``[material.NAME]``: body name → its material (the others take ``[material]``).
+    materials: dict[str, MaterialSection] = field(default_factory=dict)
+    #: ``[[contact_pair]]``: two elastic bodies in contact (replaces ``contact`` and ``[[obstacle]]``).
+    contact_pairs: list[PairSection] = field(default_factory=list)
 
     # -- construction ------------------------------------------------------------------------------
     @classmethod
@@ -430,6 +497,19 @@ class Scene:
             if section == "path":
                 sections[section] = path_steps_from_toml(where, value)
                 continue
+            if section == "contact_pair":
+                sections[section] = pairs_from_toml(where, value)
+                continue
+            if section == "material" and isinstance(value, dict):
+                per_body = {k: v for k, v in value.items() if isinstance(v, dict)}
+                for body_name, table in per_body.items():
+                    for key, item in table.items():
+                        if key not in KINDS["material"]:
+                            raise InputError(f"{where}: unknown key {key!r} in [material.{body_name}] (allowed: "
+                                             f"{', '.join(KINDS['material'])})")
+                        check_kind(f"[material.{body_name}] {key}", item, KINDS["material"][key])
+                sections["materials"] = {k: MaterialSection(**v) for k, v in per_body.items()}
+                value = {k: v for k, v in value.items() if not isinstance(v, dict)}
             if not isinstance(value, dict):
                 raise InputError(f"{where}: [{section}] must be a table")
             kinds = KINDS[section]
@@ -452,6 +532,8 @@ class Scene:
         if "tractions" in data:
             load = {**load, "case": None}
         body = sections.get("body", {})
+        if "contact_pair" in sections and "contact" not in body:
+            body = {**body, "contact": []}  # two bodies: the pairs name the contact surfaces
         mesh = body.get("mesh")
         if isinstance(mesh, str) and not Path(mesh).is_absolute():
             candidate = path.parent / mesh
@@ -463,7 +545,8 @@ class Scene:
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
                 start=start, obstacles=sections.get("obstacle", []), prescribed=sections.get("prescribed", {}),
-                roller=sections.get("roller", {}), path=sections.get("path", []),
+                roller=sections.get("roller", {}), path=sections.get("path", []), bodies=sections.get("bodies", {}),
+                materials=sections.get("materials", {}), contact_pairs=sections.get("contact_pair", []),
             )
         except TypeError as err:  # unreachable for checked keys; kept as a one-line error
             raise InputError(f"{where}: {err}") from None
@@ -521,6 +604,7 @@ class Scene:
                     or any(isinstance(c, bool) or c not in (0, 1, 2) for c in value)):
                 raise InputError(f"roller on {name!r} = {value!r}: a list of distinct components 0, 1, 2")
         self.material.validate()
+        self._validate_bodies(names, where)
         self.friction.validate()
         self.load.validate()
         if self.tractions is not None and not isinstance(self.tractions, dict):
@@ -554,6 +638,32 @@ class Scene:
         if not GAMMA_SCALE_RANGE[0] <= self.solver.gamma_scale <= GAMMA_SCALE_RANGE[1]:
             raise InputError(f"gamma_scale = {self.solver.gamma_scale!r}: must lie in [{GAMMA_SCALE_RANGE[0]:g}, "
                              f"{GAMMA_SCALE_RANGE[1]:g}]")
+
+    def _validate_bodies(self, names: dict[str, Any], where: str) -> None:
+        """Check ``[bodies]``, ``[material.NAME]`` and ``[[contact_pair]]``."""
+        for name, tag in self.bodies.items():
+            if isinstance(tag, bool) or not isinstance(tag, int):
+                raise InputError(f"body {name!r} = {tag!r}: the cell tag must be an integer")
+        for name, material in self.materials.items():
+            if name not in self.bodies:
+                raise InputError(f"[material.{name}]: {name!r} is not in [bodies] ({', '.join(self.bodies) or 'empty'})")
+            material.validate()
+        if not self.contact_pairs:
+            return
+        if self.body.shape != "mesh":
+            raise InputError("[[contact_pair]] needs a mesh body (shape = 'mesh') with the bodies as volumes")
+        if self.body.contact or self.obstacles:
+            raise InputError("[[contact_pair]]: give either contact pairs or [body] contact with [[obstacle]], not "
+                             "both (two bodies against rigid obstacles are not supported yet)")
+        for i, pair in enumerate(self.contact_pairs, 1):
+            for name in (*pair.slave, *pair.master):
+                if name not in names:
+                    raise InputError(f"[[contact_pair]] {i}: boundary {name!r} {where}")
+            if pair.friction is not None and not (math.isfinite(pair.friction) and pair.friction >= 0):
+                raise InputError(f"[[contact_pair]] {i} friction = {pair.friction!r}: must be finite and >= 0")
+            if pair.search_distance is not None and not (math.isfinite(pair.search_distance)
+                                                          and pair.search_distance > 0):
+                raise InputError(f"[[contact_pair]] {i} search_distance = {pair.search_distance!r}: must be > 0")
 
     def _validate_path(self, names: dict[str, Any], where: str) -> None:
         """Check the ``[[path.step]]`` tables: kinds, boundary and obstacle names, values, substeps."""

@@ -336,9 +336,10 @@ class SCDNewtonSolver:
         """The stopping rule for a solve starting at ``first``; ``reference`` replaces ‖ŷ⁽⁰⁾‖ in the target."""
         shift = self.model.shift.getArray(readonly=True)
         load = self.norm(self.model.load.getArray(readonly=True))
+        zero = self.approximation_step(np.array(shift, dtype=np.float64), -self.model.load.getArray(readonly=True))
         return StoppingRule.create(self.settings.reduction, self.settings.max_it,
                                    first.residual if reference is None else reference,
-                                   self.norm(shift), self.norm(first.u - shift), load, self.gamma)
+                                   self.norm(shift), self.norm(first.u - shift), load, self.gamma, zero.residual)
 
     def zero_if_converged(self, it: Iterate, rule: StoppingRule) -> Iterate:
         """ũ = 0 (u = d, residual −l̃) instead of ``it`` when the rule holds there: for a zero or tiny load ũ = 0

@@ -94,6 +94,7 @@ class Body:
         dirichlet: Names of the clamped boundaries (u = 0).
         contact: Names of the boundaries that may touch the obstacle x3 <= 0.
         description: Human-readable description for logs and summaries.
+        cell_tags: Cell markers (the volumes of a gmsh mesh), or None.
     """
 
     mesh: dolfinx.mesh.Mesh
@@ -102,6 +103,8 @@ class Body:
     dirichlet: list[str] = field(default_factory=lambda: ["left"])
     contact: list[str] = field(default_factory=lambda: ["bottom"])
     description: str = ""
+    #: Cell markers of a mesh with several volumes (bodies), or None.
+    cell_tags: dolfinx.mesh.MeshTags | None = None
 
     def tag(self, name: str) -> int:
         """Return the facet tag of a named boundary."""

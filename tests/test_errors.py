@@ -65,6 +65,7 @@ WRONG = {
     "traction": ["[1, 2]", "5", "[1, 2, inf]", "[true, 1, 2]"],
     "components": ["[3]", "1", "[0, 0]", "[true]", "[]"],
     "table": ["5", "[1, 2, 3]", '"top"'],
+    "surface": ["5", "[1]", "[]"],
 }
 #: Every key once, with the wrong values of its kind taken in turn (so every wrong value of every kind is used).
 CASES = [(section, key, WRONG[kind][i % len(WRONG[kind])])
@@ -73,8 +74,9 @@ CASES = [(section, key, WRONG[kind][i % len(WRONG[kind])])
 
 @pytest.mark.parametrize("section, key, value", CASES, ids=[f"{s}.{k}={v}" for s, k, v in CASES])
 def test_every_scene_key_rejects_a_wrong_type(section, key, value, mpi_tmp_path):
-    name = {"boundaries": "left", "tractions": "top", "prescribed": "right", "roller": "left"}.get(section, key)
-    if section in ("obstacle", "path.step"):  # arrays of tables: the message names the table's number
+    name = {"boundaries": "left", "tractions": "top", "prescribed": "right", "roller": "left",
+            "bodies": "block"}.get(section, key)
+    if section in ("obstacle", "path.step", "contact_pair"):  # arrays of tables: the message names the table's number
         path = shared_file(mpi_tmp_path / "wrong.toml", f"[[{section}]]\n{name} = {value}\n")
         match = rf"^\[\[{re.escape(section)}\]\] 1 {name} = "
     else:

@@ -37,11 +37,12 @@ PHYSICS = ("equilibrium", "penetration", "negative_pressure", "complementarity",
            "reaction_balance")
 
 
-def two_blocks(comm: MPI.Comm, gap: float = 1e-3, lower=(5, 3, 2), upper=(4, 4, 2), partitioner=None):
-    """The lower block [0, 2]×[0, 1]×[−1, 0] and the upper block [0.2, 1.8]×[0.1, 0.9]×[g, 1 + g] with
+def two_blocks(comm: MPI.Comm, gap: float = 1e-3, lower=(5, 3, 2), upper=(4, 4, 2), partitioner=None,
+               upper_origin=(0.2, 0.1), upper_size=(1.6, 0.8, 1.0)):
+    """The lower block [0, 2]×[0, 1]×[−1, 0] and the upper block (default [0.2, 1.8]×[0.1, 0.9]×[g, 1 + g]) with
     non-matching resolutions (meshes/two_blocks.py): the mesh and its facet tags."""
-    blocks = two_block_mesh(comm, lower=(2.0, 1.0, 1.0), n_lower=lower, upper_origin=(0.2, 0.1),
-                            upper=(1.6, 0.8, 1.0), n_upper=upper, gap=gap, partitioner=partitioner)
+    blocks = two_block_mesh(comm, lower=(2.0, 1.0, 1.0), n_lower=lower, upper_origin=upper_origin,
+                            upper=upper_size, n_upper=upper, gap=gap, partitioner=partitioner)
     return blocks.mesh, blocks.facet_tags
 
 
@@ -110,30 +111,46 @@ def test_rigid_master_equals_the_moved_plane(friction):
         assert reference.counts["slip"] + reference.counts["stick"] > 0
 
 
-def _coupling_rows(pairing, n):
-    """G with (G u)_s = u_s − Σ_j φ_sj u_j, built here from the pairing's stencils (serial)."""
+def flat_coupling(V, gap: float, lower=(5, 3, 2), size=(2.0, 1.0)):
+    """The pairing of the flat interface computed here, independently of fenics_coulomb.pairing (serial): every
+    upper-bottom node x_s (height g) projects vertically onto the lower block's structured top grid, whose
+    bilinear shape functions at (x, y) are the weights. Returns the slave blocks, G with (G u)_s = u_s − Σ φ u_j,
+    and the gaps."""
     import scipy.sparse as sp
 
-    m = len(pairing.blocks)
+    x = V.tabulate_dof_coordinates()
+    slave = np.flatnonzero(np.isclose(x[:, 2], gap))
+    top = np.flatnonzero(np.isclose(x[:, 2], 0.0))
+    h = np.array([size[0] / lower[0], size[1] / lower[1]])
+    grid = np.full((lower[0] + 1, lower[1] + 1), -1)
+    ij = np.rint(x[top, :2] / h).astype(int)
+    grid[ij[:, 0], ij[:, 1]] = top
+    f = x[slave, :2] / h
+    cell = np.clip(np.floor(f).astype(int), 0, np.array(lower[:2]) - 1)
+    xi, eta = (f - cell).T
+    corners = [(0, 0, (1 - xi) * (1 - eta)), (1, 0, xi * (1 - eta)), (0, 1, (1 - xi) * eta), (1, 1, xi * eta)]
+    m, n = slave.size, 3 * x.shape[0]
     rows, cols, data = [], [], []
     for c in range(3):
         rows.append(3 * np.arange(m) + c)
-        cols.append(3 * pairing.blocks + c)
+        cols.append(3 * slave + c)
         data.append(np.ones(m))
-        for j in range(pairing.master_blocks.shape[1]):
-            ok = pairing.master_blocks[:, j] >= 0
-            rows.append(3 * np.arange(m)[ok] + c)
-            cols.append(3 * pairing.master_blocks[ok, j] + c)
-            data.append(-pairing.weights[ok, j])
-    return sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * m, n))
+        for di, dj, w in corners:
+            rows.append(3 * np.arange(m) + c)
+            cols.append(3 * grid[cell[:, 0] + di, cell[:, 1] + dj] + c)
+            data.append(-w)
+    G = sp.csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(3 * m, n))
+    return slave, G, np.full(m, gap)
 
 
 @pytest.mark.serial
 @pytest.mark.parametrize("friction", [0.0, 0.3])
 def test_two_deformable_bodies_agree_with_brute_force(friction):
     """Both blocks deformable (non-matching resolutions), the upper one pushed down and sideways: the SCD solve in
-    z and the Alart–Curnier solver in u (K without Dirichlet rows, the coupling w = G u) agree (1e-7); the
-    physics holds; the master reaction is −Σ φ f; each body's force from its own residual is equal and opposite."""
+    z and the Alart–Curnier solver in u (K without Dirichlet rows, the coupling w = G u from a pairing computed
+    here by vertical projection onto the lower block's grid, :func:`flat_coupling`) agree (1e-7); the library's
+    pairing is the same; the physics holds; the master reaction is −Σ φ f; each body's force from its own
+    residual is equal and opposite."""
     import scipy.sparse as sp
     from brute_force import solve_contact
 
@@ -146,18 +163,19 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
         model = problem.model
         ip, ix, vals = model.A_free.getValuesCSR()
         K = sp.csr_matrix((vals, ix, ip), shape=model.A_free.getSize())
-        G = _coupling_rows(model.pairing, K.shape[0])
+        slave, G, gaps = flat_coupling(V, 1e-3)
+        assert np.array_equal(slave, model.pairing.blocks)  # every slave node is a contact node
+        assert np.allclose(model.pairing.gap, gaps, rtol=0, atol=1e-14)
         g = dolfinx.fem.Function(V)
         g.x.array[:] = np.nan
         for bc in bcs:
             bc.set(g.x.array)
         D = np.flatnonzero(~np.isnan(g.x.array))
-        sol = solve_contact(K, np.zeros(K.shape[0]), np.arange(3 * len(model.pairing.blocks)).reshape(-1, 3),
-                            model.pairing.gap, friction, frames=model.pairing.frames, coupling=G,
-                            dirichlet=(D, g.x.array[D]))
+        sol = solve_contact(K, np.zeros(K.shape[0]), np.arange(3 * slave.size).reshape(-1, 3), gaps, friction,
+                            coupling=G, dirichlet=(D, g.x.array[D]))  # frames: n = e3, t = e1, e2
         u = owned(problem)
         assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u)
-        force = np.einsum("iab,ib->ia", model.pairing.frames, sol.force)
+        force = sol.force  # Cartesian in the identity frames
         assert np.abs(force - result.contact_force).max() <= 1e-7 * np.abs(force).max()
         # the force on each body from its own residual K u − l (no Dirichlet node on either surface's free part)
         full = unconstrained_residual(model, u)
@@ -170,6 +188,30 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
                            atol=1e-10 * abs(slave_force[2]))
         if friction > 0:
             assert abs(slave_force[0]) > 1e-3 * abs(slave_force[2])  # the shear is carried by friction
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_swapping_slave_and_master_on_matching_meshes(friction):
+    """Matching planar meshes (the same footprint and resolution), no Dirichlet node on either surface, equal
+    search distances: slave = upper bottom / master = lower top and the swapped pair give the same displacement
+    (1e-8): the contact conditions on w = u_s − u_m and on −w with n → −n are the same."""
+    results = []
+    msh, ft = two_blocks(MPI.COMM_WORLD, lower=(4, 2, 2), upper=(4, 2, 2), upper_origin=(0.0, 0.0),
+                         upper_size=(2.0, 1.0, 1.0))
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    top = dolfinx.fem.Constant(msh, np.array([0.0008, 0.0, -0.004]))
+    bcs = [dolfinx.fem.dirichletbc(top, dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V),
+           dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)]
+    a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
+    for slave, master in ((SLAVE, MASTER), (MASTER, SLAVE)):
+        pair = ContactPair(ft, slave=slave, master=master, friction=friction, search_distance=0.05)
+        with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT,
+                            petsc_options_prefix="swap_") as problem:
+            _, result = problem.solve()
+            assert result.converged and problem.p == 15  # every node of the 5 × 3 interface
+            assert_physics(problem, result, f"slave {slave}")
+            results.append(owned(problem))
+    assert global_norm(results[0] - results[1]) <= 1e-8 * global_norm(results[0])
 
 
 def test_load_path_on_a_pair():
