@@ -17,9 +17,14 @@ Measured on the slave nodes (their reference radius r = √(x₁² + x₂²)):
 * a: the contact radius from the outermost contact node (λ > 0) at r_c, interpolated halfway to the nearest
   open node beyond it at r_o: a_h = (r_c + r_o)/2 (± (r_o − r_c)/2 is the resolution of the measurement);
 * p₀: the largest nodal pressure λᵢ/Aᵢ (Aᵢ = ∫ φᵢ ds over the slave surface, the lumped nodal area: the
-  ``contact_traction`` output field).
+  ``contact_traction`` output field), and the amplitude of the least-squares fit of pᵢ = p₀ √(1 − rᵢ²/a_h²)
+  to the nodal pressures of the contact nodes (with the computed a_h, not Hertz's). Node-to-surface contact
+  on non-matching meshes makes the nodal pressures scatter around the smooth profile (it does not pass the
+  patch test, benchmarks/two_body_patch.py), and the largest nodal pressure is the top of that scatter; the
+  fit measures the profile's amplitude.
 
-Writes ``hertz.csv``, ``hertz.md`` and ``hertz.png`` (pressure profiles against Hertz) into ``--out``.
+Writes ``hertz.csv``, ``hertz_profile.csv`` (r, nodal pressure per node and run), ``hertz.md`` and
+``hertz.png`` (pressure profiles against Hertz) into ``--out``.
 """
 
 from __future__ import annotations
@@ -127,10 +132,14 @@ def run(comm: MPI.Comm, h: float, delta: float) -> dict[str, Any]:
     a_H, p0_H = hertz(P)
     a_h, r_c, r_o = contact_radius(r, closed)
     p0_h = float(pressure.max())
+    inside = r < a_h
+    shape = np.sqrt(1 - (r[inside] / a_h) ** 2)
+    p0_fit = float(shape @ pressure[inside] / (shape @ shape))
     return {"h": h, "dofs": int(n_dofs), "contact_nodes": int(result.p), "closed_nodes": int(closed.sum()),
             "newton_iterations": result.iterations, "converged": bool(result.converged), "delta": delta, "P": P,
             "balance": forces["balance"], "a_hertz": a_H, "a": a_h, "r_closed": r_c, "r_open": r_o,
             "a_error": a_h / a_H - 1, "p0_hertz": p0_H, "p0": p0_h, "p0_error": p0_h / p0_H - 1,
+            "p0_fit": p0_fit, "p0_fit_error": p0_fit / p0_H - 1,
             "checks": {k: checks[k] for k in CHECKS}, "seconds": seconds,
             "profile": (r[closed | (r < 2 * r_o)], pressure[closed | (r < 2 * r_o)])}
 
@@ -141,17 +150,20 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
         return
     out.mkdir(parents=True, exist_ok=True)
     keys = ["h", "dofs", "contact_nodes", "closed_nodes", "newton_iterations", "delta", "P", "balance", "a_hertz",
-            "a", "r_closed", "r_open", "a_error", "p0_hertz", "p0", "p0_error", "seconds"]
+            "a", "r_closed", "r_open", "a_error", "p0_hertz", "p0", "p0_error", "p0_fit", "p0_fit_error", "seconds"]
     lines = [",".join(keys)] + [",".join(f"{row[k]:.10g}" if isinstance(row[k], float) else str(row[k])
                                          for k in keys) for row in rows]
     (out / "hertz.csv").write_text("\n".join(lines) + "\n")
+    profile = ["h,r,pressure"] + [f"{row['h']:g},{ri:.8g},{pi:.8g}" for row in rows for ri, pi in zip(*row["profile"])]
+    (out / "hertz_profile.csv").write_text("\n".join(profile) + "\n")
     E_star = effective_modulus()
-    table = ["| contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ (computed) | "
-             "error p₀ | Newton its | balance |", "|" + "---|" * 11]
+    table = ["| contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ (largest "
+             "nodal) | error | p₀ (fit) | error | Newton its | balance |", "|" + "---|" * 13]
     for row in rows:
         table.append(f"| {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | {row['a']:.4f} "
                      f"[{row['r_closed']:.4f}, {row['r_open']:.4f}] | {100 * row['a_error']:+.2f} % | "
                      f"{row['p0_hertz']:.4g} | {row['p0']:.4g} | {100 * row['p0_error']:+.2f} % | "
+                     f"{row['p0_fit']:.4g} | {100 * row['p0_fit_error']:+.2f} % | "
                      f"{row['newton_iterations']} | {row['balance']:.1e} |")
     worst = max(max(row["checks"].values()) for row in rows)
     (out / "hertz.md").write_text(f"""# Frictionless Hertz contact between two elastic bodies
@@ -163,7 +175,12 @@ meshes that do not match, refined toward the contact point to the contact size h
 the hemisphere's flat face moved down by δ = {rows[0]['delta']:g}; frictionless. E* = {E_star:.5g} GPa. Hertz
 for the computed total force P: a³ = 3PR/(4E*), p₀ = 3P/(2πa²). The computed a is the outermost contact node's
 radius r_c interpolated halfway to the nearest open node beyond it r_o; the computed p₀ the largest nodal
-pressure λᵢ/Aᵢ (lumped nodal areas). "balance": |force on the hemisphere + force on the block| / |force on
+pressure λᵢ/Aᵢ (lumped nodal areas) and the amplitude of the least-squares fit pᵢ = p₀ √(1 − rᵢ²/a²) over
+the contact nodes (with the computed a). The nodal pressures scatter by several per cent around the Hertz
+profile (the figure): node-to-surface contact on non-matching meshes does not transmit a smooth pressure
+exactly (it fails the patch test, [patch.md](patch.md)), and this scatter does not fall with h, so the
+largest nodal pressure (the top of the scatter) stays 6–7 % above p₀, while the contact radius (within 1 %)
+and the fitted amplitude (its error halving with h) converge to Hertz. "balance": |force on the hemisphere + force on the block| / |force on
 the hemisphere|, each from its own residual. Largest physics-check residual of all runs: {worst:.1e}.
 
 {chr(10).join(table)}

@@ -135,7 +135,7 @@ def run(comm: MPI.Comm, cell: str, n_lower: tuple[int, ...], n_upper: tuple[int,
         tangential = np.linalg.norm(result.contact_force - normal[:, None] * model.contact.normals, axis=1)
         error = normal / areas / p - 1
         local = np.array([np.abs(error).max(initial=0.0), (tangential / (p * areas)).max(initial=0.0)])
-        worst = comm.allreduce(local, op=MPI.MAX)
+        worst = [comm.allreduce(float(v), op=MPI.MAX) for v in local]
         rms = np.sqrt(comm.allreduce(float(np.sum(error**2)), op=MPI.SUM) / result.p)
     P = forces["force_on_slave_body"][2]
     return {"case": "", "cell": cell, "nu": "/".join(f"{m[1]:g}" for m in materials), "lower": "×".join(map(str, n_lower)), "upper": "×".join(map(str, n_upper)),
@@ -177,8 +177,14 @@ def main(argv: list[str] | None = None) -> int:
 
 {doc}
 
-Frictionless, δ = 0.001, p = {rows[0]['p_exact']:.6g} GPa (ν = 0).
- "cells": per direction (x₁ × x₂ × x₃) of each block.
+Frictionless, δ = 0.001, p = {rows[0]['p_exact']:.6g} GPa (ν = 0). "cells": per direction (x₁ × x₂ × x₃) of each
+block. A slave mesh nested in the master mesh (every slave node at a master vertex, edge midpoint or facet
+centre of a bilinear facet) passes like the matching one; on non-matching meshes the largest nodal pressure
+error is several per cent on hexahedra and over 10 % on tetrahedra and does not fall when both meshes are
+refined (the row "refined twice"), while the total force stays within 0.3 %. "balance" is |force on the upper
++ force on the lower block| / |force on the upper block| from their residuals; on tetrahedra it includes the
+lower block's lateral roller reactions at the master surface's perimeter nodes (they are supported nodes,
+counted in `prescribed_nodes` of `output.pair_forces`): support reactions, not contact forces.
 
 {chr(10).join(table)}
 
