@@ -127,6 +127,8 @@ class ContactModel:
         self.comm = comm
         self.bcs = list(bcs)
         pairs = list(contact_pairs or [])
+        #: The contact pairs (two bodies), in the order given.
+        self.pairs = pairs
         #: Two bodies: the pairing, M = I + Φ and the stiffness without Dirichlet rows (None for one body).
         self.pairing: Pairing | None = None
         self.coupling: PETSc.Mat | None = None
