@@ -133,6 +133,8 @@ class ContactModel:
         self.pairing: Pairing | None = None
         self.coupling: PETSc.Mat | None = None
         self.A_free: PETSc.Mat | None = None
+        self._free_coupling: PETSc.Mat | None = None
+        self._prefix = prefix
         if pairs:
             if contact is not None or obstacles:
                 raise InputError("contact_pairs: give either contact pairs or a contact boundary with obstacles, "
@@ -252,6 +254,25 @@ class ContactModel:
         x.destroy()
         y.destroy()
         return u
+
+    def free_slave_penetrations(self, u: npt.NDArray[np.float64], tol: float = 1e-8) -> int:
+        """The number of free slave nodes (over a master surface, but not contact nodes: beyond the search
+        distance or with a Dirichlet component) whose linearized gap g + n·(u_s − Σ_j φ_j u_j) is below
+        −tol × the mesh size, on all ranks (collective; 0 for one body)."""
+        if self.pairing is None:
+            return 0
+        free = self.pairing.free
+        if self._free_coupling is None:
+            self._free_coupling = coupling_matrix(self.V, free["blocks"], free["master_blocks"], free["weights"],
+                                                  f"{self._prefix}free_")
+        x, y = self._free_coupling.createVecs()
+        x.array[:] = u
+        self._free_coupling.mult(x, y)  # (I + Φ_free) u
+        w = (2.0 * np.asarray(u) - y.getArray(readonly=True)).reshape(-1, 3)[free["blocks"]]
+        x.destroy()
+        y.destroy()
+        gap = free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+        return int(self.comm.allreduce(int(np.sum(gap < -tol * self._size)), op=MPI.SUM))
 
     def relative(self, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """z = M⁻¹ u = (I − Φ) u = 2u − M u on the owned DOFs (the identity for one body; collective for two)."""
@@ -420,6 +441,6 @@ class ContactModel:
 
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
-        for obj in (self.A, self.load, self.shift, self.rhs, self.coupling, self.A_free):
+        for obj in (self.A, self.load, self.shift, self.rhs, self.coupling, self.A_free, self._free_coupling):
             if obj is not None:
                 obj.destroy()

@@ -76,7 +76,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from mpi4py import MPI
@@ -189,6 +189,10 @@ class Pairing:
         pair_index: Index of each node's pair, shape (m,).
         friction: The pair's F per node, shape (m,).
         num_global: Number of contact nodes on all ranks.
+        free: The owned slave nodes that are NOT contact nodes but lie over a master surface (in its normal
+            cone): beyond the search distance, or with a Dirichlet component. Keys ``blocks`` (local),
+            ``gap``, ``normals``, ``master_blocks``, ``weights`` as above (the pair with the smallest |g|), for the
+            penetration check after a solve (:meth:`fenics_coulomb.model.ContactModel.free_slave_penetrations`).
     """
 
     blocks: npt.NDArray[np.int32]
@@ -201,6 +205,7 @@ class Pairing:
     pair_index: npt.NDArray[np.intp]
     friction: Array
     num_global: int
+    free: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def normals(self) -> Array:
@@ -603,7 +608,8 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         body = float(np.linalg.norm(hi - lo))
         mlo, mhi = master.X.reshape(-1, 3).min(axis=0), master.X.reshape(-1, 3).max(axis=0)
         search = pair.search_distance if pair.search_distance is not None else 0.1 * float(np.linalg.norm(mhi - mlo))
-        nodes = np.setdiff1d(slave_blocks[slave_blocks < n_owned], excluded).astype(np.int32)
+        owned_slave = slave_blocks[slave_blocks < n_owned].astype(np.int32)
+        nodes = np.setdiff1d(owned_slave, excluded).astype(np.int32)
         size = np.max([_norm(master.X[:, i] - master.X[:, j]) for i in range(nv) for j in range(i + 1, nv)], axis=0)
         key = np.sort(master.blocks, axis=1)
         rank = np.empty(key.shape[0], dtype=np.intp)
@@ -612,9 +618,18 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         R = frames_from_normals(res["normal"]) if nodes.size else np.zeros((0, 3, 3))
         g = _dot(X_dofs[nodes] - res["closest"], res["normal"])
         contact = res["paired"] & (np.abs(g) <= search)
+        # the other owned slave nodes over M (Dirichlet ones, or beyond the search distance): checked for
+        # penetration after a solve
+        others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
+        ro = _pair_nodes(X_dofs[others], master, size, rank)
+        go = _dot(X_dofs[others] - ro["closest"], ro["normal"])
+        over = ro["paired"]
         per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=res["closest"],
                              blocks=master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64),
-                             weights=res["weights"], body=body))
+                             weights=res["weights"], body=body,
+                             free=dict(blocks=others[over], gap=go[over], normals=ro["normal"][over],
+                                       master_blocks=master.blocks[ro["facet"][over]] if others.size
+                                       else np.zeros((0, nv), np.int64), weights=ro["weights"][over])))
 
     # several pairs: the smallest |g| wins (ties: the first pair)
     allnodes = np.unique(np.concatenate([p["nodes"] for p in per_pair])) if per_pair else np.zeros(0, np.int32)
@@ -681,4 +696,28 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                                list(pair.slave_tags), list(pair.master_tags))
     return Pairing(blocks=blocks, coordinates=coordinates, closest=closest, gap=gap, frames=frames,
                    master_blocks=master_blocks, weights=weights, pair_index=winner.astype(np.intp),
-                   friction=friction, num_global=int(count.sum()) if pairs else 0)
+                   friction=friction, num_global=int(count.sum()) if pairs else 0,
+                   free=_free_nodes([p["free"] for p in per_pair], blocks, nv))
+
+
+def _free_nodes(per_pair: list[dict[str, np.ndarray]], contact: npt.NDArray[np.int32], nv: int
+                ) -> dict[str, np.ndarray]:
+    """The free slave nodes over a master surface, each with the pair of smallest |g| (not contact nodes of
+    another pair)."""
+    out = {"blocks": np.zeros(0, np.int32), "gap": np.zeros(0), "normals": np.zeros((0, 3)),
+           "master_blocks": np.full((0, 4), -1, np.int64), "weights": np.zeros((0, 4))}
+    if not per_pair:
+        return out
+    blocks = np.concatenate([f["blocks"] for f in per_pair])
+    keep = ~np.isin(blocks, contact)
+    gap = np.concatenate([f["gap"] for f in per_pair])
+    order = np.lexsort((np.abs(gap), blocks))
+    order = order[keep[order]]
+    first = order[np.unique(blocks[order], return_index=True)[1]]
+    mb = np.full((first.size, 4), -1, np.int64)
+    w = np.zeros((first.size, 4))
+    mb[:, :nv] = np.concatenate([f["master_blocks"] for f in per_pair])[first]
+    w[:, :nv] = np.concatenate([f["weights"] for f in per_pair])[first]
+    out.update(blocks=blocks[first].astype(np.int32), gap=gap[first],
+               normals=np.concatenate([f["normals"] for f in per_pair])[first], master_blocks=mb, weights=w)
+    return out

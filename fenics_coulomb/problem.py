@@ -325,6 +325,10 @@ class ContactProblem:
             result.relative_displacement = result.displacement
             result.displacement = self.model.physical(result.displacement)
             result.master_force = self.model.master_forces(result.contact_force)
+            penetrating = self.model.free_slave_penetrations(result.displacement)
+            if penetrating and self.model.comm.rank == 0:
+                logger.warning("%d free slave node(s) (beyond the search distance or with a Dirichlet component) "
+                               "penetrate the master surface: enlarge the pairs' search_distance", penetrating)
         self.u.x.petsc_vec.array[:] = result.displacement
         self.u.x.scatter_forward()
         return self.u

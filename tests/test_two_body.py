@@ -258,6 +258,25 @@ def test_one_rank_equals_two_ranks():
     assert np.abs(u0 - u1).max() <= 1e-8 * np.abs(u1).max()
 
 
+def test_free_slave_nodes_that_penetrate_are_counted():
+    """A search distance below the initial gap leaves every slave node free (a warning, no contact node): pressed
+    down, they penetrate the master surface and the check after the solve counts them; with the default search
+    distance none does."""
+    V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_WORLD, top=(0.0, 0.0, -0.004))
+    short = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.0, search_distance=1e-4)
+    with ContactProblem(a, None, bcs, contact_pairs=[short], petsc_options_prefix="free_") as problem:
+        _, result = problem.solve()
+        assert problem.p == 0 and result.converged
+        free = problem.model.pairing.free
+        assert MPI.COMM_WORLD.allreduce(free["blocks"].size) == 25  # the 5 × 5 slave nodes, all over the master
+        assert problem.model.free_slave_penetrations(result.displacement) == 25
+    with ContactProblem(a, None, bcs, contact_pairs=[ContactPair(ft, slave=SLAVE, master=MASTER)],
+                        petsc_options_prefix="free_") as problem:
+        _, result = problem.solve()
+        assert problem.p == 25
+        assert problem.model.free_slave_penetrations(result.displacement) == 0
+
+
 def test_bad_input():
     """A body without supports, pairs together with obstacles: InputError naming the problem."""
     msh, ft = two_blocks(MPI.COMM_WORLD)
