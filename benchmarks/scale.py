@@ -306,15 +306,17 @@ def run_job(solve: str, lev: int, ranks: int, case: str, work: Path, args: argpa
     """Launch one job under peak_rss.py; return its row (phases, counts, wall time, RSS, load)."""
     gap, load = case.split("/")
     out = work / f"{solve}-lev{lev}-np{ranks}"
-    shutil.rmtree(out, ignore_errors=True)
-    out.mkdir(parents=True)
+    rss = work / f"{solve}-lev{lev}-np{ranks}.rss"  # beside the result directory: the CLI writes only result sets
+    for path in (out, rss):
+        shutil.rmtree(path, ignore_errors=True)
+    rss.mkdir(parents=True)
     if solve == "contact":
         command = [args.python, "-m", "fenics_coulomb", "--lev", str(lev), "--gap", gap, "--load", load,
                    "--no-plots", "--quiet", "--out", str(out)]
     else:
         command = [args.python, str(HERE / "elastic.py"), "--lev", str(lev), "--case", case, "--out", str(out)]
     argv = [*launcher_command(args.launcher, ranks, cores, mpi_version),
-            args.python, str(HERE / "peak_rss.py"), str(out / "rss"), "--", *command]
+            args.python, str(HERE / "peak_rss.py"), str(rss), "--", *command]
     load_before = os.getloadavg()[0]
     print(f"$ {shlex.join(argv)}", file=log, flush=True)
     t0 = time.perf_counter()
@@ -330,7 +332,7 @@ def run_job(solve: str, lev: int, ranks: int, case: str, work: Path, args: argpa
     else:
         row.update({f"{k}_s": float("nan") for k in PHASES})
         row.update({"phases_s": float("nan"), "n": 0, "newton": 0, "krylov": 0, "converged": False})
-    row.update(aggregate_rss(read_rss(out / "rss")))
+    row.update(aggregate_rss(read_rss(rss)))
     row.update({"load1_before": load_before, "load1_after": load_after})
     if not args.keep:
         shutil.rmtree(out, ignore_errors=True)

@@ -40,6 +40,7 @@ from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditioner re-exported)
     AUTO_ILU_FALLBACK_ITS,
     DETERMINISTIC_PTAP,
+    DETERMINISTIC_PTAP_MIN_RANKS,
     choose_preconditioner,
     create_ksp,
     default_options,
@@ -187,8 +188,8 @@ class SCDNewtonSolver:
     def petsc_options(self) -> Iterator[None]:
         """Put the solver's options into PETSc's database under its prefix for the duration (options the
         database already holds win over the solver's defaults), then restore the database. With GAMG on
-        several ranks also the unprefixed :data:`~fenics_coulomb.preconditioner.DETERMINISTIC_PTAP` (PETSc
-        creates the Galerkin products without a prefix), unless the user gave it."""
+        three or more ranks also the unprefixed :data:`~fenics_coulomb.preconditioner.DETERMINISTIC_PTAP`
+        (PETSc creates the Galerkin products without a prefix), unless the user gave it."""
         opts = PETSc.Options()
         added: dict[str, object] = {}
         for key, value in (*self._default_options.items(), *self._user_options.items()):
@@ -197,7 +198,8 @@ class SCDNewtonSolver:
                 added[name] = opts.getString(name) if opts.hasName(name) else None
                 opts[name] = value
         key, value = DETERMINISTIC_PTAP  # unprefixed by necessity, scoped to the solver's own calls
-        if self.pc in ("gamg", "gamg-newton") and self.comm.size > 1 and not opts.hasName(key):
+        if self.pc in ("gamg", "gamg-newton") and self.comm.size >= DETERMINISTIC_PTAP_MIN_RANKS \
+                and not opts.hasName(key):
             added[key] = None
             opts[key] = value
         try:

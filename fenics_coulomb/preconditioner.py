@@ -37,6 +37,10 @@ AUTO_ILU_FALLBACK_ITS = 200
 #: unprefixed: the solver sets it for the duration of its own KSP solves (where GAMG sets up) and removes
 #: it afterwards; a value the user gave is left alone.
 DETERMINISTIC_PTAP = ("matptap_via", "allatonce")
+#: ... and only from this many ranks: on 2 ranks every rank has one neighbour, the messages arrive in one order
+#: and the default product repeats bit for bit (docs/partition), while "allatonce" costs: d3/L2 lev 8 on 2 ranks
+#: solves in 16.3 s with it, 9.5 s without (identical bits in three runs; docs/scale/idle-2026-11-23).
+DETERMINISTIC_PTAP_MIN_RANKS = 3
 #: GAMG's level smoother (Chebyshev) sweeps unless -<prefix>mg_levels_ksp_max_it says otherwise: one sweep
 #: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
 #: against 105 s).
