@@ -207,7 +207,9 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
                              master=[body.tag(n) for n in q.master],
                              friction=friction if q.friction is None else float(q.friction),
                              search_distance=q.search_distance, name=q.name) for q in scene.contact_pairs]
-        problem = ContactProblem(a, L, bcs=bcs, contact_pairs=pairs, settings=scene.solver,
+        contact = (body.facet_tags, [body.tag(name) for name in body.contact]) if scene.obstacles else None
+        problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
+                                 obstacles=scene.obstacles or None, contact_pairs=pairs, settings=scene.solver,
                                  petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
     else:
         contact = (body.facet_tags, [body.tag(name) for name in body.contact])

@@ -652,9 +652,12 @@ class Scene:
             return
         if self.body.shape != "mesh":
             raise InputError("[[contact_pair]] needs a mesh body (shape = 'mesh') with the bodies as volumes")
-        if self.body.contact or self.obstacles:
-            raise InputError("[[contact_pair]]: give either contact pairs or [body] contact with [[obstacle]], not "
-                             "both (two bodies against rigid obstacles are not supported yet)")
+        if self.obstacles and not self.body.contact:
+            raise InputError("[[obstacle]] with [[contact_pair]]: name the obstacles' contact boundary in [body] "
+                             "contact")
+        if self.body.contact and not self.obstacles:
+            raise InputError(f"[body] contact = {self.body.contact!r} with [[contact_pair]]: the pairs name their own "
+                             "surfaces; a contact boundary is for [[obstacle]]s")
         for i, pair in enumerate(self.contact_pairs, 1):
             for name in (*pair.slave, *pair.master):
                 if name not in names:

@@ -60,6 +60,13 @@ class ContactMap:
         """Outward unit normal n of each node's obstacle, shape (m, 3)."""
         return np.ascontiguousarray(self.frames[:, :, 2])
 
+    def subset(self, keep: npt.NDArray[np.bool_], comm: MPI.Comm) -> ContactMap:
+        """The map of the nodes ``keep`` selects (collective: the global count)."""
+        return ContactMap(blocks=self.blocks[keep], local_dofs=self.local_dofs[keep],
+                          global_dofs=self.global_dofs[keep], coordinates=self.coordinates[keep], gap=self.gap[keep],
+                          frames=self.frames[keep], obstacle_index=self.obstacle_index[keep],
+                          num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM))
+
     @property
     def size(self) -> int:
         """Number of contact nodes owned by this rank."""

@@ -135,16 +135,20 @@ class ContactModel:
         self.A_free: PETSc.Mat | None = None
         self._free_coupling: PETSc.Mat | None = None
         self._prefix = prefix
+        obstacle_contact = None
         if pairs:
-            if contact is not None or obstacles:
-                raise InputError("contact_pairs: give either contact pairs or a contact boundary with obstacles, "
-                                 "not both (two bodies against rigid obstacles are not supported yet)")
             bad = [q for q in pairs if not isinstance(q, ContactPair)]
             if bad:
                 raise InputError(f"contact_pairs: {bad[0]!r} is not a ContactPair")
-            # the slave surfaces are the contact boundary (nodal areas of the tractions, figures)
+            if obstacles and contact is None:
+                raise InputError("obstacles with contact pairs: give the contact boundary of the obstacles too "
+                                 "(contact=(facet_tags, markers))")
+            obstacle_contact = contact if obstacles else None
+            # the slave surfaces (and the obstacles' contact boundary) are the contact boundary (nodal areas of
+            # the tractions, figures)
             facet_tags = pairs[0].facet_tags
-            markers = sorted({int(t) for q in pairs for t in np.atleast_1d(q.slave)})
+            markers = sorted({int(t) for q in pairs for t in np.atleast_1d(q.slave)}
+                             | ({int(m) for m in obstacle_contact[1]} if obstacle_contact else set()))
         elif contact is None:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         else:
@@ -179,7 +183,7 @@ class ContactModel:
         self.dirichlet_rows = owned
         self.load = None
         if pairs:
-            self._create_two_body(pairs, dirichlet, prefix)
+            self._create_two_body(pairs, dirichlet, prefix, obstacle_contact, friction)
         else:
             # Stiffness with the Dirichlet rows/columns replaced by a scaled identity.
             self.A = dolfinx.fem.petsc.assemble_matrix(self.a, bcs=self.bcs)
@@ -208,14 +212,33 @@ class ContactModel:
         #: p of the paper: number of contact nodes.
         self.p = self.contact.num_global
 
-    def _create_two_body(self, pairs: list[ContactPair], dirichlet: npt.NDArray[np.int32], prefix: str) -> None:
+    def _create_two_body(self, pairs: list[ContactPair], dirichlet: npt.NDArray[np.int32], prefix: str,
+                         obstacle_contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None = None,
+                         friction: Friction = 0.0) -> None:
         """Ã = Mᵀ A_free M with the Dirichlet rows and columns of s I, the pairing and l̃_z
-        (:mod:`fenics_coulomb.two_body` derives it; collective)."""
+        (:mod:`fenics_coulomb.two_body` derives it; collective). With rigid obstacles as well (their contact
+        boundary ``obstacle_contact``), a node that is both a paired slave node and an obstacle contact node
+        belongs to the one with the smaller |g| (ties: the pair); obstacle nodes keep z = u (no row of Φ)."""
         V, comm = self.V, self.comm
+        excluded = np.unique(dirichlet // 3)
         #: Body of every local DOF block (connected components of the mesh) and their number.
         self.body_of_block, self.num_bodies = connected_bodies(V)
         check_rigid_support(V, self.body_of_block, self.num_bodies, self.dirichlet_rows)
-        self.pairing = pairing = pair_surfaces(V, pairs, np.unique(dirichlet // 3))
+        pairing = pair_surfaces(V, pairs, excluded)
+        obstacle_map = None
+        if obstacle_contact is not None:
+            tags, markers = obstacle_contact
+            obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], excluded, self.obstacles)
+            check_not_overlapping(self.obstacles, obstacle_map.coordinates, comm=comm)
+            # the smaller |g| wins a node on both (ties: the pair)
+            both_p = np.isin(pairing.blocks, obstacle_map.blocks)
+            where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
+            lose = np.zeros(pairing.blocks.size, dtype=bool)
+            lose[np.flatnonzero(both_p)] = np.abs(obstacle_map.gap[where]) < np.abs(pairing.gap[both_p])
+            pairing = pairing.subset(~lose, comm)
+            keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
+            obstacle_map = obstacle_map.subset(keep, comm)
+        self.pairing = pairing
         self.coupling = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix)
         self.A_free = dolfinx.fem.petsc.assemble_matrix(self.a)
         self.A_free.assemble()
@@ -229,13 +252,32 @@ class ContactModel:
         self.load.setOptionsPrefix(f"{prefix}load_")
         self.assemble_load()
         blocks = pairing.blocks
+        coordinates, gap, frames = pairing.coordinates, pairing.gap, pairing.frames
+        index = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
+        paired = np.ones(blocks.size, dtype=bool)
+        if obstacle_map is not None:
+            blocks = np.concatenate([blocks, obstacle_map.blocks])
+            coordinates = np.concatenate([coordinates, obstacle_map.coordinates])
+            gap = np.concatenate([gap, obstacle_map.gap])
+            frames = np.concatenate([frames, obstacle_map.frames])
+            index = np.concatenate([index, obstacle_map.obstacle_index])
+            paired = np.concatenate([paired, np.zeros(obstacle_map.size, dtype=bool)])
+        order = np.argsort(blocks, kind="stable")
+        blocks = blocks[order].astype(np.int32)
         offsets = np.arange(3, dtype=np.int32)
         self.contact = ContactMap(
             blocks=blocks, local_dofs=(3 * blocks[:, None] + offsets).astype(np.int32),
             global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
-            coordinates=pairing.coordinates, gap=pairing.gap, frames=pairing.frames,
-            obstacle_index=pairing.pair_index, num_global=pairing.num_global)
-        self.friction = np.ascontiguousarray(pairing.friction, dtype=np.float64)
+            coordinates=np.ascontiguousarray(coordinates[order]), gap=np.ascontiguousarray(gap[order]),
+            frames=np.ascontiguousarray(frames[order]), obstacle_index=index[order],
+            num_global=comm.allreduce(int(blocks.size), op=MPI.SUM))
+        #: Which contact nodes are paired slave nodes (the others belong to rigid obstacles).
+        self.paired = paired[order]
+        node_friction = np.zeros(blocks.size)
+        if obstacle_map is not None:  # the problem's coefficient (or field) on the obstacles' nodes
+            node_friction[:] = self._friction_at_contact_nodes(friction)
+        node_friction[self.paired] = pairing.friction  # both in ascending block order
+        self.friction = np.ascontiguousarray(node_friction)
 
     def near_nullspace(self) -> PETSc.NullSpace:
         """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""
@@ -356,7 +398,7 @@ class ContactModel:
         """
         obstacles = list(obstacles)
         if self.pairing is not None:
-            self._place_pairs(previous_displacement)
+            self._place_pairs(obstacles, previous_displacement, previous_obstacle_displacements)
             return
         if len(obstacles) != len(self.obstacles) or any(
                 o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
@@ -386,12 +428,31 @@ class ContactModel:
         self.A.mult(self.shift, self.rhs)
         self.rhs.axpy(1.0, self.load)
 
-    def _place_pairs(self, previous_displacement: npt.NDArray[np.float64] | None) -> None:
-        """The shift of contact pairs: frames and gaps fixed by the pairing, the tangential offset w_{k−1}."""
+    def _place_pairs(self, obstacles: list[Obstacle], previous_displacement: npt.NDArray[np.float64] | None,
+                     previous_obstacle_displacements: npt.ArrayLike | None) -> None:
+        """The shift with contact pairs: the paired nodes' frames and gaps are fixed by the pairing (tangential
+        offset w_{k−1}); rigid obstacles' nodes as in :meth:`place` (offset ũ_{k−1} + δ_k − δ_{k−1})."""
         cmap = self.contact
+        rigid = np.flatnonzero(~self.paired)
+        offset = np.zeros((cmap.size, 3))
         self.obstacle_displacement = np.zeros((cmap.size, 3))
-        offset = None if previous_displacement is None else np.asarray(previous_displacement,
-                                                                         dtype=np.float64).reshape(-1, 3)
+        if rigid.size or self.obstacles:
+            if len(obstacles) != len(self.obstacles) or any(
+                    o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
+                raise InputError("obstacles: a placement may only change the obstacles' displacements")
+            self.obstacles = obstacles
+        if rigid.size:
+            index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates[rigid])
+            gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
+            cmap.obstacle_index[rigid], cmap.gap[rigid], cmap.frames[rigid] = index, gap, frames
+            delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
+            self.obstacle_displacement[rigid] = delta[index]
+            offset[rigid] = delta[index]
+            if previous_obstacle_displacements is not None:
+                previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
+                offset[rigid] -= previous[index]
+        if previous_displacement is not None:
+            offset += np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
         self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
         self.shift.set(0.0)
         self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)

@@ -207,6 +207,13 @@ class Pairing:
     num_global: int
     free: dict[str, np.ndarray] = field(default_factory=dict)
 
+    def subset(self, keep: npt.NDArray[np.bool_], comm: MPI.Comm) -> Pairing:
+        """The pairing of the nodes ``keep`` selects (collective: the global count)."""
+        return Pairing(blocks=self.blocks[keep], coordinates=self.coordinates[keep], closest=self.closest[keep],
+                       gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
+                       weights=self.weights[keep], pair_index=self.pair_index[keep], friction=self.friction[keep],
+                       num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
+
     @property
     def normals(self) -> Array:
         """n of each contact node, shape (m, 3)."""

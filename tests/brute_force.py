@@ -132,6 +132,10 @@ def solve_contact(
         if G.shape != (3 * m, n):
             raise ValueError(f"coupling must have shape {(3 * m, n)}, got {G.shape}")
         B = (G.T @ _block_diagonal(R)).tocsr()  # B p = Gᵀ (Rᵢ pᵢ), Bᵀ u = Rᵢᵀ (G u)ᵢ
+    if dirichlet is not None:  # a prescribed DOF's row is u_d = value: its support takes the contact force
+        keep = np.ones(n)
+        keep[np.asarray(dirichlet[0], dtype=np.int64)] = 0.0
+        B = (sp.diags(keep) @ B).tocsr()
     Bt = B.T.tocsr()
 
     def residual(u: Array, p: Array) -> tuple[Array, dict]:

@@ -123,6 +123,29 @@ def test_material_per_body_is_used(mesh_file):
     assert forces[0] > 1.2 * forces[1] > 0
 
 
+def test_pair_scene_with_a_rigid_floor(mesh_file):
+    """[[contact_pair]] together with an [[obstacle]]: the block held by its sides rests on a rigid floor just
+    below its bottom ([body] contact); both carry the hemisphere's push (the floor's share from the block)."""
+    text = SCENE.format(mesh=mesh_file, young=200.0, extra="").replace(
+        'clamped = ["block_bottom"]', 'clamped = ["block_sides"]\ncontact = ["block_bottom"]')
+    text += '\n[[obstacle]]\ntype = "plane"\nname = "floor"\npoint = [0.0, 0.0, -2.000001]\nnormal = [0.0, 0.0, 1.0]\n'
+    path = mesh_file.parent / f"floor{MPI.COMM_WORLD.size}.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    with build_problem(Scene.from_toml(path)).problem as problem:
+        _, result = problem.solve()
+        assert result.converged
+        model = problem.model
+        floor = np.zeros(3)
+        floor[:] = MPI.COMM_WORLD.allreduce(result.contact_force[~model.paired].sum(axis=0), op=MPI.SUM)
+        pushed = MPI.COMM_WORLD.allreduce(result.contact_force[model.paired].sum(axis=0), op=MPI.SUM)
+        checks = physics_residuals(model, result.relative_displacement)
+    assert floor[2] > 0 and pushed[2] > 0
+    for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "reaction_balance"):
+        assert checks[key] < 1e-7, (key, checks[key])
+
+
 @pytest.mark.parametrize(("extra", "message"), [
     ('[[contact_pair]]\nslave = "curved"\nmaster = "nowhere"\n', "boundary 'nowhere' is not in"),
     ('[[contact_pair]]\nslave = "curved"\n', "needs a master surface"),
@@ -130,7 +153,7 @@ def test_material_per_body_is_used(mesh_file):
     ('[[contact_pair]]\nslave = "flat"\nmaster = "block_top"\nsearch_distance = 0\n', "search_distance = 0"),
     ('[[contact_pair]]\nslave = "flat"\nmaster = "block_top"\nspeed = 1\n', "unknown key 'speed'"),
     ('[material.ball]\nyoung = 1.0\n', "[material.ball]: 'ball' is not in [bodies]"),
-    ('[[obstacle]]\ntype = "plane"\npoint = [0, 0, -5]\nnormal = [0, 0, 1]\n', "not both"),
+    ('[[obstacle]]\ntype = "plane"\npoint = [0, 0, -5]\nnormal = [0, 0, 1]\n', "name the obstacles' contact boundary"),
 ])
 def test_bad_pair_input_exits_2_with_one_line(mesh_file, extra, message, capsys):
     scene_path = write_scene(mesh_file.parent / f"bad{MPI.COMM_WORLD.size}.toml", mesh_file, extra=extra)

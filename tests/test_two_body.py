@@ -258,6 +258,75 @@ def test_one_rank_equals_two_ranks():
     assert np.abs(u0 - u1).max() <= 1e-8 * np.abs(u1).max()
 
 
+@pytest.mark.serial
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
+    """A pair (upper on lower) and a rigid plane under the lower block (its bottom, 3e-5 above the plane, is the
+    obstacles' contact boundary; the lower block is held by its clamped sides): the SCD solve and the
+    Alart–Curnier solver with w = G u on the slave nodes and u itself on the obstacle's nodes (pairing computed
+    here) agree (1e-7); the physics holds."""
+    import scipy.sparse as sp
+    from brute_force import solve_contact
+
+    msh, ft = two_blocks(MPI.COMM_SELF)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    sides = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(TAGS["lower_sides"]))
+    top = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP))
+    bcs = [dolfinx.fem.dirichletbc(np.array([0.0008, 0.0, -0.004]), top, V),
+           dolfinx.fem.dirichletbc(np.zeros(3), sides, V)]
+    a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
+    plane = Plane(point=[0.0, 0.0, -1.00003], normal=[0.0, 0.0, 1.0], name="floor")
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
+    with ContactProblem(a, None, bcs, contact=(ft, [LOWER_BOTTOM]), obstacles=[plane], friction=friction,
+                        contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mixed_") as problem:
+        _, result = problem.solve()
+        assert result.converged
+        assert_physics(problem, result)
+        model = problem.model
+        assert np.any(model.paired) and np.any(~model.paired)
+        ip, ix, vals = model.A_free.getValuesCSR()
+        K = sp.csr_matrix((vals, ix, ip), shape=model.A_free.getSize())
+        slave, G_pair, g_pair = flat_coupling(V, 1e-3)
+        x = V.tabulate_dof_coordinates()
+        rigid = np.setdiff1d(np.flatnonzero(np.isclose(x[:, 2], -1.0)), sides)  # blocks without a Dirichlet side
+        E = sp.csr_matrix((np.ones(3 * rigid.size), (np.arange(3 * rigid.size), (3 * rigid[:, None] + np.arange(3)).ravel())),
+                          shape=(3 * rigid.size, K.shape[0]))
+        G = sp.vstack([G_pair, E]).tocsr()
+        gaps = np.concatenate([g_pair, x[rigid, 2] + 1.00003])
+        assert np.array_equal(np.sort(np.concatenate([slave, rigid])), model.contact.blocks)
+        g = dolfinx.fem.Function(V)
+        g.x.array[:] = np.nan
+        for bc in bcs:
+            bc.set(g.x.array)
+        D = np.flatnonzero(~np.isnan(g.x.array))
+        sol = solve_contact(K, np.zeros(K.shape[0]), np.arange(3 * gaps.size).reshape(-1, 3), gaps, friction,
+                            coupling=G, dirichlet=(D, g.x.array[D]))
+        u = owned(problem)
+        assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u)
+        assert sol.force[slave.size:, 2].max() > 0  # the floor carries the lower block
+
+
+def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
+    """The upper block's bottom is both the slave surface (gap 1e-3 to the lower block) and the contact boundary
+    of a rigid plane: at 5e-4 below it the plane wins every node (the solve equals the one-body solve against
+    the plane), at 1.5e-3 below the pair wins every node (the solve equals the pair alone)."""
+    V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_WORLD, top=(0.0, 0.0, -0.004))
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER)
+    for height, winner in ((5e-4, "plane"), (-5e-4, "pair")):
+        plane = Plane(point=[0.0, 0.0, height], normal=[0.0, 0.0, 1.0])
+        with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), obstacles=[plane], contact_pairs=[pair],
+                            settings=TIGHT, petsc_options_prefix="both_") as problem:
+            _, result = problem.solve()
+            paired = MPI.COMM_WORLD.allreduce(int(np.sum(problem.model.paired)), op=MPI.SUM)
+            assert problem.p == 25 and paired == (25 if winner == "pair" else 0)
+            both = owned(problem)
+        kwargs = dict(contact_pairs=[pair]) if winner == "pair" else dict(contact=(ft, [SLAVE]), obstacles=[plane])
+        with ContactProblem(a, None, bcs, settings=TIGHT, petsc_options_prefix="one_", **kwargs) as problem:
+            problem.solve()
+            alone = owned(problem)
+        assert global_norm(both - alone) <= 1e-10 * global_norm(alone), winner
+
+
 def test_free_slave_nodes_that_penetrate_are_counted():
     """A search distance below the initial gap leaves every slave node free (a warning, no contact node): pressed
     down, they penetrate the master surface and the check after the solve counts them; with the default search
@@ -286,6 +355,6 @@ def test_bad_input():
     pair = ContactPair(ft, slave=SLAVE, master=MASTER)
     with pytest.raises(InputError, match="body 1 .* rigid motions"):
         ContactProblem(a, None, [bottom], contact_pairs=[pair], petsc_options_prefix="bad_")
-    with pytest.raises(InputError, match="not both"):
+    with pytest.raises(InputError, match="give the contact boundary of the obstacles"):
         ContactProblem(a, None, [bottom], contact_pairs=[pair], obstacles=[Plane(point=[0, 0, 0], normal=[0, 0, 1])],
                        petsc_options_prefix="bad_")
