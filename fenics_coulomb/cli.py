@@ -39,10 +39,11 @@ EXIT_INPUT = 2
 EXIT_DIVERGED = 3
 EXIT_INTERRUPTED = 128  # + the signal number (130 SIGINT, 143 SIGTERM), as a shell reports it
 
-#: Peak memory (summed over ranks) of a cuboid solve: a base per rank plus bytes per unknown, fitted to the
-#: measured peak RSS of docs/table2 (d3/L2, GAMG at lev >= 7, 2 ranks): 3221 MiB at 603 057 and 8207 MiB at
-#: 1 622 400 unknowns give 5.1 kB per unknown and ~140 MiB per rank (lev 0: 201 MiB for 2 ranks).
-BYTES_PER_UNKNOWN = 5.2e3
+#: Peak memory (summed over ranks) of a cuboid solve: a base per rank plus bytes per unknown. With the
+#: matrix-free Newton operator the measured peak RSS (docs/scale/idle-2026-11-23-2ranks-default-ptap, d3/L2,
+#: GAMG, 2 ranks) is 1042 MiB at 209 088 and 6228 MiB at 1 622 400 unknowns: 3.84 kB per unknown above
+#: ~150 MiB per rank; 4.2 kB leaves 10 % (the explicit Newton matrix of ILU/LU needs more: 5.1 kB, docs/table2).
+BYTES_PER_UNKNOWN = 4.2e3
 BYTES_PER_RANK = 150 * 2**20
 #: Largest scene-independent start file read for validation (an XDMF is a few kB of XML).
 MAX_XDMF_BYTES = 16 * 2**20
