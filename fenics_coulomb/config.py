@@ -372,6 +372,15 @@ class PathStep:
     substeps: int = 1
 
 
+def check_table(where: str, section: str, number: int, table: dict[str, Any]) -> None:
+    """Raise InputError for an unknown key or a value of the wrong kind in the ``number``-th ``[[section]]``."""
+    kinds = KINDS[section]
+    for key, item in table.items():
+        if key not in kinds:
+            raise InputError(f"{where}: unknown key {key!r} in [[{section}]] {number} (allowed: {', '.join(kinds)})")
+        check_kind(f"[[{section}]] {number} {key}", item, kinds[key])
+
+
 def path_steps_from_toml(where: str, value: Any) -> list[PathStep]:
     """The ``[[path.step]]`` tables of a scene's ``[path]`` section (kinds checked; names checked later by
     :meth:`Scene.validate`)."""
@@ -385,13 +394,9 @@ def path_steps_from_toml(where: str, value: Any) -> list[PathStep]:
         raise InputError(f"{where}: path.step = {tables!r}: must be an array of tables ([[path.step]])")
     if not tables:
         raise InputError(f"{where}: [path] has no [[path.step]] table")
-    kinds = KINDS["path.step"]
     steps = []
     for i, table in enumerate(tables, 1):
-        for key, item in table.items():
-            if key not in kinds:
-                raise InputError(f"{where}: unknown key {key!r} in [[path.step]] {i} (allowed: {', '.join(kinds)})")
-            check_kind(f"[[path.step]] {i} {key}", item, kinds[key])
+        check_table(where, "path.step", i, table)
         steps.append(PathStep(**{k: (dict(v) if isinstance(v, dict) else v) for k, v in table.items()}))
     return steps
 
@@ -414,13 +419,9 @@ def pairs_from_toml(where: str, value: Any) -> list[PairSection]:
     """The ``[[contact_pair]]`` tables (kinds checked; a single name is a one-element list)."""
     if not isinstance(value, list) or not all(isinstance(t, dict) for t in value):
         raise InputError(f"{where}: contact_pair = {value!r}: must be an array of tables ([[contact_pair]])")
-    kinds = KINDS["contact_pair"]
     pairs = []
     for i, table in enumerate(value, 1):
-        for key, item in table.items():
-            if key not in kinds:
-                raise InputError(f"{where}: unknown key {key!r} in [[contact_pair]] {i} (allowed: {', '.join(kinds)})")
-            check_kind(f"[[contact_pair]] {i} {key}", item, kinds[key])
+        check_table(where, "contact_pair", i, table)
         table = {k: ([v] if k in ("slave", "master") and isinstance(v, str) else v) for k, v in table.items()}
         for key in ("slave", "master"):
             if not table.get(key):

@@ -73,6 +73,16 @@ def pressed_blocks(comm, top=(0.0015, 0.0, -0.004), **mesh_args):
     return V, ft, elasticity(V, 70.0, 0.2, upper=(20.0, 0.45)), bcs, value
 
 
+def prescribed(V, bcs):
+    """The prescribed DOFs (unrolled, local) and their values."""
+    g = dolfinx.fem.Function(V)
+    g.x.array[:] = np.nan
+    for bc in bcs:
+        bc.set(g.x.array)
+    D = np.flatnonzero(~np.isnan(g.x.array))
+    return D, g.x.array[D]
+
+
 def owned(problem):
     return problem.u.x.petsc_vec.getArray(readonly=True).copy()
 
@@ -166,13 +176,9 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
         slave, G, gaps = flat_coupling(V, 1e-3)
         assert np.array_equal(slave, model.pairing.blocks)  # every slave node is a contact node
         assert np.allclose(model.pairing.gap, gaps, rtol=0, atol=1e-14)
-        g = dolfinx.fem.Function(V)
-        g.x.array[:] = np.nan
-        for bc in bcs:
-            bc.set(g.x.array)
-        D = np.flatnonzero(~np.isnan(g.x.array))
+        D, values = prescribed(V, bcs)
         sol = solve_contact(K, np.zeros(K.shape[0]), np.arange(3 * slave.size).reshape(-1, 3), gaps, friction,
-                            coupling=G, dirichlet=(D, g.x.array[D]))  # frames: n = e3, t = e1, e2
+                            coupling=G, dirichlet=(D, values))  # frames: n = e3, t = e1, e2
         u = owned(problem)
         assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u)
         force = sol.force  # Cartesian in the identity frames
@@ -294,13 +300,9 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
         G = sp.vstack([G_pair, E]).tocsr()
         gaps = np.concatenate([g_pair, x[rigid, 2] + 1.00003])
         assert np.array_equal(np.sort(np.concatenate([slave, rigid])), model.contact.blocks)
-        g = dolfinx.fem.Function(V)
-        g.x.array[:] = np.nan
-        for bc in bcs:
-            bc.set(g.x.array)
-        D = np.flatnonzero(~np.isnan(g.x.array))
+        D, values = prescribed(V, bcs)
         sol = solve_contact(K, np.zeros(K.shape[0]), np.arange(3 * gaps.size).reshape(-1, 3), gaps, friction,
-                            coupling=G, dirichlet=(D, g.x.array[D]))
+                            coupling=G, dirichlet=(D, values))
         u = owned(problem)
         assert np.linalg.norm(sol.u - u) <= 1e-7 * np.linalg.norm(u)
         assert sol.force[slave.size:, 2].max() > 0  # the floor carries the lower block
