@@ -110,7 +110,7 @@ KINDS: dict[str, dict[str, str]] = {
     "solver": {"variant": "str", "tol": "number", "rtol": "number", "accuracy": "number", "max_it": "int",
                "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
                "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
-               "predictor": "bool", "no_contact_shortcut": "bool", "start": "str"},
+               "predictor": "bool", "no_contact_shortcut": "bool", "galerkin_coarse": "bool", "start": "str"},
     "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "body_force": "vector",
                   "substeps": "int"},
     "bodies": {"*": "int"},

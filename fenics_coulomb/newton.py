@@ -33,6 +33,7 @@ import numpy.typing as npt
 from fenics_coulomb.contact_rows import ContactRows
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
+from fenics_coulomb.galerkin import GalerkinCoarsening, row_scaling
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.obstacles import conjugate, to_global, to_local
@@ -133,6 +134,12 @@ class SCDNewtonSolver:
                                        settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
         self.M = self.operator.M
         self._user_options = dict(petsc_options or {})
+        diagonal = self.A.getDiagonal()
+        #: aᵢ: the mean of A's three diagonal entries of every contact node (:func:`row_scaling`)
+        self._diagonal = np.asarray(diagonal.getArray(readonly=True))[self.cdofs].mean(axis=1) \
+            if len(self.cdofs) else np.zeros(0)
+        diagonal.destroy()
+        self._galerkin: GalerkinCoarsening | None = None
         self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
         self.tol = float(self.ksp.getTolerances()[0])
@@ -161,6 +168,12 @@ class SCDNewtonSolver:
                                                self.model.near_nullspace)
         with self.petsc_options():
             self.ksp.setFromOptions()
+        if self._galerkin is not None:
+            self._galerkin.destroy()
+            self._galerkin = None
+        if settings.galerkin_coarse and settings.variant == "4a" and self.pc == "gamg" \
+                and self.ksp.getPC().getType() == "gamg":
+            self._galerkin = GalerkinCoarsening(self.A, self.rows)
 
     def _fall_back(self, its: int) -> bool:
         """After a stalled ILU solve under pc = "auto", replace the KSP by one with GAMG; True if it did.
@@ -242,6 +255,9 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
+        if self._galerkin is not None:  # rows scaled to A's diagonal for the Galerkin coarse operators
+            scale = row_scaling(left, right, self._diagonal)[:, :, None]
+            left, right = scale * left, scale * right
         # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see
         # fenics_coulomb.obstacles); the identity frame leaves them unchanged. The Newton operator (shell or
         # explicit rows) receives these rotated blocks.
@@ -249,6 +265,8 @@ class SCDNewtonSolver:
         self.operator.update(left, right)
         self.step.right_hand_side(self, it.e, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
+        if self._galerkin is not None:
+            self._coarsen(left, right)
 
         t0 = time.perf_counter()
         its = self._solve_newton_system(eta)
@@ -262,6 +280,15 @@ class SCDNewtonSolver:
         self._check_linear_solve(its, du)
         self._steps += 1
         return Direction(du, its, eta, linear_residual)
+
+    def _coarsen(self, left: Array, right: Array) -> None:
+        """Set GAMG up on A (the first time) and make its coarse operators the Galerkin products of the Newton
+        matrix with the Cartesian contact-row blocks (left, right) (:mod:`fenics_coulomb.galerkin`)."""
+        t0 = time.perf_counter()
+        with self.petsc_options():
+            self.ksp.setUp()
+            self._galerkin.update(self.ksp.getPC(), left, right)
+        self.timings["galerkin"] = self.timings.get("galerkin", 0.0) + time.perf_counter() - t0
 
     def _set_tolerance(self, rtol: float) -> None:
         """Set the KSP's relative tolerance; under the ILU fallback also its iteration cap,
@@ -443,6 +470,9 @@ class SCDNewtonSolver:
         model = self.model
         t0 = time.perf_counter()
         self.operator.set_stiffness()
+        if self._galerkin is not None:
+            m = len(self.cdofs)
+            self._coarsen(np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), np.zeros((m, 3, 3)))
         its = self._solve_linear_system()
         if self._fall_back(its):
             its += self._solve_linear_system()
@@ -478,6 +508,8 @@ class SCDNewtonSolver:
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
         self.operator.destroy()
+        if self._galerkin is not None:
+            self._galerkin.destroy()
         for obj in (self.ksp, self.u, self.r, self.b, self.x, self.Adu, self.w):
             obj.destroy()
         if self._nullspace is not None:

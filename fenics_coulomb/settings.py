@@ -64,6 +64,10 @@ class SolverSettings:
         no_contact_shortcut: Without contact nodes, solve the linear problem once instead of Newton.
         matrix_free: Apply the Newton matrix as D(A x) + C x (a PETSc shell, no second copy of A) when the
             preconditioner does not read it (gamg, none); false stores the explicit copy always.
+        galerkin_coarse: With GAMG on A and variant 4a, scale the contact rows to A's diagonal and keep GAMG's
+            coarse operators equal to the Galerkin products of the Newton matrix (:mod:`fenics_coulomb.galerkin`);
+            false (the default) leaves them those of A: fewer Krylov iterations (lev 8: 58 instead of 91) but more
+            Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md).
     """
 
     variant: str = "4a"
@@ -82,6 +86,7 @@ class SolverSettings:
     predictor: bool = False
     no_contact_shortcut: bool = True
     matrix_free: bool = True
+    galerkin_coarse: bool = False
 
     @property
     def reduction(self) -> float:
@@ -114,6 +119,6 @@ class SolverSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(f"{name} = {value!r}: must be an integer >= 1")
-        for name in ("adaptive_tol", "predictor", "no_contact_shortcut", "matrix_free"):
+        for name in ("adaptive_tol", "predictor", "no_contact_shortcut", "matrix_free", "galerkin_coarse"):
             if not isinstance(getattr(self, name), bool):
                 raise InputError(f"{name} = {getattr(self, name)!r}: must be true or false")
