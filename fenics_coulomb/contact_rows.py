@@ -59,6 +59,11 @@ class ContactRows:
         self.diagonal_entries = diag.ravel()
         self._out = np.empty(len(self.indices), dtype=PETSc.ScalarType)
 
+    def diagonal(self) -> Array:
+        """A's diagonal entries of the contact rows, shape (m, 3) (row b of node i: A[(i, b), (i, b)])."""
+        entries = self.diagonal_entries.reshape(self.num_nodes, 3)
+        return np.take_along_axis(self.values.T, entries, axis=0) if self.num_nodes else np.zeros((0, 3))
+
     def combine(self, left: Array, right: Array) -> Array:
         """CSR values of the rows Bⁱ Aⁱ + Cⁱ for left = (Bⁱ), right = (Cⁱ), shapes (m, 3, 3)."""
         new = np.einsum("eab,be->ae", left[self.node_of_entry], self.values)

@@ -64,6 +64,8 @@ class GalerkinCoarsening:
         comm = A.getComm()
         self.comm = comm.tompi4py()
         self.rows = rows
+        #: aᵢ of :func:`row_scaling`: the mean of A's three diagonal entries of every contact node
+        self.diagonal = rows.diagonal().mean(axis=1)
         n_rows = len(rows.rows)
         total = self.comm.allreduce(n_rows, op=MPI.SUM)
         # E restricted to the contact rows: (contact rows) × (columns of A), CSR from A's contact rows
@@ -76,7 +78,6 @@ class GalerkinCoarsening:
         self._identity = np.eye(3)[None]
         self._pc = 0  # the handle of the PC whose hierarchy holds self.current
         self._levels: list[int] = []
-        self._objects: list[PETSc.Object] = []
         self._products: dict[int, PETSc.Mat] = {}
         self._Pc: PETSc.Mat | None = None  # P_cᵀ
         self._EcP: PETSc.Mat | None = None
@@ -109,6 +110,11 @@ class GalerkinCoarsening:
             # order, where Pᵀ·B would add off-process contributions as they arrive (bits could vary on 3+ ranks)
             self._Pc = rows.transpose()  # in place (petsc4py without ``out``)
         self._levels = self._fingerprint(pc)
+
+    def scale(self, left: Array, right: Array) -> tuple[Array, Array]:
+        """The local-frame blocks (Bⁱ, Cⁱ) with every row scaled by :func:`row_scaling`."""
+        factor = row_scaling(left, right, self.diagonal)[:, :, None]
+        return factor * left, factor * right
 
     def update(self, pc: PETSc.PC, left: Array, right: Array) -> None:
         """Make the coarse operators of ``pc`` (a set-up GAMG on A) the Galerkin products of the Newton matrix

@@ -33,7 +33,7 @@ import numpy.typing as npt
 from fenics_coulomb.contact_rows import ContactRows
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.forcing import forcing_term
-from fenics_coulomb.galerkin import GalerkinCoarsening, row_scaling
+from fenics_coulomb.galerkin import GalerkinCoarsening
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.obstacles import conjugate, to_global, to_local
@@ -134,11 +134,6 @@ class SCDNewtonSolver:
                                        settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
         self.M = self.operator.M
         self._user_options = dict(petsc_options or {})
-        diagonal = self.A.getDiagonal()
-        #: aᵢ: the mean of A's three diagonal entries of every contact node (:func:`row_scaling`)
-        self._diagonal = np.asarray(diagonal.getArray(readonly=True))[self.cdofs].mean(axis=1) \
-            if len(self.cdofs) else np.zeros(0)
-        diagonal.destroy()
         self._galerkin: GalerkinCoarsening | None = None
         self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
@@ -256,8 +251,7 @@ class SCDNewtonSolver:
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
         if self._galerkin is not None:  # rows scaled to A's diagonal for the Galerkin coarse operators
-            scale = row_scaling(left, right, self._diagonal)[:, :, None]
-            left, right = scale * left, scale * right
+            left, right = self._galerkin.scale(left, right)
         # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see
         # fenics_coulomb.obstacles); the identity frame leaves them unchanged. The Newton operator (shell or
         # explicit rows) receives these rotated blocks.

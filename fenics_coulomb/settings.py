@@ -67,7 +67,8 @@ class SolverSettings:
         galerkin_coarse: With GAMG on A and variant 4a, scale the contact rows to A's diagonal and keep GAMG's
             coarse operators equal to the Galerkin products of the Newton matrix (:mod:`fenics_coulomb.galerkin`);
             false (the default) leaves them those of A: fewer Krylov iterations (lev 8: 58 instead of 91) but more
-            Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md).
+            Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md). Needs pc
+            "gamg" or "auto" (where it applies when GAMG is chosen) and variant 4a, else an InputError.
     """
 
     variant: str = "4a"
@@ -111,6 +112,12 @@ class SolverSettings:
             raise InputError(f"preconditioner {self.pc!r}: choose one of {list(PRECONDITIONERS)}")
         if self.variant == "4b" and self.pc == "hypre":
             raise InputError("preconditioner 'hypre' cannot apply its transpose, which variant 4b needs")
+        for name in ("adaptive_tol", "predictor", "no_contact_shortcut", "matrix_free", "galerkin_coarse"):
+            if not isinstance(getattr(self, name), bool):
+                raise InputError(f"{name} = {getattr(self, name)!r}: must be true or false")
+        if self.galerkin_coarse and (self.variant != "4a" or self.pc not in ("auto", "gamg")):
+            raise InputError(f"galerkin_coarse = true needs GAMG on A and variant 4a (it updates GAMG's coarse "
+                             f"operators), not pc = {self.pc!r} with variant {self.variant!r}")
         if self.gamma is not None and not (_number("gamma", self.gamma) > 0.0):
             raise InputError(f"gamma = {self.gamma!r}: must be finite and > 0")
         if not _number("gamma_scale", self.gamma_scale) > 0.0:
@@ -119,6 +126,3 @@ class SolverSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(f"{name} = {value!r}: must be an integer >= 1")
-        for name in ("adaptive_tol", "predictor", "no_contact_shortcut", "matrix_free", "galerkin_coarse"):
-            if not isinstance(getattr(self, name), bool):
-                raise InputError(f"{name} = {getattr(self, name)!r}: must be true or false")

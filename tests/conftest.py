@@ -106,3 +106,21 @@ def read_solution(out: Path) -> tuple[np.ndarray, np.ndarray]:
         x = h5["Mesh/mesh/geometry"][:]
         u = h5["Function/displacement/0"][:]
     return sort_by_coordinates(x, u)
+
+
+def solve_each(factory, setting: str, values, *args, tol: float = 1e-8, **kwargs) -> list:
+    """Solve one case (``factory(*args, **kwargs)``) once per value of ``setting``; assert that every solve
+    converged and that the solutions agree with the last one to ``tol`` (relative, nodes matched by
+    coordinates). Returns the (problem, result) pairs."""
+    solved, solutions = [], []
+    for value in values:
+        problem = factory(*args, **{setting: value}, **kwargs)
+        _, result = problem.solve()
+        assert result.converged, (setting, value)
+        solved.append((problem, result))
+        solutions.append(gather_by_coordinates(problem.V, result.displacement))
+    x_ref, u_ref = solutions[-1]
+    for x, u in solutions[:-1]:
+        assert np.allclose(x, x_ref)
+        assert np.linalg.norm(u - u_ref) <= tol * np.linalg.norm(u_ref)
+    return solved

@@ -91,6 +91,8 @@ def test_no_plots(mpi_tmp_path):
         (["--pc", "magic"], "magic"),
         (["--variant", "4c"], "4c"),
         (["--variant", "4b", "--pc", "hypre"], "hypre"),
+        (["--galerkin-coarse", "--pc", "ilu"], "galerkin_coarse = true needs GAMG"),
+        (["--galerkin-coarse", "--variant", "4b"], "variant '4b'"),
         (["--start", "somewhere"], "start"),
         (["-ksp_type", "cg"], "coulomb_"),
     ],
