@@ -29,7 +29,7 @@ every DOLFINx call that creates or reads the mesh, on every rank::
                                                   partitioner=create_partitioner(comm, x))
     # a box
     msh = dolfinx.mesh.create_box(comm, points, n, cell_type, ghost_mode=mode,
-                                  partitioner=box_partitioner(n, ghost_mode=mode))
+                                  partitioner=box_partitioner(points, n, ghost_mode=mode))
 
 A mesh partitioned by DOLFINx's default (or read from XDMF, which uses it) gives results that may change in
 the last bits, and in iteration counts, from run to run on more than one rank. The partition depends on the
