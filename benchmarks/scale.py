@@ -56,7 +56,7 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 SOLVES = ("contact", "linear")
 #: Phases reported for both solves (the contact CLI's summary.json and benchmarks/elastic.py).
-PHASES = ("mesh", "assembly", "setup", "solve", "output")
+PHASES = ("mesh", "assembly", "nested", "setup", "solve", "output")
 DEFAULT_LEVELS = [6, 7, 8, 9, 10]
 MiB = 1024.0
 
@@ -175,16 +175,17 @@ def read_rss(directory: Path) -> list[dict[str, Any]]:
 def phases(solve: str, summary: dict[str, Any]) -> dict[str, Any]:
     """Phase times and counts of a job from its summary.json.
 
-    Contact (the CLI): mesh, assembly, setup = γ estimate + solver construction, solve = the Newton
-    iterations (the GAMG hierarchy is built in the first one), output. Linear (elastic.py): mesh,
-    assembly, setup = near-nullspace + GAMG hierarchy, solve = CG, output.
+    Contact (the CLI): mesh, assembly, nested = the coarse levels of nested iteration and the interpolation of
+    their solution, setup = γ estimate + solver construction, solve = the Newton iterations (the GAMG hierarchy
+    is built in the first one), output. Linear (elastic.py): mesh, assembly, setup = near-nullspace + GAMG
+    hierarchy, solve = CG, output.
     """
     t = summary["timings_s"]
     if solve == "contact":
-        values = {"mesh": t["mesh"], "assembly": t["assembly"], "setup": t.get("gamma", 0.0) + t.get("setup", 0.0),
-                  "solve": t["total"], "output": t["output"]}
+        values = {"mesh": t["mesh"], "assembly": t["assembly"], "nested": t.get("nested", 0.0),
+                  "setup": t.get("gamma", 0.0) + t.get("setup", 0.0), "solve": t["total"], "output": t["output"]}
     elif solve == "linear":
-        values = {key: t[key] for key in PHASES}
+        values = {key: t.get(key, 0.0) for key in PHASES}
     else:
         raise ValueError(f"unknown solve {solve!r}")
     row: dict[str, Any] = {f"{key}_s": float(values[key]) for key in PHASES}
@@ -409,7 +410,8 @@ def write_markdown(path: Path, study: str, rows: Sequence[dict[str, Any]], meta:
             "(T(r0)/m(r0)) / (T(r)/m(r)) with m the unknowns per rank (time per unknown per rank; the "
             "pairs' m differ)." if study == "weak" else "T(r0)·r0 / (T(r)·r)."), ""]
     lines += markdown_table(paired, columns)
-    lines += ["", "Phases (s, max over ranks; contact: setup = γ estimate + solver construction, solve = the "
+    lines += ["", "Phases (s, max over ranks; contact: nested = the coarse levels of nested iteration and the "
+              "interpolation of their solution, setup = γ estimate + solver construction, solve = the "
               "Newton iterations including the GAMG setup in the first one; linear: setup = near-nullspace + "
               "GAMG setup, solve = CG):", ""]
     lines += markdown_table(rows, [("lev", "lev"), ("ranks", "ranks"), ("solve", "job"),

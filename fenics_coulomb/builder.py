@@ -35,12 +35,17 @@ from fenics_coulomb.scene import GAP_PROFILES, Body, GapFunction, create_cuboid
 QUADRATURE_DEGREE = 2
 
 
+def cuboid_gap(scene: Scene) -> str | GapFunction:
+    """The gap profile of a cuboid scene: a profile's name or the scene's expression d(x1, x2)."""
+    spec = scene.body
+    return spec.gap if spec.gap in GAP_PROFILES else spec.gap_function()
+
+
 def build_body(scene: Scene, comm: MPI.Comm) -> Body:
     """Create the mesh and its named boundary tags (collective)."""
     spec = scene.body
     if spec.shape == "cuboid":
-        gap: str | GapFunction = spec.gap if spec.gap in GAP_PROFILES else spec.gap_function()
-        body = create_cuboid(comm, spec.lev, gap)
+        body = create_cuboid(comm, spec.lev, cuboid_gap(scene))
     else:
         assert spec.mesh is not None  # validate() requires it for shape = "mesh"
         msh, cell_tags, facet_tags = read_gmsh_tags(spec.mesh, comm)

@@ -15,6 +15,7 @@ import sys
 import time
 import traceback
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from typing import NoReturn
 
@@ -22,7 +23,7 @@ from mpi4py import MPI
 
 import dolfinx.fem
 
-from fenics_coulomb.builder import build_problem
+from fenics_coulomb.builder import build_problem, cuboid_gap
 from fenics_coulomb.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.config import Scene
 from fenics_coulomb.display import virtual_display
@@ -76,6 +77,12 @@ class ArgumentParser(argparse.ArgumentParser):
 
 #: Residual reduction of the coarse levels of --nested (they only provide the start of the next level).
 NESTED_COARSE_RTOL = 1e-4
+#: --nested K solves the levels lev − NESTED_LEVEL_STEP·k, k = K, ..., 1 (h doubles from level to level).
+NESTED_LEVEL_STEP = 2
+#: Without --nested, the cuboid from this level on is solved with one coarser level (lev − 2) first: measured on
+#: 2 ranks (docs/scale/README.md) it pays at lev 10 (43.5 and 44.2 s against 48.3 and 49.2 s direct) and not at
+#: lev 8 and 9 (5.9-6.9 s against 6.4-6.6 s, 18.0 s against 17.4 s).
+NESTED_AUTO_MIN_LEV = 10
 
 
 def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentParser:
@@ -126,10 +133,11 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
         help="'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d), 'undeformed' (ũ = 0) or the "
         "solution.xdmf of an earlier run, interpolated onto this mesh (default zero)",
     )
-    p.add_argument("--nested", type=int, default=0, metavar="K",
-                   help="nested iteration for the cuboid: solve lev-K, ..., lev-1 first (each to a residual "
+    p.add_argument("--nested", type=int, default=None, metavar="K",
+                   help="nested iteration for the cuboid: solve lev-2K, ..., lev-2 first (each to a residual "
                    f"reduction of {NESTED_COARSE_RTOL:g}), each from the previous level's solution interpolated, and "
-                   "start lev from the last (default 0: off)")
+                   "start lev from the last (default: 1 for the cuboid from lev "
+                   f"{NESTED_AUTO_MIN_LEV} on when started from the paper's start, else 0; 0 switches it off)")
     p.add_argument("--steps", type=int, default=None, metavar="N",
                    help="quasi-static load path: ramp the scene's loads (tractions, body force, prescribed "
                    "displacements, obstacle displacements) from 0 in N equal steps, friction acting on each step's "
@@ -173,24 +181,63 @@ def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
     return ResultDirectory(comm, out)
 
 
-def nested_start(scene: Scene, levels: int, comm: MPI.Comm) -> tuple[dolfinx.fem.Function | None, list]:
-    """Solve the cuboid scene on its ``levels`` coarser levels (coarse to fine, each from the previous solution)
-    and return the last solution (None when ``levels`` is 0) and the coarse results (collective)."""
-    if levels == 0:
-        return None, []
+def nested_levels(lev: int, levels: int) -> list[int]:
+    """The coarser cuboid levels of ``--nested K``, coarse to fine: lev − 2K, ..., lev − 2 (each halves the mesh
+    size h, as the levels of full multigrid do; two levels are a factor 2 in h)."""
+    return [lev - NESTED_LEVEL_STEP * k for k in range(levels, 0, -1)]
+
+
+@dataclass
+class CoarseStart:
+    """The last coarse level's solution of nested iteration, its level and every coarse level's result."""
+
+    u: dolfinx.fem.Function
+    lev: int
+    results: list
+
+
+def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStart | None:
+    """Solve the cuboid scene on its ``levels`` coarser levels (:func:`nested_levels`, coarse to fine, each from
+    the previous solution, to NESTED_COARSE_RTOL) before the fine level is built, so that their memory is free
+    again when it is; None (logged) when a coarse level does not converge: the fine level then starts as without
+    nesting (collective)."""
     from fenics_coulomb.nested import solve_nested
 
-    coarse = [build_problem(scene.override(lev=scene.body.lev - k, rtol=NESTED_COARSE_RTOL),
-                            comm, petsc_options_prefix=f"coulomb_nested{k}_").problem
-              for k in range(levels, 0, -1)]
+    coarse_levels = nested_levels(scene.body.lev, levels)
+    coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL),
+                            comm, petsc_options_prefix=f"coulomb_nested{lev}_").problem
+              for lev in coarse_levels]
     try:
         uh, _, nested = solve_nested(coarse, start_function(scene.start, coarse[0].V))
-        u = dolfinx.fem.Function(uh.function_space)
-        u.x.array[:] = uh.x.array
-        return u, nested.levels
+    except SolverError as err:
+        logger.warning("nested iteration: a coarse level did not converge (%s); lev %d starts without it", err,
+                       scene.body.lev)
+        return None
     finally:
         for problem in coarse:
             problem.destroy()
+    u = dolfinx.fem.Function(uh.function_space)  # the problem's own Function went with it
+    u.x.array[:] = uh.x.array
+    logger.info("nested iteration: lev %s, %d Newton / %d Krylov iterations", ", ".join(map(str, coarse_levels)),
+                sum(r.iterations for r in nested.levels), sum(r.krylov_iterations for r in nested.levels))
+    return CoarseStart(u, coarse_levels[-1], nested.levels)
+
+
+def start_from_coarse(start: CoarseStart, scene: Scene, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function:
+    """The coarse solution on V: through the box grid (:func:`~fenics_coulomb.nested.interpolate_cuboid`), or,
+    should the coarse mesh not be its level's grid, by DOLFINx's non-matching interpolation in ``solve``."""
+    from fenics_coulomb.nested import interpolate_cuboid
+
+    u = interpolate_cuboid(start.u, start.lev, V, cuboid_gap(scene))
+    return u if u is not None else start.u
+
+
+def resolve_nested(nested: int | None, scene: Scene) -> int:
+    """``--nested`` as given, or by default 1 for a cuboid of level NESTED_AUTO_MIN_LEV or finer started from the
+    paper's start, 0 otherwise (docs/scale: nested iteration pays from lev 10 on)."""
+    if nested is not None:
+        return nested
+    return int(scene.body.shape == "cuboid" and scene.body.lev >= NESTED_AUTO_MIN_LEV and scene.start == "zero")
 
 
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
@@ -204,32 +251,34 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     if scene.start not in ("zero", "undeformed"):
         check_start_file(comm, scene.start)
     nested = args.nested
-    check_all(comm, not isinstance(nested, bool) and isinstance(nested, int) and nested >= 0,
+    check_all(comm, nested is None or (not isinstance(nested, bool) and isinstance(nested, int) and nested >= 0),
               f"--nested {nested!r}: must be an integer >= 0")
     solves = check_path_arguments(comm, scene, args)
     if solves is not None:
         return run_load_path(args, comm, scene, solves, t0)
+    nested = resolve_nested(nested, scene)
     if nested:
         check_all(comm, scene.body.shape == "cuboid", "--nested: nested iteration needs the cuboid body (lev)")
-        check_all(comm, nested <= scene.body.lev, f"--nested {nested}: more coarser levels than lev = "
-                  f"{scene.body.lev}")
+        check_all(comm, NESTED_LEVEL_STEP * nested <= scene.body.lev, f"--nested {nested}: the coarsest level "
+                  f"would be lev {scene.body.lev - NESTED_LEVEL_STEP * nested} (lev = {scene.body.lev}, "
+                  f"every nested level {NESTED_LEVEL_STEP} levels coarser)")
     out = prepare_output(comm, args.out)
 
+    t_nested = time.perf_counter()
+    coarse = solve_coarse_levels(scene, nested, comm) if nested else None
+    t_nested = time.perf_counter() - t_nested
     built = build_problem(scene, comm)
     with built.problem as problem:
         model = problem.model
-        t_model = time.perf_counter() - t0
+        t_model = time.perf_counter() - t0 - t_nested
         logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s)", built.body.description,
                     problem.n, problem.p, scene.friction.coefficient, comm.size)
         status = 0
         try:
-            if nested:
-                u0, coarse_results = nested_start(scene, nested, comm)
-                logger.info("nested iteration: %d coarser level(s), %d Newton / %d Krylov iterations", nested,
-                            sum(r.iterations for r in coarse_results), sum(r.krylov_iterations for r in coarse_results))
-            else:
-                u0 = start_function(scene.start, problem.V)
-            _, result = problem.solve(u0, paper_target=bool(nested))
+            t_start = time.perf_counter()
+            u0 = start_from_coarse(coarse, scene, problem.V) if coarse else start_function(scene.start, problem.V)
+            t_nested += time.perf_counter() - t_start
+            _, result = problem.solve(u0, paper_target=coarse is not None)
         except SolverError as err:
             result = err.result
             status = EXIT_DIVERGED
@@ -243,6 +292,10 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
                                            "body": built.body.description})
             data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+            data["timings_s"]["nested"] = comm.allreduce(t_nested, op=MPI.MAX)
+            data["nested"] = {"levels": nested_levels(scene.body.lev, nested) if coarse else [],
+                              "newton_iterations": [r.iterations for r in coarse.results] if coarse else [],
+                              "krylov_iterations": [r.krylov_iterations for r in coarse.results] if coarse else []}
             data["reactions"] = boundary_reactions(model, result.displacement, built.dirichlet_groups or {})
             data["contact_force"] = total_contact_force(model, result.contact_force)
             data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)

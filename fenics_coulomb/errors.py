@@ -16,7 +16,7 @@ class SolverError(RuntimeError):
 
     Attributes:
         reason: Short machine-readable cause ("max_iterations", "line_search", "ksp_breakdown",
-            "non_finite").
+            "ksp_limit", "non_finite").
         result: The partial result (last iterate and history) when one is available.
     """
 

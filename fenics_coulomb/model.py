@@ -346,6 +346,7 @@ class ContactModel:
         owners (reverse scatter), then set the Dirichlet rows to s g (see the module docstring). Call
         :meth:`place` afterwards to update l = l̃ + A d.
         """
+        self.dirichlet_values = self._prescribed_values()
         if self.coupling is not None:
             self._assemble_two_body_load()
             return
@@ -355,6 +356,14 @@ class ContactModel:
         dolfinx.fem.petsc.set_bc(b, self.bcs, alpha=self.dirichlet_diagonal)
         b.copy(self.load)
         b.destroy()
+
+    def _prescribed_values(self) -> npt.NDArray[np.float64]:
+        """The Dirichlet values g of the owned Dirichlet rows, as the boundary conditions set them (bit for bit)."""
+        g = dolfinx.fem.Function(self.V)
+        g.x.array[:] = 0.0
+        for bc in self.bcs:
+            bc.set(g.x.array)
+        return np.array(g.x.array[self.dirichlet_rows], dtype=np.float64)
 
     def _assemble_two_body_load(self) -> None:
         """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.two_body`)."""

@@ -15,10 +15,14 @@ import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from mpi4py import MPI
+
 import dolfinx.fem
+import numpy as np
 
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.records import SolveResult
+from fenics_coulomb.scene import HEIGHT, LENGTH, WIDTH, GapFunction, box_coordinates, cells_per_direction
 
 logger = logging.getLogger(__name__)
 
@@ -72,3 +76,62 @@ def solve_nested(problems: Sequence[ContactProblem],
         start = uh
     assert uh is not None
     return uh, nested.levels[-1], nested
+
+
+#: A coarse node counts as a vertex of its box grid when its box coordinates are within this many cell widths
+#: of one (round-off of create_box and of the gap map is ~1e-15).
+GRID_TOLERANCE = 1e-6
+
+
+def interpolate_cuboid(u_coarse: dolfinx.fem.Function, lev_coarse: int, V: dolfinx.fem.FunctionSpace,
+                       gap: str | GapFunction) -> dolfinx.fem.Function | None:
+    """Interpolate a displacement on the cuboid of level ``lev_coarse`` onto V, the cuboid of another level with
+    the same gap, through the box both meshes are images of (collective).
+
+    :func:`~fenics_coulomb.scene.create_cuboid` maps the vertices of a box grid, x3 ← d + t·(1 − d). On the
+    box the coarse Q1 field is trilinear on every grid cell, so V's nodes, mapped back to the box
+    (:func:`~fenics_coulomb.scene.box_coordinates`), take the trilinear interpolant of the coarse grid
+    values: NumPy over all nodes at once, the coarse values gathered to every rank once (the coarse level is
+    a fraction of the fine one). This is the physical-point interpolation where d is affine and differs from
+    it by O(h²) elsewhere; a start of Newton's method needs no more. DOLFINx's non-matching interpolation
+    (point location on the coarse mesh) gives the same start but took 9 s of a 50 s solve at lev 10.
+
+    Returns:
+        The interpolated Function, or None when the coarse mesh is not the box grid of ``lev_coarse`` (then use
+        :func:`~fenics_coulomb.problem.interpolate_displacement`); the same on every rank.
+    """
+    comm = V.mesh.comm
+    n = np.array(cells_per_direction(lev_coarse))
+    h = np.array([LENGTH, WIDTH, HEIGHT]) / n
+    Vc = u_coarse.function_space
+    owned_c = Vc.dofmap.index_map.size_local
+    grid = box_coordinates(Vc.tabulate_dof_coordinates()[:owned_c], gap) / h
+    index = np.rint(grid).astype(np.int64)
+    on_grid = bool(np.all(np.abs(grid - index) < GRID_TOLERANCE)) and bool(np.all((index >= 0) & (index <= n)))
+    if not comm.allreduce(on_grid, op=MPI.LAND):
+        return None
+    shape = n + 1
+    ids = index[:, 0] + shape[0] * (index[:, 1] + shape[1] * index[:, 2])
+    values = np.asarray(u_coarse.x.array[: 3 * owned_c]).reshape(-1, 3)
+    total = int(np.prod(shape))
+    all_ids = np.concatenate(comm.allgather(ids))
+    all_values = np.concatenate(comm.allgather(values))
+    if all_ids.size != total or np.unique(all_ids).size != total:  # every grid vertex exactly once
+        return None
+    U = np.empty((total, 3))
+    U[all_ids] = all_values
+
+    owned = V.dofmap.index_map.size_local
+    point = box_coordinates(V.tabulate_dof_coordinates()[:owned], gap) / h
+    cell = np.clip(np.floor(point).astype(np.int64), 0, n - 1)
+    xi = np.clip(point - cell, 0.0, 1.0)
+    u = np.zeros((owned, 3))
+    for corner in np.ndindex(2, 2, 2):
+        c = np.array(corner)
+        weight = np.prod(np.where(c == 1, xi, 1.0 - xi), axis=1)
+        vertex = cell + c
+        u += weight[:, None] * U[vertex[:, 0] + shape[0] * (vertex[:, 1] + shape[1] * vertex[:, 2])]
+    result = dolfinx.fem.Function(V)
+    result.x.array[: 3 * owned] = u.ravel()
+    result.x.scatter_forward()
+    return result

@@ -543,7 +543,7 @@ def _rows(comm: MPI.Comm, total: int) -> tuple[int, int]:
     return total * comm.rank // comm.size, total * (comm.rank + 1) // comm.size
 
 
-def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6,
+def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float | None = None,
                       time: float | None = None) -> npt.NDArray[np.float64]:
     """Read ``displacement`` (the last time, or the time ``time``: a load path's step number) of an earlier
     run's solution.xdmf/.h5 and interpolate it onto V (collective).
@@ -551,7 +551,8 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float =
     The old mesh is rebuilt in parallel from row blocks of the file; the meshes need not match (nested
     iteration across levels): the old field is rebuilt as a P1 function on the old mesh and interpolated
     point-wise; nodes up to ``padding`` outside the old mesh (the bottoms of two levels follow d at different
-    resolutions) take the value of the closest cell.
+    resolutions; default: :func:`~fenics_coulomb.problem.interpolate_displacement`'s) take the value of the
+    closest cell.
 
     Returns:
         The interpolated physical displacement on V's owned DOFs.

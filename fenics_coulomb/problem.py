@@ -29,6 +29,7 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
@@ -48,12 +49,20 @@ from fenics_coulomb.settings import SolverSettings
 logger = logging.getLogger(__name__)
 
 
+#: Nodes of the target mesh this fraction of the source mesh's largest cell outside it still take a value
+#: (:func:`interpolate_displacement`).
+INTERPOLATION_PADDING = 0.1
+
+
 def interpolate_displacement(
-    u_from: dolfinx.fem.Function, V: dolfinx.fem.FunctionSpace, padding: float = 1e-6
+    u_from: dolfinx.fem.Function, V: dolfinx.fem.FunctionSpace, padding: float | None = None
 ) -> npt.NDArray[np.float64]:
     """Interpolate a (possibly non-matching) vector field onto V; return V's owned DOF values (collective).
 
-    Nodes up to ``padding`` outside the other mesh take the value of the closest cell.
+    Nodes up to ``padding`` outside the other mesh (default INTERPOLATION_PADDING times its largest cell extent)
+    take the value of the closest cell, extended: a curved boundary (the cuboid's wavy bottom) puts the finer
+    mesh's boundary nodes up to O(h²) outside the coarser mesh, where a padding of round-off size found no cell
+    and left them 0.
     """
     u = dolfinx.fem.Function(V)
     tdim = V.mesh.topology.dim
@@ -61,6 +70,11 @@ def interpolate_displacement(
     if u_from.function_space.mesh is V.mesh:
         u.interpolate(u_from)
     else:
+        if padding is None:
+            source = u_from.function_space.mesh
+            x = source.geometry.x[source.geometry.dofmap].reshape(-1, source.geometry.dofmap.shape[1], 3)
+            extent = float(np.max(x.max(axis=1) - x.min(axis=1), initial=0.0))
+            padding = INTERPOLATION_PADDING * source.comm.allreduce(extent, op=MPI.MAX)
         data = dolfinx.fem.create_interpolation_data(V, u_from.function_space, cells, padding=padding)
         u.interpolate_nonmatching(u_from, cells, data)
     u.x.scatter_forward()

@@ -114,6 +114,19 @@ class Body:
             raise InputError(f"unknown boundary {name!r}; the body has {sorted(self.boundaries)}") from None
 
 
+def box_coordinates(x: npt.NDArray[np.float64], gap: str | GapFunction) -> npt.NDArray[np.float64]:
+    """The points x of a cuboid Ω(d) mapped back to the box [0, LENGTH]×[0, WIDTH]×[0, HEIGHT] they came from.
+
+    :func:`create_cuboid` moves every vertex of the box grid in x3 only, x3 ← d + t·(HEIGHT − d) with
+    d = d(x1, x2), so t = (x3 − d)/(HEIGHT − d): the inverse of that map, shape (m, 3) → (m, 3).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    d = np.broadcast_to(np.asarray(resolve_gap(gap)(x[:, 0], x[:, 1]), dtype=np.float64), x[:, 0].shape)
+    box = x.copy()
+    box[:, 2] = (x[:, 2] - d) / (HEIGHT - d)
+    return box
+
+
 def resolve_gap(gap: str | GapFunction) -> GapFunction:
     """Return the gap profile for a name ('d1', 'd2', 'd3') or a callable d(x1, x2)."""
     if callable(gap):

@@ -262,6 +262,32 @@ def test_unconverged_linear_solve_exits_3(mpi_tmp_path, capsys):
         assert "did not converge" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("max_it", [1, 2])
+def test_linear_solves_stuck_at_their_limit_exit_3(mpi_tmp_path, capsys, max_it):
+    """Linear solves that reach ksp_max_it in KSP_LIMIT_STEPS consecutive Newton steps stop the solve: exit 3,
+    reason ksp_limit, the last iterate written (before, each step only warned and the solve ran on: GAMG with
+    --gamma-scale 1 spent 2000 iterations in every step)."""
+    from petsc4py import PETSc
+
+    from fenics_coulomb.newton import KSP_LIMIT_STEPS
+
+    out = mpi_tmp_path / "out"
+    status = main(["--lev", "2", "--out", str(out), "--no-plots", "--pc", "ilu", "-coulomb_ksp_max_it", str(max_it)])
+    PETSc.Options().delValue("coulomb_ksp_max_it")
+    assert status == EXIT_DIVERGED
+    MPI.COMM_WORLD.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "ksp_limit" and not summary["converged"]
+    # the limited steps before the last used their inexact directions (an earlier step may have converged)
+    history = summary["krylov_history"]
+    assert len(history) == summary["newton_iterations"] >= KSP_LIMIT_STEPS - 1
+    assert history[len(history) - (KSP_LIMIT_STEPS - 1):] == [max_it] * (KSP_LIMIT_STEPS - 1)
+    assert (out / "solution.xdmf").exists() and (out / "solution.h5").exists()
+    if MPI.COMM_WORLD.rank == 0:
+        err = capsys.readouterr().err
+        assert "iteration limit" in err and f"{KSP_LIMIT_STEPS} consecutive Newton steps" in err
+
+
 # -- zero and tiny loads --------------------------------------------------------------------------------
 @pytest.mark.parametrize("how", ["scale-0", "empty-tractions"])
 def test_zero_load_converges_at_once(how, mpi_tmp_path):

@@ -119,21 +119,21 @@ def test_nested_iteration_reaches_the_direct_solution(variant, problem_factory):
 
 
 def test_cli_nested_and_matrix_free_flags(mpi_tmp_path):
-    """The command line's --nested 2 and --no-matrix-free reach the solution of the plain run (1e-7), and a
-    --nested deeper than lev is rejected with exit 2."""
+    """The command line's --nested 1 (lev 1 first) and --no-matrix-free reach the solution of the plain run
+    (1e-7), and a --nested whose coarsest level would be below lev 0 is rejected with exit 2."""
     from conftest import read_solution
 
     from fenics_coulomb.cli import EXIT_INPUT, main
 
     common = ["--lev", "3", "--pc", "gamg", "--rtol", "1e-12", "--quiet", "--no-plots"]
     assert main([*common, "--out", str(mpi_tmp_path / "plain")]) == 0
-    assert main([*common, "--nested", "2", "--no-matrix-free", "--out", str(mpi_tmp_path / "nested")]) == 0
+    assert main([*common, "--nested", "1", "--no-matrix-free", "--out", str(mpi_tmp_path / "nested")]) == 0
     if MPI.COMM_WORLD.rank == 0:
         x1, u1 = read_solution(mpi_tmp_path / "plain")
         x2, u2 = read_solution(mpi_tmp_path / "nested")
         assert np.allclose(x1, x2)
         assert np.linalg.norm(u1 - u2) <= 1e-7 * np.linalg.norm(u1)
-    assert main(["--lev", "1", "--nested", "2", "--out", str(mpi_tmp_path / "bad")]) == EXIT_INPUT
+    assert main(["--lev", "1", "--nested", "1", "--out", str(mpi_tmp_path / "bad")]) == EXIT_INPUT
 
 
 @pytest.mark.parametrize("variant", ["4a", "4b"])
