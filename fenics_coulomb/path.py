@@ -205,7 +205,9 @@ class StepLoads:
         #: Prescribed boundary name → the Constant its DirichletBC holds.
         self.prescribed = {name: dolfinx.fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType))
                            for name in initial.prescribed}
-        self._cache: dict[tuple[int, str], npt.NDArray[np.float64]] = {}
+        # keyed by the traction itself (numbers and callables, held by the key): an id() of a state could be
+        # reused by a later state once the first is freed, and hand it the first state's field
+        self._cache: dict[Traction, npt.NDArray[np.float64]] = {}
         self.apply(initial, initial, 1.0)
 
     def form(self, v: ufl.Argument) -> ufl.Form:
@@ -218,10 +220,9 @@ class StepLoads:
         return L
 
     def _field(self, state: LoadState, name: str) -> npt.NDArray[np.float64]:
-        """The traction of ``state`` on ``name`` interpolated into P1 (cached per state; local array)."""
-        key = (id(state), name)
+        """The traction of ``state`` on ``name`` interpolated into P1 (cached per traction; local array)."""
+        value = key = tuple(state.tractions.get(name, ZERO))
         if key not in self._cache:
-            value = state.tractions.get(name, ZERO)
             g = dolfinx.fem.Function(self.V)
             g.interpolate(lambda x: np.vstack(
                 [c(x) if callable(c) else np.full(x.shape[1], float(c)) for c in value]))

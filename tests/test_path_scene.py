@@ -156,6 +156,25 @@ def test_step_loads_blend_in_place(scene):
             loads.tractions["sides"].x.array == 0.0)
 
 
+def test_a_field_follows_the_traction_not_the_state_object(scene):
+    """A state's traction field is computed from its traction, whatever object carries it. CPython hands a
+    freed object's id() to a later one: a cache keyed by id(state) gave plan()'s first step the freed
+    initial state's zero field, and the blend came out zero in CI. Here one object carries two tractions in
+    turn, the deterministic form of a new state at a freed one's address."""
+    comm = MPI.COMM_WORLD
+    built = build_problem(scene.override(lev=0), comm, petsc_options_prefix="pathscene_")
+    with built.problem:
+        loads = built.loads
+        x1 = loads.V.tabulate_dof_coordinates()[:, 0]
+        state = step_state(scene, PathStep(tractions={"sides": [0, 0, "x1"]}))
+        for k in (1, 3):
+            state.tractions["sides"] = step_state(scene, PathStep(tractions={"sides": [0, 0, f"{k}*x1"]})
+                                                  ).tractions["sides"]
+            loads.apply(state, state, 1.0)
+            sides = loads.tractions["sides"].x.array.reshape(-1, 3)
+            assert np.allclose(sides[:, 2], 2.0 * k * x1) and np.all(sides[:, :2] == 0.0), k
+
+
 def test_static_scene_builds_the_same_load(mpi_tmp_path):
     """A scene without a path: the load form's coefficients hold the scene's values (no coefficient more)."""
     built = build_problem(Scene().override(lev=0), MPI.COMM_WORLD, petsc_options_prefix="pathstatic_")
