@@ -57,6 +57,7 @@ def solve(problem: ContactProblem, settings: SolverSettings,
     comm.barrier()
     t0 = time.perf_counter()
     problem.set_solver(settings)
+    problem.reset()  # the same static problem again, not the next step of a load path from the last solution
     try:
         _, result = problem.solve(start)
     except SolverError as err:

@@ -370,12 +370,9 @@ class ContactModel:
         assert self.coupling is not None and self.A_free is not None
         l = dolfinx.fem.petsc.assemble_vector(self.L)
         l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        g = dolfinx.fem.Function(self.V)
-        g.x.array[:] = 0.0
-        for bc in self.bcs:
-            bc.set(g.x.array)
-        x_d = self.A.createVecRight()
-        x_d.array[:] = g.x.array[: x_d.getLocalSize()]
+        x_d = self.A.createVecRight()  # M x_D: the Dirichlet values g on D, 0 elsewhere
+        x_d.set(0.0)
+        x_d.array[self.dirichlet_rows] = self.dirichlet_values
         t, y = self.A_free.createVecs()
         self.coupling.mult(x_d, t)
         self.A_free.mult(t, y)

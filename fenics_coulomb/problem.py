@@ -266,7 +266,7 @@ class ContactProblem:
     def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:
         """ũ⁽⁰⁾ on the owned DOFs: the paper's u⁽⁰⁾ = 0 of the shifted unknown (ũ = −d) at the first step of
         a path and the previous step's solution after it, or ``u0`` (on any mesh, interpolated); the Dirichlet
-        values are imposed on each (collective)."""
+        values of the last load assembly (:meth:`solve` assembles first) are imposed on each (collective)."""
         model = self.model
         if u0 is not None:
             start = model.relative(interpolate_displacement(u0, model.V))
@@ -274,14 +274,7 @@ class ContactProblem:
             start = self._previous.copy()
         else:
             start = -model.shift.getArray(readonly=True).copy()
-        if model.bcs:
-            g = dolfinx.fem.Function(model.V)
-            g.x.array[:] = np.nan
-            for bc in model.bcs:
-                bc.set(g.x.array)
-            owned = g.x.array[: start.size]
-            prescribed = ~np.isnan(owned)
-            start[prescribed] = owned[prescribed]
+        start[model.dirichlet_rows] = model.dirichlet_values  # as assemble_load (in _place) read them
         return start
 
     def solve(self, u0: dolfinx.fem.Function | None = None, *,
