@@ -257,6 +257,35 @@ def test_gamg_is_set_up_once_on_the_stiffness_matrix(galerkin, problem_factory):
         del opts["coulomb_mg_levels_ksp_max_it"]
 
 
+def finest_prolongator_row_lengths(pc: PETSc.PC) -> int:
+    """The largest number of entries in an owned row of GAMG's finest prolongator (collective)."""
+    P = pc.getMGInterpolation(pc.getMGLevels() - 1)
+    indptr, _, _ = P.getValuesCSR()
+    return MPI.COMM_WORLD.allreduce(int(np.diff(indptr).max(initial=0)), op=MPI.MAX)
+
+
+def test_gamg_aggregation_is_unsmoothed_unless_the_user_asks():
+    """The default hierarchy uses unsmoothed aggregation: every fine row of a prolongator lies in one aggregate
+    and holds at most the six rigid-body modes' coefficients (docs/gamg-sweeps); the user's
+    -coulomb_pc_gamg_agg_nsmooths 1 (PETSc's smoothed aggregation) wins and spreads rows over neighbouring
+    aggregates. Neither leaves an option of its own behind."""
+    opts = PETSc.Options()
+    with make_problem(4, "d3", "L2", pc="gamg") as problem:
+        problem.solve()
+        pc = problem.solver.ksp.getPC()
+        assert pc.getMGLevels() >= 2
+        assert finest_prolongator_row_lengths(pc) <= 6
+    assert not opts.hasName("coulomb_pc_gamg_agg_nsmooths")
+    opts["coulomb_pc_gamg_agg_nsmooths"] = 1
+    try:
+        with make_problem(4, "d3", "L2", pc="gamg") as problem:
+            problem.solve()
+            assert finest_prolongator_row_lengths(problem.solver.ksp.getPC()) > 6
+        assert opts.getInt("coulomb_pc_gamg_agg_nsmooths") == 1
+    finally:
+        del opts["coulomb_pc_gamg_agg_nsmooths"]
+
+
 @pytest.mark.serial
 @pytest.mark.parametrize(
     "tol, history, eta_prev, target, expected",
