@@ -164,7 +164,8 @@ class SCDNewtonSolver:
     def _create_ksp(self) -> None:
         """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""
         settings = self.settings
-        self._default_options = {k: v for k, v in default_options(self.pc).items() if k not in self._user_options}
+        self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name
+                                                                  ).items() if k not in self._user_options}
         self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
                                                settings.tol, settings.gmres_restart, settings.ksp_max_it,
                                                self.model.near_nullspace)

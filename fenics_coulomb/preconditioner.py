@@ -45,12 +45,18 @@ DETERMINISTIC_PTAP_MIN_RANKS = 3
 #: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
 #: against 105 s).
 GAMG_SMOOTHER_SWEEPS = 1
-#: Smoothing steps of GAMG's tentative prolongators (-<prefix>pc_gamg_agg_nsmooths; PETSc's default is 1,
-#: smoothed aggregation) unless the user says otherwise. Unsmoothed aggregation keeps the coarse operators as
-#: sparse as A's: a cheaper set-up and V-cycle for a few more Krylov iterations, which pays because the
-#: hierarchy of A is set up once and each Newton system needs few iterations (2 ranks, d3/L2: lev 10
-#: 62.1 s → 48.4 s, Krylov 57 → 68; lev 8 8.5 s → 7.5 s, Krylov 91 → 114; docs/gamg-sweeps).
+#: Smoothing steps of GAMG's tentative prolongators (-<prefix>pc_gamg_agg_nsmooths) on meshes of the cell types
+#: in UNSMOOTHED_CELL_TYPES, unless the user says otherwise; elsewhere PETSc's default 1 (smoothed aggregation).
+#: Unsmoothed aggregation keeps the coarse operators as sparse as A's: a set-up a third as expensive and a
+#: cheaper V-cycle for more Krylov iterations, which pays because the hierarchy of A is set up once (2 ranks,
+#: d3/L2: lev 10 nested 62.1 s → 48.4 s, lev 8 8.5 s → 7.5 s, lev 11 180 s → 174 s and 16.9 → 12.4 GiB;
+#: docs/gamg-sweeps).
 GAMG_PROLONGATOR_SMOOTHS = 0
+#: Where unsmoothed aggregation is measured robust (docs/pc-auto/gamg-unsmoothed-2026-11-24): on the hexahedral
+#: cuboid at most 17 GMRES iterations per Newton step (ν 0.3, 0.45, lev 5-10) and faster in every group. On
+#: the tetrahedral roller the counts grew with the mesh (up to 56 per step against smoothed aggregation's 17,
+#: ν = 0.45, 63 900 unknowns, twice the time), so tetrahedra keep smoothed aggregation.
+UNSMOOTHED_CELL_TYPES = ("hexahedron",)
 
 
 def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str) -> str:
@@ -86,10 +92,14 @@ def resolve_pc(pc: str, n_global: int, n_ranks: int, cell_type: str) -> str:
     return pc if pc != "auto" else choose_preconditioner(n_global, n_ranks, cell_type)
 
 
-def default_options(pc: str) -> dict[str, object]:
-    """Options (without prefix) the preconditioner ``pc`` sets unless the user gave them."""
+def default_options(pc: str, cell_type: str) -> dict[str, object]:
+    """Options (without prefix) the preconditioner ``pc`` sets on a mesh of ``cell_type`` unless the user gave
+    them: one Chebyshev sweep per level for GAMG, and unsmoothed aggregation on UNSMOOTHED_CELL_TYPES."""
     if pc in ("gamg", "gamg-newton"):
-        return {"mg_levels_ksp_max_it": GAMG_SMOOTHER_SWEEPS, "pc_gamg_agg_nsmooths": GAMG_PROLONGATOR_SMOOTHS}
+        options: dict[str, object] = {"mg_levels_ksp_max_it": GAMG_SMOOTHER_SWEEPS}
+        if cell_type in UNSMOOTHED_CELL_TYPES:
+            options["pc_gamg_agg_nsmooths"] = GAMG_PROLONGATOR_SMOOTHS
+        return options
     return {}
 
 

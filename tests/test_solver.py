@@ -12,11 +12,14 @@ from pathlib import Path
 from mpi4py import MPI
 from petsc4py import PETSc
 
+import dolfinx
 import numpy as np
 import pytest
+import ufl
 from conftest import gather_by_coordinates, make_problem, read_solution
 from reference import tresca_fixed_point
 
+from fenics_coulomb import ContactProblem
 from fenics_coulomb.checks import physics_residuals
 from fenics_coulomb.forcing import forcing_term
 from fenics_coulomb.resolvent import SLIP, STICK
@@ -264,24 +267,48 @@ def finest_prolongator_row_lengths(pc: PETSc.PC) -> int:
     return MPI.COMM_WORLD.allreduce(int(np.diff(indptr).max(initial=0)), op=MPI.MAX)
 
 
-def test_gamg_aggregation_is_unsmoothed_unless_the_user_asks():
-    """The default hierarchy uses unsmoothed aggregation: every fine row of a prolongator lies in one aggregate
-    and holds at most the six rigid-body modes' coefficients (docs/gamg-sweeps); the user's
-    -coulomb_pc_gamg_agg_nsmooths 1 (PETSc's smoothed aggregation) wins and spreads rows over neighbouring
-    aggregates. Neither leaves an option of its own behind."""
+def pressed_block(cell: dolfinx.mesh.CellType) -> ContactProblem:
+    """A block 1 × 1 × 0.5 of ``cell``s, 8 × 8 × 4, 0.01 above the plane x3 = 0, its top pushed down by 0.03."""
+    comm = MPI.COMM_WORLD
+    msh = dolfinx.mesh.create_box(comm, [np.array([0.0, 0.0, 0.01]), np.array([1.0, 1.0, 0.51])], [8, 8, 4], cell)
+    msh.topology.create_connectivity(2, 3)
+    bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.01))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(bottom).astype(np.int32), np.full(bottom.size, 7, np.int32))
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.51))
+    bc = dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.03]), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    mu, lmbda = 70.0 / 2.6, 70.0 * 0.3 / (1.3 * 0.4)
+
+    def eps(w):
+        return ufl.sym(ufl.grad(w))
+
+    a = (2.0 * mu * ufl.inner(eps(u), eps(v)) + lmbda * ufl.div(u) * ufl.div(v)) * ufl.dx
+    return ContactProblem(a, None, bcs=[bc], contact=(tags, [7]), friction=0.3, settings={"pc": "gamg"},
+                          petsc_options_prefix="coulomb_")
+
+
+@pytest.mark.parametrize("cell, unsmoothed", [(dolfinx.mesh.CellType.hexahedron, True),
+                                              (dolfinx.mesh.CellType.tetrahedron, False)])
+def test_gamg_aggregation_is_unsmoothed_on_hexahedra_unless_the_user_asks(cell, unsmoothed):
+    """On hexahedra the default hierarchy uses unsmoothed aggregation: every fine row of a prolongator lies in one
+    aggregate and holds at most the six rigid-body modes' coefficients; tetrahedra keep PETSc's smoothed
+    aggregation, whose rows spread over neighbouring aggregates (docs/gamg-sweeps, docs/pc-auto). The user's
+    -coulomb_pc_gamg_agg_nsmooths wins either way. No option of the solver's own is left behind."""
     opts = PETSc.Options()
-    with make_problem(4, "d3", "L2", pc="gamg") as problem:
-        problem.solve()
+    with pressed_block(cell) as problem:
+        _, result = problem.solve()
+        assert result.converged and result.counts["stick"] + result.counts["slip"] > 0
         pc = problem.solver.ksp.getPC()
         assert pc.getMGLevels() >= 2
-        assert finest_prolongator_row_lengths(pc) <= 6
+        assert (finest_prolongator_row_lengths(pc) <= 6) == unsmoothed
     assert not opts.hasName("coulomb_pc_gamg_agg_nsmooths")
-    opts["coulomb_pc_gamg_agg_nsmooths"] = 1
+    opts["coulomb_pc_gamg_agg_nsmooths"] = 0 if not unsmoothed else 1
     try:
-        with make_problem(4, "d3", "L2", pc="gamg") as problem:
+        with pressed_block(cell) as problem:
             problem.solve()
-            assert finest_prolongator_row_lengths(problem.solver.ksp.getPC()) > 6
-        assert opts.getInt("coulomb_pc_gamg_agg_nsmooths") == 1
+            assert (finest_prolongator_row_lengths(problem.solver.ksp.getPC()) <= 6) != unsmoothed
+        assert opts.getInt("coulomb_pc_gamg_agg_nsmooths") == (0 if not unsmoothed else 1)
     finally:
         del opts["coulomb_pc_gamg_agg_nsmooths"]
 
