@@ -75,14 +75,18 @@ class ArgumentParser(argparse.ArgumentParser):
         _finish_together(MPI.COMM_WORLD)
         sys.exit(EXIT_INPUT)
 
-#: Residual reduction of the coarse levels of --nested (they only provide the start of the next level).
-NESTED_COARSE_RTOL = 1e-4
+#: Residual reduction of the coarse levels of --nested. They only provide the start of the next level, but the
+#: fine level needs fewer steps from an accurate one (2 ranks, d3/L2, lev 10 from lev 8 with unsmoothed GAMG:
+#: 1e-2 9 Newton / 126 Krylov, 64.6 s; 1e-3 8 / 102, 58.1 s; 1e-4 8 / 96, 54-58 s; 1e-5 7 / 73, 52.2 s; 1e-6
+#: 7 / 68, 48.4 s; 1e-8 7 / 68, 48.5 s; docs/scale/README.md).
+NESTED_COARSE_RTOL = 1e-6
 #: --nested K solves the levels lev − NESTED_LEVEL_STEP·k, k = K, ..., 1 (h doubles from level to level).
 NESTED_LEVEL_STEP = 2
 #: Without --nested, the cuboid from this level on is solved with one coarser level (lev − 2) first: measured on
-#: 2 ranks (docs/scale/README.md) it pays at lev 10 (43.5 and 44.2 s against 48.3 and 49.2 s direct) and not at
-#: lev 8 and 9 (5.9-6.9 s against 6.4-6.6 s, 18.0 s against 17.4 s).
-NESTED_AUTO_MIN_LEV = 10
+#: 2 ranks with the coarse reduction 1e-6 (docs/scale/README.md) it pays from lev 7 on (lev 7 3.05 s against
+#: 3.34 s, lev 8 6.3-7.0 s against 7.0-7.7 s in d3/L2, d1/L1, d2/L2, lev 9 19.1 s against 22.5 s, lev 10 48.4 s
+#: against 66.7 s direct); lev 2-6 keep the direct solve (the paper's Section 7 runs).
+NESTED_AUTO_MIN_LEV = 7
 
 
 def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentParser:
@@ -234,7 +238,7 @@ def start_from_coarse(start: CoarseStart, scene: Scene, V: dolfinx.fem.FunctionS
 
 def resolve_nested(nested: int | None, scene: Scene) -> int:
     """``--nested`` as given, or by default 1 for a cuboid of level NESTED_AUTO_MIN_LEV or finer started from the
-    paper's start, 0 otherwise (docs/scale: nested iteration pays from lev 10 on)."""
+    paper's start, 0 otherwise (docs/scale: nested iteration pays from lev 7 on)."""
     if nested is not None:
         return nested
     return int(scene.body.shape == "cuboid" and scene.body.lev >= NESTED_AUTO_MIN_LEV and scene.start == "zero")
