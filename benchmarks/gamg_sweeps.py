@@ -47,16 +47,20 @@ def main() -> int:
             for smooths in args.smooths:
                 for sweeps in args.sweeps:
                     opts[SMOOTHS], opts[SWEEPS] = smooths, sweeps
-                    problem.set_solver(SolverSettings(pc="gamg"))
-                    problem.reset()  # the static problem again, not a load path's next step
-                    comm.barrier()
-                    t0 = time.perf_counter()
                     try:
-                        uh, result = problem.solve()
-                    except SolverError as err:
-                        uh, result = None, err.result
-                    t_solve = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-                    del opts[SMOOTHS], opts[SWEEPS]
+                        problem.set_solver(SolverSettings(pc="gamg"))
+                        problem.reset()  # the static problem again, not a load path's next step
+                        comm.barrier()
+                        t0 = time.perf_counter()
+                        try:
+                            uh, result = problem.solve()
+                        except SolverError as err:
+                            if err.result is None:
+                                raise
+                            uh, result = None, err.result
+                        t_solve = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+                    finally:
+                        del opts[SMOOTHS], opts[SWEEPS]
                     diff = float("nan")
                     if uh is not None:
                         x = uh.x.petsc_vec

@@ -128,7 +128,8 @@ def run_one(args: argparse.Namespace, body: str, size: float | int, poisson: flo
     cmd += [sys.executable, "-m", "fenics_coulomb", "--no-plots", "--quiet", "--out", str(out), "--pc", pc]
     cells: int | str = ""
     if body == "cuboid":
-        cmd += ["--lev", str(size), "--gap", "d3", "--load", "L2", "--poisson", str(poisson)]
+        cmd += ["--lev", str(size), "--gap", "d3", "--load", "L2", "--poisson", str(poisson),
+                "--nested", "0"]  # the preconditioners on the level itself, not nested iteration (default from lev 7)
     else:
         mesh = make_mesh(body, float(size), work)
         cells = cell_count(mesh)

@@ -15,7 +15,7 @@ the load averages before and after every job are recorded, since other users' wo
 
 Studies (each writes ``<study>.csv``, ``<study>.md`` and ``<study>.png`` into ``--out``):
 
-* ``levels``: every ``--levels`` (default 6-10; ``--lev11`` adds 11, about 21 GiB) on ``--np`` ranks;
+* ``levels``: every ``--levels`` (default 6-10; ``--lev11`` adds 11, about 12.5 GiB on 2 ranks) on ``--np`` ranks;
   run when ``--ranks`` is not given (or ``--levels`` is);
 * ``strong``: ``--ranks 1 2 4 8 16`` at the fixed level ``--lev`` (default 10);
 * ``weak``: ``--weak --ranks 1 2 4 8 16``: for each rank count the level whose unknowns per rank are
@@ -98,7 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
                                 epilog="\n".join(__doc__.splitlines()[1:]))
     p.add_argument("--levels", type=int, nargs="+", default=None,
                    help=f"levels of the level study (default {' '.join(map(str, DEFAULT_LEVELS))})")
-    p.add_argument("--lev11", action="store_true", help="add lev 11 (4.6 M unknowns, ~21 GiB) to the level study")
+    p.add_argument("--lev11", action="store_true", help="add lev 11 (4.6 M unknowns, ~12.5 GiB on 2 ranks) to the level study")
     p.add_argument("--np", type=int, default=2, help="ranks of the level study (default 2)")
     p.add_argument("--ranks", type=int, nargs="+", default=None,
                    help="rank counts of the strong (or, with --weak, weak) scaling study")

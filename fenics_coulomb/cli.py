@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import dolfinx.fem
 
@@ -200,16 +201,29 @@ class CoarseStart:
     results: list
 
 
+def coarse_level_options(lev: int) -> dict[str, str]:
+    """The user's ``-coulomb_*`` PETSc options for the coarse level ``lev`` of nested iteration (prefix
+    ``coulomb_nested<lev>_``), without the prefix: every option given for the solve, except those the user gave
+    for this level itself (``-coulomb_nested<lev>_*``, read from the database under its own prefix, win) and those
+    for other coarse levels."""
+    opts = PETSc.Options()
+    given = {name[len("coulomb_"):]: value for name, value in opts.getAll().items()
+             if name.startswith("coulomb_") and not name.startswith("coulomb_nested")}
+    return {key: value for key, value in given.items() if not opts.hasName(f"coulomb_nested{lev}_{key}")}
+
+
 def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStart | None:
     """Solve the cuboid scene on its ``levels`` coarser levels (:func:`nested_levels`, coarse to fine, each from
     the previous solution, to NESTED_COARSE_RTOL) before the fine level is built, so that their memory is free
     again when it is; None (logged) when a coarse level does not converge: the fine level then starts as without
-    nesting (collective)."""
+    nesting (collective). The user's ``-coulomb_*`` options apply to the coarse levels too
+    (:func:`coarse_level_options`)."""
     from fenics_coulomb.nested import solve_nested
 
     coarse_levels = nested_levels(scene.body.lev, levels)
-    coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL),
-                            comm, petsc_options_prefix=f"coulomb_nested{lev}_").problem
+    coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL), comm,
+                            petsc_options_prefix=f"coulomb_nested{lev}_",
+                            petsc_options=coarse_level_options(lev)).problem
               for lev in coarse_levels]
     try:
         uh, _, nested = solve_nested(coarse, start_function(scene.start, coarse[0].V))

@@ -18,7 +18,9 @@ import numpy as np
 
 #: pc = "auto" (:func:`choose_preconditioner`) takes ILU (the paper's) only on hexahedral meshes below this many
 #: unknowns on at most AUTO_ILU_MAX_RANKS ranks, GAMG everywhere else (docs/pc-auto; docs/ratio, docs/table2:
-#: on the cuboid ILU is the faster up to lev 6 (27 744 unknowns), GAMG from lev 7 (79 488) on).
+#: on the cuboid ILU was the faster up to lev 6 (27 744 unknowns), GAMG from lev 7 (79 488) on, with smoothed
+#: aggregation. With unsmoothed aggregation (2026-11-24) GAMG is the faster from lev 5 (0.2 s against 0.26 s);
+#: the threshold stays, so that the paper's Section 7 runs at lev 2-6 keep the paper's ILU and their solutions).
 AUTO_GAMG_UNKNOWNS = 50_000
 #: Block-Jacobi ILU's Krylov counts grow with the number of blocks (docs/pc-auto: d3/L2 lev 6, ν = 0.45:
 #: 137 on 1 rank, 210 on 2; issue 17: lev 5 d2/L1 145 on 1 rank, 245 on 16) while GAMG's do not.
@@ -49,13 +51,16 @@ GAMG_SMOOTHER_SWEEPS = 1
 #: in UNSMOOTHED_CELL_TYPES, unless the user says otherwise; elsewhere PETSc's default 1 (smoothed aggregation).
 #: Unsmoothed aggregation keeps the coarse operators as sparse as A's: a set-up a third as expensive and a
 #: cheaper V-cycle for more Krylov iterations, which pays because the hierarchy of A is set up once (2 ranks,
-#: d3/L2: lev 10 nested 62.1 s → 48.4 s, lev 8 8.5 s → 7.5 s, lev 11 180 s → 174 s and 16.9 → 12.4 GiB;
+#: d3/L2: lev 10 nested 62.1 s → 54.4 s, lev 8 8.5 s → 7.5 s, lev 11 180 s → 174 s and 16.9 → 12.4 GiB;
 #: docs/gamg-sweeps).
 GAMG_PROLONGATOR_SMOOTHS = 0
 #: Where unsmoothed aggregation is measured robust (docs/pc-auto/gamg-unsmoothed-2026-11-24): on the hexahedral
 #: cuboid at most 17 GMRES iterations per Newton step (ν 0.3, 0.45, lev 5-10) and faster in every group. On
 #: the tetrahedral roller the counts grew with the mesh (up to 56 per step against smoothed aggregation's 17,
 #: ν = 0.45, 63 900 unknowns, twice the time), so tetrahedra keep smoothed aggregation.
+#: Nor is it for nearly incompressible hexahedral bodies: d3/L2 lev 6, 2 ranks, ν = 0.49: 260 Krylov (28 per
+#: step) against 173 (19); ν = 0.499: 726 (83) against 469 (51), 4.2 s against 3.5 s. The solver does not know ν
+#: (the user's forms), so there -coulomb_pc_gamg_agg_nsmooths 1 is the user's to give (README).
 UNSMOOTHED_CELL_TYPES = ("hexahedron",)
 
 

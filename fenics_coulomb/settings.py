@@ -47,8 +47,8 @@ class SolverSettings:
             :func:`rtol_for_accuracy`); None uses ``rtol``.
         max_it: Newton iterations before giving up.
         pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.preconditioner.AUTO_GAMG_UNKNOWNS`
-            unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (smoothed
-            aggregation on the stiffness matrix A with the rigid-body near-nullspace, set up once and reused by
+            unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (aggregation
+            AMG on the stiffness matrix A with the rigid-body near-nullspace, unsmoothed on hexahedral meshes, set up once and reused by
             every Newton step), gamg-newton (on the Newton matrix, set up every step), hypre, lu, jacobi, none.
         power_iterations: Power-method iterations on A for γ (paper: 5).
         gamma: Fixed γ instead of the power-method estimate.

@@ -4,6 +4,7 @@ non-matching interpolation), the coarse levels it solves, its default, and a coa
 from __future__ import annotations
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import dolfinx.fem
 import numpy as np
@@ -12,6 +13,7 @@ from conftest import global_norm
 
 from fenics_coulomb.cli import (
     NESTED_AUTO_MIN_LEV,
+    coarse_level_options,
     nested_levels,
     resolve_nested,
     solve_coarse_levels,
@@ -133,3 +135,33 @@ def test_coarse_levels_solve_and_a_failure_falls_back(monkeypatch):
 
     monkeypatch.setattr(fenics_coulomb.nested, "solve_nested", failing)
     assert solve_coarse_levels(scene, 1, comm) is None
+
+
+def test_the_users_options_reach_the_coarse_levels():
+    """-coulomb_* options (e.g. the README's -coulomb_pc_gamg_agg_nsmooths) apply to the coarse levels as to the
+    fine one, -coulomb_nested<lev>_* ones win for their level, and the database is left as the user gave it."""
+    comm = MPI.COMM_WORLD
+    scene = Scene().override(lev=4, gap="d3", load="L2", pc="ilu")
+    opts = PETSc.Options()
+    before = opts.getAll()
+
+    def coarse_krylov() -> int:
+        start = solve_coarse_levels(scene, 1, comm)
+        assert start is not None and start.results[0].converged
+        return start.results[0].krylov_iterations
+
+    plain = coarse_krylov()
+    opts["coulomb_pc_type"] = "jacobi"
+    try:
+        assert coarse_level_options(2) == {"pc_type": "jacobi"}
+        jacobi = coarse_krylov()
+        assert jacobi > plain
+        opts["coulomb_nested2_pc_type"] = "bjacobi" if comm.size > 1 else "ilu"
+        try:
+            assert coarse_level_options(2) == {}
+            assert coarse_krylov() == plain
+        finally:
+            del opts["coulomb_nested2_pc_type"]
+    finally:
+        del opts["coulomb_pc_type"]
+    assert opts.getAll() == before
