@@ -77,16 +77,15 @@ class ArgumentParser(argparse.ArgumentParser):
         sys.exit(EXIT_INPUT)
 
 #: Residual reduction of the coarse levels of --nested. They only provide the start of the next level, but the
-#: fine level needs fewer steps from an accurate one (2 ranks, d3/L2, lev 10 from lev 8 with unsmoothed GAMG:
-#: 1e-2 9 Newton / 126 Krylov, 64.6 s; 1e-3 8 / 102, 58.1 s; 1e-4 8 / 96, 54-58 s; 1e-5 7 / 73, 52.2 s; 1e-6
-#: 7 / 68, 48.4 s; 1e-8 7 / 68, 48.5 s; docs/scale/README.md).
+#: fine level needs fewer steps from an accurate one (2 ranks, d3/L2, lev 10 from lev 8: 1e-2 9 Newton /
+#: 126 Krylov, 66.0 s; 1e-4 8 / 96, 52.3 s; 1e-6 7 / 68, 45.9 s; no gain below; benchmarks/nested.py, docs/nested).
 NESTED_COARSE_RTOL = 1e-6
 #: --nested K solves the levels lev − NESTED_LEVEL_STEP·k, k = K, ..., 1 (h doubles from level to level).
 NESTED_LEVEL_STEP = 2
-#: Without --nested, the cuboid from this level on is solved with one coarser level (lev − 2) first: measured on
-#: 2 ranks with the coarse reduction 1e-6 (docs/scale/README.md) it pays from lev 7 on (lev 7 3.05 s against
-#: 3.34 s, lev 8 6.3-7.0 s against 7.0-7.7 s in d3/L2, d1/L1, d2/L2, lev 9 19.1 s against 22.5 s, lev 10 48.4 s
-#: against 66.7 s direct); lev 2-6 keep the direct solve (the paper's Section 7 runs).
+#: Without --nested, the cuboid from this level on is solved with one coarser level (lev − 2) first: on 2 ranks
+#: with the coarse reduction 1e-6 it saves 18-34 % of the time at lev 7-10 (d3/L2: lev 7 2.50 s against 3.25 s,
+#: lev 10 46.8 s against 70.9 s; d1/L1 and d2/L2 at lev 8 alike; benchmarks/nested.py, docs/nested); lev 2-6 keep
+#: the direct solve (the paper's Section 7 runs).
 NESTED_AUTO_MIN_LEV = 7
 
 
