@@ -64,6 +64,13 @@ class ContactRows:
         entries = self.diagonal_entries.reshape(self.num_nodes, 3)
         return np.take_along_axis(self.values.T, entries, axis=0) if self.num_nodes else np.zeros((0, 3))
 
+    def diagonal_blocks(self) -> Array:
+        """A's 3×3 diagonal blocks of the contact nodes, shape (m, 3, 3): [i, b, c] = A[(i, b), (i, c)]."""
+        if not self.num_nodes:
+            return np.zeros((0, 3, 3))
+        entries = self.diagonal_entries.reshape(self.num_nodes, 3)
+        return np.ascontiguousarray(np.moveaxis(self.values[:, entries], 0, 1))
+
     def combine(self, left: Array, right: Array) -> Array:
         """CSR values of the rows Bⁱ Aⁱ + Cⁱ for left = (Bⁱ), right = (Cⁱ), shapes (m, 3, 3)."""
         new = np.einsum("eab,be->ae", left[self.node_of_entry], self.values)

@@ -4,9 +4,9 @@ Given the same contact problem on a sequence of meshes, coarse to fine, the firs
 start u⁽⁰⁾ = 0 and every finer one from the previous level's solution interpolated onto its mesh
 (:func:`~fenics_coulomb.problem.interpolate_displacement`, the same interpolation as ``--start``). The
 coarse levels only provide a start, so they are usually solved to a looser reduction (their own settings);
-the finest level's settings decide the accuracy of the result. Every level after the first stops at rtol
-times the residual of the paper's start on its mesh (``paper_target``), as a direct solve would: the better
-start then saves Newton steps instead of asking for a smaller residual.
+the finest level's settings decide the accuracy of the result. The stopping target does not depend on the start
+(:mod:`fenics_coulomb.stopping`), so every level is asked for what a direct solve would be: the better start
+saves Newton steps instead of asking for a smaller residual.
 """
 
 from __future__ import annotations
@@ -68,7 +68,7 @@ def solve_nested(problems: Sequence[ContactProblem],
     start = u0
     uh = None
     for level, problem in enumerate(problems):
-        uh, result = problem.solve(start, paper_target=level > 0)
+        uh, result = problem.solve(start)
         nested.levels.append(result)
         if problem.model.comm.rank == 0:
             logger.info("nested level %d/%d: %d unknowns, %d Newton, %d Krylov", level + 1, len(problems),

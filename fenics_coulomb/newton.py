@@ -13,6 +13,36 @@ One iteration k, from the iterate u = u⁽ᵏ⁾ with residual r = A u − l:
 4. Stopping rule (:mod:`fenics_coulomb.stopping`).
 
 The linear solves' tolerance is fixed or an Eisenstat–Walker forcing term (:mod:`fenics_coulomb.forcing`).
+
+Per-node γ
+----------
+The paper takes one γ ≈ λ_max(A) (we scale it by ``gamma_scale`` = 0.01, docs/table2). On a graded or distorted
+mesh λ_max(A) comes from elements far from the contact (or from one sliver), far above the stiffness of the small
+elements at the contact: the stick rows γ I of the Newton matrix then dwarf the rows of A that GAMG (built on A)
+approximates, and GMRES stagnates (issue 27; the Hertz block of demos/hertz.py, 19 542 unknowns: γ = 53.6
+against λ_max(Aᵢᵢ) = 14–28 at the contact: 2000 GMRES iterations per step; with γ ≤ 0.5·λ_max(Aᵢᵢ): 20 Newton /
+112 Krylov). So every contact node i gets its own
+
+    γᵢ = min(γ, κ·λ_max(Aᵢᵢ)),   κ = ``gamma_node_scale`` (0.5),  Aᵢᵢ the node's 3×3 diagonal block of A,
+
+(:func:`node_gamma`) and γ stays on the other DOFs. On the Section 7 cuboid γ/λ_max(Aᵢᵢ) <= 0.123 at every contact
+node (lev 1-7, d1-d3), so γᵢ = γ there and the paper's formulas run bit for bit.
+
+Why this is still the paper's method. Let Γ = diag(γ_j) over all DOFs (γᵢ on the three of contact node i, γ on
+the rest) and D = Γ^{1/2}. In u' = D u the GE 0 ∈ A u − l + Q(u) reads 0 ∈ A' u' − l' + Q'(u') with
+A' = D⁻¹AD⁻¹ (SPD), l' = D⁻¹l and Q'(u') = D⁻¹Q(D⁻¹u'). On contact node i, Q'ᵢ(v') = γᵢ^{−1/2} Rᵢ Q̃(Rᵢᵀv'/γᵢ^{1/2})
+= Rᵢ Q̃(Rᵢᵀv'), because Q̃ is invariant under positive scalings of its argument and of its values
+(N_{R+}(c w₃) = N_{R+}(w₃), ∂‖c w₁₂‖ = ∂‖w₁₂‖, and c·Q̃(w) = Q̃(w): ϑ ranges over a cone and the tangential
+part is linear in ϑ) — Q' is a contact map of the same kind, and everything the paper proves holds for the
+scaled problem with the scalar γ' = 1. Its approximation step maps back to d̂ = D⁻¹(I + Q')⁻¹(u' − r') =
+(Γ + Q)⁻¹(Γ u − r) (v' = (I + Q')⁻¹(w') ⇔ D w' ∈ Γ D⁻¹v' + Q(D⁻¹v')), i.e. the closed-form resolvent with γᵢ on
+node i and e = r/γ elsewhere; ŷ = (Γ e, e). Its Newton step (5.4) is the step of :mod:`fenics_coulomb.steps`
+with every node's blocks and rows taken with its own γᵢ and ŷ₁ = Γ e (checked against the paper's step on the
+scaled problem in tests/test_node_gamma.py). Under exact solves the direction depends on γᵢ only through the
+approximation step and ŷ₁ (in (5.4) a sliding row's γ·b/a = t/s and a sticking row's γ cancel); the rows' γᵢ
+set the scale of the contact rows against A's, which is what the preconditioner built on A sees. ‖ŷ‖ is
+‖(Γe, e)‖ = (Σ_j (1 + γ_j²) e_j²)^{1/2}, the paper's √(1 + γ²)‖e‖ when all γᵢ = γ; the local convergence does
+not depend on the norm, the line search and the stopping rule use this one.
 """
 
 from __future__ import annotations
@@ -32,7 +62,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.contact_rows import ContactRows
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.forcing import forcing_term
+from fenics_coulomb.forcing import forcing_term, terminal_forcing
 from fenics_coulomb.galerkin import GalerkinCoarsening
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.newton_operator import MATRIX_FREE_PCS, NewtonOperator
@@ -62,6 +92,16 @@ logger = logging.getLogger(__name__)
 KSP_LIMIT_STEPS = 3
 
 Array = npt.NDArray[np.float64]
+
+
+def node_gamma(gamma: float, blocks: Array, scale: float | None) -> Array:
+    """γᵢ = min(γ, scale·λ_max(Aᵢᵢ)) of each contact node from A's 3×3 diagonal blocks Aᵢᵢ (shape (m, 3, 3));
+    γ everywhere when ``scale`` is None (see "Per-node γ" in the module docstring)."""
+    m = blocks.shape[0]
+    if scale is None or m == 0:
+        return np.full(m, gamma)
+    local = np.linalg.eigvalsh(0.5 * (blocks + np.swapaxes(blocks, 1, 2)))[:, -1]
+    return np.minimum(gamma, scale * local)
 
 
 def line_search_steps(count: int) -> Iterator[float]:
@@ -132,6 +172,8 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         self.rows = ContactRows(self.A, model.contact.global_dofs)
         self.cdofs = model.contact.local_dofs
+        self.set_node_gamma(node_gamma(self.gamma, self.rows.diagonal_blocks(),
+                                       settings.gamma_node_scale if settings.gamma is None else None))
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
                              model.V.mesh.topology.cell_type.name)
@@ -155,6 +197,19 @@ class SCDNewtonSolver:
         for name in ("u", "r", "b", "x", "Adu", "w"):
             getattr(self, name).setOptionsPrefix(f"{prefix}{name}_")
         self.timings["setup"] = time.perf_counter() - t0
+
+    def set_node_gamma(self, values: Array) -> None:
+        """Set the contact nodes' γᵢ (owned, shape (m,), each > 0; collective). With every γᵢ = γ the solver runs
+        the paper's scalar formulas bit for bit; otherwise ‖ŷ‖ weighs the contact DOFs with 1 + γᵢ²."""
+        values = np.array(values, dtype=np.float64).reshape(-1)
+        if values.shape != (self.cdofs.shape[0],) or not np.all(np.isfinite(values) & (values > 0.0)):
+            raise ValueError(f"node_gamma: {values.shape[0]} values, need {self.cdofs.shape[0]} finite ones > 0")
+        #: γᵢ of each owned contact node (see "Per-node γ" in the module docstring), shape (m,).
+        self.node_gamma = values
+        self._weights: Array | None = None
+        if not self.comm.allreduce(bool(np.all(values == self.gamma)), op=MPI.LAND):
+            self._weights = np.full(self.A.getLocalSize()[0], 1.0 + self.gamma**2)
+            self._weights[self.cdofs] = (1.0 + values**2)[:, None]
 
     @property
     def frames(self) -> Array:
@@ -234,30 +289,33 @@ class SCDNewtonSolver:
         On contact node i the resolvent acts in the node's frame: (vⁱ, zⁱ) = J̃(Rᵢᵀ(γ uⁱ − rⁱ)) and
         eⁱ = uⁱ − Rᵢ vⁱ (Cartesian), see :mod:`fenics_coulomb.obstacles`.
         """
-        gamma = self.gamma
-        e = r / gamma
+        gamma = self.node_gamma
+        e = r / self.gamma
         uc = u[self.cdofs]
-        v, z = resolvent(to_local(self.frames, gamma * uc - r[self.cdofs]), gamma, self.model.friction)
+        v, z = resolvent(to_local(self.frames, gamma[:, None] * uc - r[self.cdofs]), gamma, self.model.friction)
         e[self.cdofs] = uc - to_global(self.frames, v)
         return Iterate(u, r, e, v, z, self.norm(e))
 
     def norm(self, e: Array) -> float:
-        """‖ŷ‖ = √(1 + γ²)·‖e‖ over all ranks."""
-        local = float(np.dot(e, e))
-        return math.sqrt((1.0 + self.gamma**2) * self.comm.allreduce(local, op=MPI.SUM))
+        """‖ŷ‖ = ‖(Γ e, e)‖ over all ranks: √(1 + γ²)·‖e‖ for one γ, with γᵢ on the contact nodes' DOFs."""
+        if self._weights is None:
+            local = float(np.dot(e, e))
+            return math.sqrt((1.0 + self.gamma**2) * self.comm.allreduce(local, op=MPI.SUM))
+        local = float(np.dot(self._weights * e, e))
+        return math.sqrt(self.comm.allreduce(local, op=MPI.SUM))
 
     # -- the Newton direction ---------------------------------------------------------------------
     def forcing(self, history: list[float], eta: float, rule: StoppingRule) -> float:
         """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term."""
         if not self.settings.adaptive_tol:
-            return self.tol
+            return terminal_forcing(self.tol, history[-1], rule.threshold)
         return forcing_term(self.tol, history, eta, rule.threshold)
 
     def newton_direction(self, it: Iterate, eta: float) -> Direction:
         """Solve the Newton system of the variant at the approximation step of ``it`` to tolerance ``eta``."""
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
-        left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.gamma)
+        left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.node_gamma)
         if self._galerkin is not None:  # rows scaled to A's diagonal for the Galerkin coarse operators
             left, right = self._galerkin.scale(left, right)
         # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see
@@ -382,14 +440,14 @@ class SCDNewtonSolver:
         self.r.axpy(-1.0, self.model.rhs)
         return self.approximation_step(u, self.r.getArray(readonly=True).copy())
 
-    def stopping_rule(self, first: Iterate, reference: float | None = None) -> StoppingRule:
-        """The stopping rule for a solve starting at ``first``; ``reference`` replaces ‖ŷ⁽⁰⁾‖ in the target."""
+    def stopping_rule(self, first: Iterate) -> StoppingRule:
+        """The stopping rule for a solve starting at ``first`` (:mod:`fenics_coulomb.stopping`): relative to the
+        residual of ũ = 0, whatever the start."""
         shift = self.model.shift.getArray(readonly=True)
         load = self.norm(self.model.load.getArray(readonly=True))
         zero = self.approximation_step(np.array(shift, dtype=np.float64), -self.model.load.getArray(readonly=True))
-        return StoppingRule.create(self.settings.reduction, self.settings.max_it,
-                                   first.residual if reference is None else reference,
-                                   self.norm(shift), self.norm(first.u - shift), load, self.gamma, zero.residual)
+        return StoppingRule.create(self.settings.reduction, self.settings.max_it, first.residual, zero.residual,
+                                   self.norm(shift), self.norm(first.u - shift), load, self.gamma)
 
     def zero_if_converged(self, it: Iterate, rule: StoppingRule) -> Iterate:
         """ũ = 0 (u = d, residual −l̃) instead of ``it`` when the rule holds there: for a zero or tiny load ũ = 0
@@ -405,15 +463,8 @@ class SCDNewtonSolver:
             logger.info("ũ = 0 meets the stopping rule (|y| = %.3e): the load is below round-off", it.residual)
         return zero
 
-    def paper_start_residual(self) -> float:
-        """‖ŷ⁽⁰⁾‖ of the paper's start u⁽⁰⁾ = 0 (collective)."""
-        return self.start(-self.model.shift.getArray(readonly=True)).residual
-
-    def solve(self, initial_displacement: Array | None = None, reference: float | None = None) -> SolveResult:
+    def solve(self, initial_displacement: Array | None = None) -> SolveResult:
         """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0).
-
-        ``reference`` (e.g. :meth:`paper_start_residual` for a start interpolated from a coarser solution)
-        replaces ‖ŷ⁽⁰⁾‖ in the stopping target, so that a better start is not asked for a smaller residual.
 
         Raises:
             SolverError: when the method does not converge; ``error.result`` holds the last iterate.
@@ -422,14 +473,18 @@ class SCDNewtonSolver:
         self._steps = 0
         self._limited = 0
         it = self.start(initial_displacement)
-        rule = self.stopping_rule(it, reference)
+        rule = self.stopping_rule(it)
         it = self.zero_if_converged(it, rule)
         history = [it.residual]
         records: list[IterationRecord] = []
         eta = self.tol
+        lo, hi = self._node_gamma_range()  # collective
         if self.comm.rank == 0:
-            logger.info("SCD semismooth* Newton (%s, tol=%g, pc=%s, gamma=%.4g): |y0| = %.3e",
-                        self.step.name, self.tol, self.pc, self.gamma, it.residual)
+            gammas = f"{self.gamma:.4g}" if lo == hi == self.gamma else f"{self.gamma:.4g} (contact {lo:.3g}-{hi:.3g})"
+            logger.info("SCD semismooth* Newton (%s, tol=%g, pc=%s, gamma=%s): |y0| = %.3e, stops at |y| <= %.3e "
+                        "(rtol %g x |y(u = 0)|: |y|/|y0| <= %.3e)", self.step.name, self.tol, self.pc, gammas,
+                        it.residual, rule.threshold, self.settings.reduction,
+                        rule.threshold / it.residual if it.residual > 0 else 0.0)
         try:
             while not rule.satisfied(it.residual):
                 rule.check(len(records), it.residual)
@@ -439,11 +494,11 @@ class SCDNewtonSolver:
                 history.append(it.residual)
                 records.append(self.record(len(records) + 1, it, alpha, direction, rule))
         except SolverError as err:
-            err.result = self.result(it, history, records, False, err.reason, t_start)
+            err.result = self.result(it, history, records, False, err.reason, t_start, rule=rule)
             if self.comm.rank == 0:
                 logger.error("%s", err)
             raise
-        return self.result(it, history, records, True, "converged", t_start)
+        return self.result(it, history, records, True, "converged", t_start, rule=rule)
 
     def record(self, k: int, it: Iterate, alpha: float, direction: Direction, rule: StoppingRule) -> IterationRecord:
         """The record of iteration k (logged on rank 0)."""
@@ -457,8 +512,8 @@ class SCDNewtonSolver:
                                counts["stick"], counts["slip"], direction.forcing, direction.linear_residual)
 
     def result(self, it: Iterate, history: list[float], records: list[IterationRecord], converged: bool,
-               reason: str, t_start: float, linear: bool = False) -> SolveResult:
-        """The result at iterate ``it`` (collective: global counts)."""
+               reason: str, t_start: float, linear: bool = False, rule: StoppingRule | None = None) -> SolveResult:
+        """The result at iterate ``it`` (collective: global counts); ``rule`` the stopping rule of the solve."""
         friction = self.model.friction
         sets = classify(it.v, it.z, friction)
         states = contact_states(sets, friction)
@@ -479,6 +534,9 @@ class SCDNewtonSolver:
             contact_force=-to_global(self.frames, it.z),
             gap=it.v[:, 2].copy(),
             gamma=self.gamma,
+            node_gamma=self._node_gamma_range(),
+            rtol=self.settings.reduction,
+            target=rule.threshold if rule is not None else 0.0,
             timings=dict(self.timings),
             pc=self.pc,
             n=self.model.n,
@@ -486,6 +544,12 @@ class SCDNewtonSolver:
             counts=global_state_counts(self.comm, states),
             linear=linear,
         )
+
+    def _node_gamma_range(self) -> tuple[float, float]:
+        """(min, max) of the contact nodes' γᵢ over all ranks ((γ, γ) without contact nodes)."""
+        lo = self.comm.allreduce(float(np.min(self.node_gamma, initial=self.gamma)), op=MPI.MIN)
+        hi = self.comm.allreduce(float(np.max(self.node_gamma, initial=0.0)), op=MPI.MAX)
+        return lo, max(hi, lo)
 
     def solve_linear(self) -> SolveResult:
         """Solve A ũ = l̃ once (no contact possible): the Newton matrix is A and the KSP runs to the reduction."""

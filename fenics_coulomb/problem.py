@@ -277,8 +277,7 @@ class ContactProblem:
         start[model.dirichlet_rows] = model.dirichlet_values  # as assemble_load (in _place) read them
         return start
 
-    def solve(self, u0: dolfinx.fem.Function | None = None, *,
-              paper_target: bool = False) -> tuple[dolfinx.fem.Function, SolveResult]:
+    def solve(self, u0: dolfinx.fem.Function | None = None) -> tuple[dolfinx.fem.Function, SolveResult]:
         """Solve the next step of the load path from ``u0`` (default: the paper's u⁽⁰⁾ = 0 of the shifted
         unknown at the first step, the previous step's solution after it); a converged step becomes the
         history of the next one (see the module docstring).
@@ -286,8 +285,8 @@ class ContactProblem:
         The load l̃ is assembled from the current values of the coefficients of L and of the Dirichlet
         conditions, the obstacles are placed at their current displacements (:meth:`move`).
 
-        With ``paper_target`` the stopping target is rtol times the residual of the paper's start instead of
-        that of ``u0`` (for a start interpolated from a coarser solution: nested iteration).
+        The stopping target does not depend on the start (:mod:`fenics_coulomb.stopping`): every start, a
+        coarser level's solution interpolated included, is asked for the same solution.
 
         With the ``predictor`` setting (or no contact node and ``no_contact_shortcut``) the linear problem is
         solved first; if it does not reach the obstacle it is the solution (one linear solve).
@@ -313,7 +312,7 @@ class ContactProblem:
                 return self._finish(result, commit=True), result
             self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
-            result = solver.solve(start, solver.paper_start_residual() if paper_target else None)
+            result = solver.solve(start)
         except SolverError as err:
             if err.result is not None:
                 self._finish(err.result)

@@ -58,7 +58,11 @@ class SolveResult:
             −g ∈ R² (opposite to the slip).
         contact_force: The contact force on the body per owned contact node, Cartesian, −Rᵢ zⁱ, shape (m, 3).
         gap: Final gap per owned contact node (from the approximation step, d̂3 >= 0).
-        gamma: γ used in the approximation step.
+        gamma: γ of the approximation step (off the contact nodes, and the cap of every γᵢ).
+        node_gamma: (min, max) over the contact nodes of their γᵢ (see :mod:`fenics_coulomb.newton`).
+        rtol: The residual reduction used (``rtol``, or the one ``accuracy`` maps to).
+        target: The residual norm that ended the iteration, rtol·‖ŷ(ũ = 0)‖ or the round-off floor
+            (:mod:`fenics_coulomb.stopping`; 0 for a linear solve).
         timings: Wall time per phase in seconds (this rank).
         pc: The preconditioner used (``auto`` resolved).
         n: Unknowns after removing the Dirichlet DOFs (global).
@@ -91,6 +95,9 @@ class SolveResult:
     p: int = 0
     counts: dict[str, int] = field(default_factory=dict)
     linear: bool = False
+    node_gamma: tuple[float, float] = (0.0, 0.0)
+    rtol: float = 0.0
+    target: float = 0.0
     relative_displacement: Array | None = None
     master_force: Array | None = None
 
@@ -115,6 +122,9 @@ class SolveResult:
             "wall_time_s": timings.get("total", 0.0),
             "state_counts": self.state_counts(comm),
             "gamma": self.gamma,
+            "node_gamma": list(self.node_gamma),
+            "rtol": self.rtol,
+            "stopping_target": self.target,
             "preconditioner": self.pc,
             "timings_s": timings,
             "ranks": comm.size,

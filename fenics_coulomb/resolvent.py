@@ -37,28 +37,30 @@ OPEN, STICK, SLIP = 0, 1, 2
 STATE_NAMES = ("open", "stick", "slip")
 
 
-def resolvent(w: Array, gamma: float, friction: float | Array) -> tuple[Array, Array]:
+def resolvent(w: Array, gamma: float | Array, friction: float | Array) -> tuple[Array, Array]:
     """Evaluate v = (γI + Q̃)⁻¹(w) node-wise and the matching z = w − γv ∈ Q̃(v).
 
     Args:
         w: Arguments, shape (m, 3).
-        gamma: γ > 0.
+        gamma: γ > 0 (a number or one per node, shape (m,): the per-node γᵢ of
+            :mod:`fenics_coulomb.newton`).
         friction: Coulomb coefficient F >= 0 (a number or one per node).
 
     Returns:
         (v, z), both of shape (m, 3).
     """
     w = np.asarray(w, dtype=np.float64)
+    g = np.broadcast_to(np.asarray(gamma, dtype=np.float64), w.shape[:1])
     v = np.zeros_like(w)
     theta = np.minimum(w[:, 2], 0.0)
-    v[:, 2] = np.maximum(w[:, 2], 0.0) / gamma
+    v[:, 2] = np.maximum(w[:, 2], 0.0) / g
     tau = -friction * theta
     norm12 = np.hypot(w[:, 0], w[:, 1])
     slide = norm12 > tau
     scale = np.zeros_like(norm12)
-    scale[slide] = (1.0 - tau[slide] / norm12[slide]) / gamma
+    scale[slide] = (1.0 - tau[slide] / norm12[slide]) / g[slide]
     v[:, :2] = scale[:, None] * w[:, :2]
-    z = w - gamma * v
+    z = w - g[:, None] * v
     # ϑ is exactly min(w3, 0): keep it free of the round-off of w3 − γ·(w3/γ).
     z[:, 2] = theta
     return v, z

@@ -14,6 +14,10 @@ Units: Q̃ maps displacements to forces. The blocks are taken for Q̃/γ (forces
 γ·length, so the sliding bases' s + t/γ and the rows' A·Δu + γ·U*ᵀΔu are consistent), and the rows are
 multiplied by γ. This selects the same Newton iterate as the paper's bases (exact solves) but makes the
 inexact GMRES solves independent of the units of E and the loads.
+
+Per-node γ: every formula above is node-wise, so a contact node i may carry its own γᵢ (the driver's
+``node_gamma``; off the contact nodes γ acts only through ŷ₁ = γ e = r, which the right-hand sides use as r).
+Why the method stays the paper's: see :mod:`fenics_coulomb.newton`, "Per-node γ".
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ class NewtonOperators(Protocol):
     """What a step needs from the driver: γ, the contact DOFs, A, the Newton matrix and work vectors."""
 
     gamma: float
+    node_gamma: Array
     cdofs: npt.NDArray[np.int32]
     A: PETSc.Mat
     M: PETSc.Mat
@@ -49,8 +54,8 @@ class NewtonStep(Protocol):
     name: str
 
     def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
-             gamma: float) -> tuple[Array, Array]:
-        """The blocks (Bⁱ, Cⁱ) of the new contact rows Bⁱ Aⁱ + Cⁱ."""
+             gamma: float | Array) -> tuple[Array, Array]:
+        """The blocks (Bⁱ, Cⁱ) of the new contact rows Bⁱ Aⁱ + Cⁱ (γ a number or one per node)."""
 
     def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
         """Fill ``ops.b``."""
@@ -70,9 +75,10 @@ class _Rows:
         raise NotImplementedError
 
     def rows(self, v: Array, z: Array, sets: npt.NDArray[np.int8], friction: Friction,
-             gamma: float) -> tuple[Array, Array]:
-        first, second = self.blocks(v, z / gamma, sets, friction)
-        return np.swapaxes(first, 1, 2), gamma * np.swapaxes(second, 1, 2)
+             gamma: float | Array) -> tuple[Array, Array]:
+        g = np.broadcast_to(np.asarray(gamma, dtype=np.float64), z.shape[:1])
+        first, second = self.blocks(v, z / g[:, None], sets, friction)
+        return np.swapaxes(first, 1, 2), g[:, None, None] * np.swapaxes(second, 1, 2)
 
 
 class SStarStep(_Rows):
@@ -82,8 +88,8 @@ class SStarStep(_Rows):
     blocks = staticmethod(sstar_blocks)
 
     def right_hand_side(self, ops: NewtonOperators, e: Array, left: Array, right: Array) -> None:
-        gamma, cd = ops.gamma, ops.cdofs
-        b = -gamma * e
+        gamma, cd = ops.node_gamma[:, None], ops.cdofs
+        b = -ops.gamma * e
         b[cd] = -gamma * (np.einsum("iab,ib->ia", left, e[cd]) + np.einsum("iab,ib->ia", right, e[cd]) / gamma)
         ops.b.array[:] = b
 
@@ -107,6 +113,8 @@ class SStep(_Rows):
         ops.w.array[:] = e
         ops.A.mult(ops.w, ops.b)
         ops.b.axpy(-ops.gamma, ops.w)
+        if np.any(ops.node_gamma != ops.gamma):  # Γ e: γᵢ on the contact nodes
+            ops.b.array[ops.cdofs] -= (ops.node_gamma - ops.gamma)[:, None] * e[ops.cdofs]
         ops.M.multTranspose(ops.w, ops.Adu)
         ops.b.axpy(-1.0, ops.Adu)
 

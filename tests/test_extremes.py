@@ -126,12 +126,12 @@ def test_touching_everywhere_start():
 
 
 def test_line_search_exhausted_exits_3(mpi_tmp_path, capsys):
-    """With only the full step allowed and the paper's γ, a full step is soon rejected: exit 3 naming the line
-    search, with the last iterate and the history written."""
+    """With only the full step allowed and the paper's γ (about λ_max(A) = 82 at lev 2, fixed: no per-node cap), a
+    full step is soon rejected: exit 3 naming the line search, with the last iterate and the history written."""
     out = mpi_tmp_path / "ls"
     scene = mpi_tmp_path / "ls.toml"
     if MPI.COMM_WORLD.rank == 0:
-        scene.write_text("[body]\nlev = 2\n[solver]\ngamma_scale = 1.0\nline_search_steps = 1\n")
+        scene.write_text("[body]\nlev = 2\n[solver]\ngamma = 80.0\nline_search_steps = 1\n")
     MPI.COMM_WORLD.barrier()
     assert main(["--scene", str(scene), "--out", str(out), "--no-plots"]) == EXIT_DIVERGED
     MPI.COMM_WORLD.barrier()

@@ -137,7 +137,8 @@ def test_no_contact_shortcut_equals_full_model(mpi_tmp_path):
         x_full, u_full = gather_by_coordinates(problem.V, full.displacement)
     x, u = read_solution(out)
     assert np.allclose(x, x_full, atol=1e-9)
-    assert np.linalg.norm(u - u_full) <= 1e-8 * np.linalg.norm(u_full)
+    # the linear solve runs to the reduction rtol (default 1e-7) of the residual: a relative error of that order
+    assert np.linalg.norm(u - u_full) <= 10 * summary["rtol"] * np.linalg.norm(u_full)
 
 
 def test_no_contact_boundary_is_one_linear_solve(mpi_tmp_path):
