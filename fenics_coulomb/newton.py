@@ -69,9 +69,10 @@ from fenics_coulomb.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.obstacles import conjugate, to_global, to_local
 from fenics_coulomb.power_method import power_iteration
 from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditioner re-exported)
-    AUTO_ILU_FALLBACK_ITS,
+    AUTO_STALL_ITS,
     DETERMINISTIC_PTAP,
     DETERMINISTIC_PTAP_MIN_RANKS,
+    auto_ladder,
     choose_preconditioner,
     create_ksp,
     default_options,
@@ -186,8 +187,11 @@ class SCDNewtonSolver:
         self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
         self.tol = float(self.ksp.getTolerances()[0])
-        #: pc = "auto" chose ILU: a linear solve that stalls hands the solve to GAMG (:meth:`_fall_back`).
-        self._fallback = settings.pc == "auto" and self.pc == "ilu"
+        #: pc = "auto": the preconditioners that take over, in turn, when a linear solve stagnates (:meth:`_escalate`).
+        self._ladder = auto_ladder(self.pc, self.A.getSize()[0]) if settings.pc == "auto" else []
+        #: Every change of preconditioner in this solver's life: Newton step, from, to, Krylov iterations spent.
+        self.pc_history: list[dict[str, object]] = []
+        self._blocks: tuple[Array, Array] | None = None  # the contact-row blocks of the current Newton matrix
         self._max_it = int(self.ksp.getTolerances()[3])
         self._steps = 0
         self._limited = 0  # consecutive Newton steps whose linear solve reached ksp_max_it
@@ -233,24 +237,37 @@ class SCDNewtonSolver:
                 and self.ksp.getPC().getType() == "gamg":
             self._galerkin = GalerkinCoarsening(self.A, self.rows)
 
-    def _fall_back(self, its: int) -> bool:
-        """After a stalled ILU solve under pc = "auto", replace the KSP by one with GAMG; True if it did.
+    def _escalate(self) -> bool:
+        """After a stagnated linear solve under pc = "auto", hand the rest of the solve to the next preconditioner of
+        the ladder (:func:`~fenics_coulomb.preconditioner.auto_ladder`); True if it did (collective).
 
-        ILU-preconditioned GMRES can stagnate where the automatic rule predicts ILU (nearly incompressible
-        materials, unusual meshes); GAMG on A does not (docs/pc-auto). The switch is logged and reported as
-        the preconditioner of the result. The user's ksp_max_it applies to the GAMG solves.
+        The new KSP gets the same Newton matrix (an explicit copy of A with the current contact rows when the new
+        preconditioner reads its entries and the old operator was matrix-free). The switch is logged, kept in
+        :attr:`pc_history` and reported in the result; the user's ksp_max_it applies to the last stage.
         """
         reason = int(self.ksp.getConvergedReason())
-        if not self._fallback or reason > 0:
+        if not self._ladder or reason > 0:
             return False
+        previous, self.pc = self.pc, self._ladder.pop(0)
+        names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
+        spent = int(self.ksp.getIterationNumber())
+        self.pc_history.append({"newton_step": self._steps + 1, "from": previous, "to": self.pc,
+                                "krylov_iterations": spent, "reason": names.get(reason, str(reason))})
         if self.comm.rank == 0:
-            logger.warning("pc auto: ILU-GMRES stalled in Newton step %d (%d iterations, reason %d); GAMG takes "
-                           "over for the rest of the solve", self._steps + 1, its, reason)
+            logger.warning("pc auto: %s-GMRES stagnated in Newton step %d (%d iterations without tol=%g, %s); %s takes "
+                           "over for the rest of the solve", previous, self._steps + 1, spent,
+                           self.ksp.getTolerances()[0], names.get(reason, reason), self.pc)
         self.ksp.destroy()
         if self._nullspace is not None:
             self._nullspace.destroy()
-        self.pc = "gamg"
-        self._fallback = False
+        if self.operator.matrix_free and self.pc not in MATRIX_FREE_PCS:
+            self.operator.destroy()
+            self.operator = NewtonOperator(self.A, self.rows, self.cdofs, False, self.prefix)
+            self.M = self.operator.M
+            if self._blocks is None:
+                self.operator.set_stiffness()
+            else:
+                self.operator.update(*self._blocks)
         self._create_ksp()
         self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
         return True
@@ -323,6 +340,7 @@ class SCDNewtonSolver:
         # explicit rows) receives these rotated blocks.
         left, right = conjugate(self.frames, left), conjugate(self.frames, right)
         self.operator.update(left, right)
+        self._blocks = (left, right)
         self.step.right_hand_side(self, it.e, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
         if self._galerkin is not None:
@@ -330,7 +348,7 @@ class SCDNewtonSolver:
 
         t0 = time.perf_counter()
         its = self._solve_newton_system(eta)
-        if self._fall_back(its):
+        while self._escalate():
             its += self._solve_newton_system(eta)
         self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
         b_norm = self.b.norm()
@@ -352,13 +370,13 @@ class SCDNewtonSolver:
         self.timings["galerkin"] = self.timings.get("galerkin", 0.0) + time.perf_counter() - t0
 
     def _set_tolerance(self, rtol: float) -> None:
-        """Set the KSP's relative tolerance; under the ILU fallback also its iteration cap,
-        AUTO_ILU_FALLBACK_ITS per decade of reduction (at most the user's ksp_max_it)."""
-        if self._fallback:
+        """Set the KSP's relative tolerance; under pc = "auto" with a preconditioner left to escalate to also its
+        iteration cap, AUTO_STALL_ITS per decade of reduction (at most the user's ksp_max_it)."""
+        if self._ladder:
             decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
-            self.ksp.setTolerances(rtol=rtol, max_it=min(self._max_it, math.ceil(AUTO_ILU_FALLBACK_ITS * decades)))
+            self.ksp.setTolerances(rtol=rtol, max_it=min(self._max_it, math.ceil(AUTO_STALL_ITS * decades)))
         else:
-            self.ksp.setTolerances(rtol=rtol)
+            self.ksp.setTolerances(rtol=rtol, max_it=self._max_it)
 
     def _solve_newton_system(self, eta: float) -> int:
         """One GMRES solve of the Newton system (right-hand side b, solution x) to tolerance eta; its iterations."""
@@ -539,6 +557,7 @@ class SCDNewtonSolver:
             target=rule.threshold if rule is not None else 0.0,
             timings=dict(self.timings),
             pc=self.pc,
+            pc_history=[dict(h) for h in self.pc_history],
             n=self.model.n,
             p=self.model.p,
             counts=global_state_counts(self.comm, states),
@@ -556,11 +575,12 @@ class SCDNewtonSolver:
         model = self.model
         t0 = time.perf_counter()
         self.operator.set_stiffness()
+        self._blocks = None
         if self._galerkin is not None:
             m = len(self.cdofs)
             self._coarsen(np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), np.zeros((m, 3, 3)))
         its = self._solve_linear_system()
-        if self._fall_back(its):
+        while self._escalate():
             its += self._solve_linear_system()
         reason = int(self.ksp.getConvergedReason())
         b_norm = model.load.norm()

@@ -64,7 +64,9 @@ class SolveResult:
         target: The residual norm that ended the iteration, rtol·‖ŷ(ũ = 0)‖ or the round-off floor
             (:mod:`fenics_coulomb.stopping`; 0 for a linear solve).
         timings: Wall time per phase in seconds (this rank).
-        pc: The preconditioner used (``auto`` resolved).
+        pc: The preconditioner used (``auto`` resolved) at the end of the solve.
+        pc_history: The changes of preconditioner under ``auto`` so far (Newton step, from, to, the Krylov iterations
+            of the stagnated solve, its reason; :meth:`fenics_coulomb.newton.SCDNewtonSolver._escalate`).
         n: Unknowns after removing the Dirichlet DOFs (global).
         p: Contact nodes (global).
         counts: Global open/stick/slip counts at the final iterate.
@@ -91,6 +93,7 @@ class SolveResult:
     contact_force: Array = field(default_factory=lambda: np.zeros((0, 3)))
     timings: dict[str, float] = field(default_factory=dict)
     pc: str = ""
+    pc_history: list[dict[str, Any]] = field(default_factory=list)
     n: int = 0
     p: int = 0
     counts: dict[str, int] = field(default_factory=dict)
@@ -126,6 +129,7 @@ class SolveResult:
             "rtol": self.rtol,
             "stopping_target": self.target,
             "preconditioner": self.pc,
+            "preconditioner_history": [dict(h) for h in self.pc_history],
             "timings_s": timings,
             "ranks": comm.size,
         }

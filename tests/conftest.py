@@ -40,11 +40,12 @@ def mpi_tmp_path() -> Iterator[Path]:
 
 
 def make_problem(lev: int = 1, gap: str = "d3", load: str = "L2", comm: MPI.Comm = MPI.COMM_WORLD,
-                 scene: Scene | None = None, **overrides) -> ContactProblem:
-    """A Section 7 case (or ``scene``) as a ContactProblem; ``overrides`` are scene settings (config.FLAGS)."""
+                 scene: Scene | None = None, petsc_options: dict | None = None, **overrides) -> ContactProblem:
+    """A Section 7 case (or ``scene``) as a ContactProblem; ``overrides`` are scene settings (config.FLAGS),
+    ``petsc_options`` the problem's PETSc options (without prefix)."""
     scene = (scene or Scene()).override(**({"lev": lev, "gap": gap, "load": load} if scene is None else {}),
                                         **overrides)
-    return build_problem(scene, comm).problem
+    return build_problem(scene, comm, petsc_options=petsc_options).problem
 
 
 def assembled(problem: ContactProblem) -> dict[str, np.ndarray]:

@@ -1,8 +1,10 @@
-"""pc = "auto": an ILU-GMRES solve that stalls hands the rest of the solve to GAMG (issue 11, section 6).
+"""pc = "auto": a linear solve that stagnates hands the rest of the solve to the next preconditioner of the
+ladder ILU → GAMG → BoomerAMG → LU (preconditioner.auto_ladder; issue 11 section 6, issue 27).
 
 d3/L2 at lev 2 with ν = 0.49 is a case the automatic rule gives ILU (hexahedra, few unknowns) on which
 ILU-GMRES stagnates: 2000 iterations per Newton step on 2 ranks without reaching tol = 0.1, a breakdown after
-28 000 iterations on 1 rank. With the fallback the solve converges and passes the physics checks.
+28 000 iterations on 1 rank. With the ladder the solve converges and passes the physics checks; a stage that
+stagnates as well (forced here by a GAMG without coarse levels or smoothing) passes on to the next one.
 """
 
 from __future__ import annotations
@@ -10,33 +12,61 @@ from __future__ import annotations
 import pytest
 
 from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.preconditioner import AUTO_ILU_FALLBACK_ITS
+from fenics_coulomb.preconditioner import AUTO_LU_MAX_UNKNOWNS, AUTO_STALL_ITS, auto_ladder
 
 CHECK_TOL = 1e-8
 
 
+def assert_physics(problem, uh):
+    checks = physics_residuals(problem.model, uh.x.petsc_vec.array)
+    for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone"):
+        assert checks[key] < CHECK_TOL, (key, checks[key])
+
+
 @pytest.mark.parametrize(("pc", "expected"), [("auto", "gamg"), ("ilu", "ilu")])
 def test_stalled_ilu_falls_back_to_gamg_only_under_auto(problem_factory, pc, expected):
-    problem = problem_factory(lev=2, poisson=0.49, rtol=1e-12, pc=pc, ksp_max_it=4 * AUTO_ILU_FALLBACK_ITS,
+    problem = problem_factory(lev=2, poisson=0.49, rtol=1e-12, pc=pc, ksp_max_it=4 * AUTO_STALL_ITS,
                               max_it=30 if pc == "auto" else 3)
     try:
         uh, result = problem.solve()
     except Exception as err:  # an explicit ILU may fail; it must not switch preconditioners
         assert expected == "ilu", err
-        assert problem.solver.pc == "ilu"
+        assert problem.solver.pc == "ilu" and not problem.solver.pc_history
         return
     assert result.pc == expected
     if expected == "gamg":
         assert result.converged
-        # no linear solve ran on past the fallback cap with ILU, none hit the limit with GAMG
-        assert max(r.krylov_iterations for r in result.records) <= 2 * AUTO_ILU_FALLBACK_ITS
-        checks = physics_residuals(problem.model, uh.x.petsc_vec.array)
-        for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone"):
-            assert checks[key] < CHECK_TOL, (key, checks[key])
+        assert [(h["from"], h["to"]) for h in result.pc_history] == [("ilu", "gamg")]
+        assert result.pc_history[0]["krylov_iterations"] == AUTO_STALL_ITS
+        # no linear solve ran on past the cap with ILU, none hit the limit with GAMG
+        assert max(r.krylov_iterations for r in result.records) <= 2 * AUTO_STALL_ITS
+        assert_physics(problem, uh)
+
+
+def test_every_stage_of_the_ladder_takes_over_when_the_previous_one_stagnates(problem_factory):
+    """With ksp_max_it = 2 every stage that needs more than 2 GMRES iterations for tol = 0.1 counts as stagnated:
+    ILU (ν = 0.49) → GAMG → BoomerAMG on the explicit Newton matrix (the operator is no longer matrix-free) → LU
+    where needed, within the first Newton step, and the solve still converges to the same physics."""
+    problem = problem_factory(lev=2, poisson=0.49, rtol=1e-12, pc="auto", ksp_max_it=2, max_it=60)
+    uh, result = problem.solve()
+    assert result.converged and result.pc in ("hypre", "lu")
+    steps = [(h["from"], h["to"]) for h in result.pc_history]
+    assert steps[:2] == [("ilu", "gamg"), ("gamg", "hypre")] and steps[2:] in ([], [("hypre", "lu")])
+    assert result.pc_history[0]["newton_step"] == 1
+    assert all(h["krylov_iterations"] == 2 for h in result.pc_history)
+    assert not problem.solver.operator.matrix_free
+    assert_physics(problem, uh)
+
+
+def test_ladder():
+    assert auto_ladder("ilu", 1000) == ["gamg", "hypre", "lu"]
+    assert auto_ladder("gamg", 1000) == ["hypre", "lu"]
+    assert auto_ladder("gamg", AUTO_LU_MAX_UNKNOWNS + 1) == ["hypre"]
+    assert auto_ladder("lu", 10) == []
 
 
 def test_no_fallback_where_ilu_works(problem_factory):
-    """The paper's d3/L2 at lev 3 keeps ILU: the fallback changes nothing where ILU converges."""
+    """The paper's d3/L2 at lev 3 keeps ILU: the ladder changes nothing where ILU converges."""
     problem = problem_factory(lev=3)
     _, result = problem.solve()
-    assert result.converged and result.pc == "ilu"
+    assert result.converged and result.pc == "ilu" and result.pc_history == []
