@@ -9,6 +9,8 @@ between solves.
 
 from __future__ import annotations
 
+import dataclasses
+
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -207,6 +209,10 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     L = loads.form(ufl.TestFunction(V))
     bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed)
     friction = float(scene.friction.coefficient)
+    settings = scene.solver
+    if settings.poisson_ratio is None:  # the preconditioner policy knows nearly incompressible bodies
+        settings = dataclasses.replace(settings, poisson_ratio=max(
+            [float(material.poisson)] + [float(m.poisson) for m in per_body.values()]))
     if scene.contact_pairs:
         pairs = [ContactPair(body.facet_tags, slave=[body.tag(n) for n in q.slave],
                              master=[body.tag(n) for n in q.master],
@@ -214,11 +220,11 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
                              search_distance=q.search_distance, name=q.name) for q in scene.contact_pairs]
         contact = (body.facet_tags, [body.tag(name) for name in body.contact]) if scene.obstacles else None
         problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
-                                 obstacles=scene.obstacles or None, contact_pairs=pairs, settings=scene.solver,
+                                 obstacles=scene.obstacles or None, contact_pairs=pairs, settings=settings,
                                  petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
     else:
         contact = (body.facet_tags, [body.tag(name) for name in body.contact])
         problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
-                                 obstacles=scene.obstacles or None, settings=scene.solver,
+                                 obstacles=scene.obstacles or None, settings=settings,
                                  petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
     return Built(body, (a, L), bcs, problem, mesh_time, groups, loads)

@@ -290,8 +290,8 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     with built.problem as problem:
         model = problem.model
         t_model = time.perf_counter() - t0 - t_nested
-        logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s)", built.body.description,
-                    problem.n, problem.p, scene.friction.coefficient, comm.size)
+        logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s)", built.body.description,
+                    problem.n, problem.p, friction_text(scene), comm.size)
         status = 0
         try:
             t_start = time.perf_counter()
@@ -390,19 +390,17 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     out = prepare_output(comm, args.out)
     built = build_problem(scene, comm)
     start_step = getattr(args, "start_step", None)
-    newton_logger = logging.getLogger("fenics_coulomb.newton")
     problem_logger = logging.getLogger("fenics_coulomb.problem")
-    levels = newton_logger.level, problem_logger.level
-    if not args.verbose:  # one line per step; the Newton lines under -v
-        newton_logger.setLevel(logging.WARNING)
+    level = problem_logger.level
+    if not args.verbose:  # each step's Newton lines, without the problem's remarks per step (those under -v)
         problem_logger.setLevel(logging.WARNING)
     try:
         with built.problem as problem:
             model = problem.model
             labels = obstacle_labels(scene)
             t_model = time.perf_counter() - t0
-            logger.info("%s: n = %d unknowns, p = %d contact nodes, F = %g, %d rank(s); load path of %d step(s), "
-                        "%d solve(s)", built.body.description, problem.n, problem.p, scene.friction.coefficient,
+            logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s); load path of %d step(s), "
+                        "%d solve(s)", built.body.description, problem.n, problem.p, friction_text(scene),
                         comm.size, solves[-1].step, len(solves))
             u0 = None
             if start_step is not None:
@@ -464,8 +462,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 data["files"] = [*files, "summary.json"]
                 write_summary(tmp / "summary.json", data, comm)
     finally:
-        newton_logger.setLevel(levels[0])
-        problem_logger.setLevel(levels[1])
+        problem_logger.setLevel(level)
     status = 0
     if failure:
         status = EXIT_DIVERGED
@@ -497,6 +494,16 @@ def write_results(directory: Path, model: ContactModel, result: SolveResult, lab
 
         files += write_figures(directory, model, result, label)
     return files
+
+
+def friction_text(scene: Scene) -> str:
+    """The Coulomb coefficients a run uses: F of the obstacles' contact boundary, and each contact pair's own."""
+    default = float(scene.friction.coefficient)
+    parts = [] if scene.contact_pairs and not scene.obstacles else [f"F = {default:g}"]
+    for i, pair in enumerate(scene.contact_pairs):
+        name = f"{pair.name!r}" if pair.name else str(i + 1)
+        parts.append(f"pair {name} F = {default if pair.friction is None else float(pair.friction):g}")
+    return ", ".join(parts)
 
 
 def _vector_text(v: list[float]) -> str:

@@ -109,7 +109,7 @@ KINDS: dict[str, dict[str, str]] = {
                  "axis": "vector", "radius": "number", "displacement": "vector"},
     "solver": {"variant": "str", "tol": "number", "rtol": "number", "accuracy": "number", "max_it": "int",
                "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
-               "gamma_node_scale": "number",
+               "gamma_node_scale": "number", "poisson_ratio": "number",
                "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
                "predictor": "bool", "no_contact_shortcut": "bool", "galerkin_coarse": "bool", "start": "str"},
     "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "body_force": "vector",
@@ -170,7 +170,7 @@ def check_kind(where: str, value: Any, kind: str) -> None:
 
 
 #: Section attributes that may be None (set so in code, never from TOML).
-OPTIONAL = {"mesh", "name", "case", "accuracy", "gamma", "gamma_node_scale"}
+OPTIONAL = {"mesh", "name", "case", "accuracy", "gamma", "gamma_node_scale", "poisson_ratio"}
 
 
 def check_kinds(section: str, obj: Any) -> None:

@@ -177,7 +177,7 @@ class SCDNewtonSolver:
                                        settings.gamma_node_scale if settings.gamma is None else None))
         #: The preconditioner in use ("auto" resolved by the global number of unknowns).
         self.pc = resolve_pc(settings.pc, self.A.getSize()[0], self.comm.size,
-                             model.V.mesh.topology.cell_type.name)
+                             model.V.mesh.topology.cell_type.name, settings.poisson_ratio)
         #: The Newton matrix: a shell (no copy of A) when the preconditioner does not read it.
         self.operator = NewtonOperator(self.A, self.rows, self.cdofs,
                                        settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
@@ -223,8 +223,9 @@ class SCDNewtonSolver:
     def _create_ksp(self) -> None:
         """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""
         settings = self.settings
-        self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name
-                                                                  ).items() if k not in self._user_options}
+        self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name,
+                                                                  settings.poisson_ratio).items()
+                                 if k not in self._user_options}
         self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
                                                settings.tol, settings.gmres_restart, settings.ksp_max_it,
                                                self.model.near_nullspace)
@@ -412,14 +413,22 @@ class SCDNewtonSolver:
         self._limited += 1
         rtol = self.ksp.getTolerances()[0]
         if self._limited >= KSP_LIMIT_STEPS:
+            lo, hi = self._node_gamma_range()
             raise SolverError(
-                f"the linear solver reached its iteration limit ({its} iterations without tol={rtol:g}) in "
-                f"{self._limited} consecutive Newton steps (up to step {self._steps + 1}): directions that "
-                f"inexact do not converge; try another --pc, a smaller --gamma-scale or a larger ksp_max_it",
+                f"the linear solver (pc {self.pc}) reached its iteration limit ({its} iterations without tol={rtol:g}) "
+                f"in {self._limited} consecutive Newton steps (up to step {self._steps + 1}): directions that inexact "
+                f"do not converge; try {self._remedies()}, or a smaller --gamma-node-scale (now "
+                f"{self.settings.gamma_node_scale}: gamma {self.gamma:.3g}, at the contact {lo:.3g}-{hi:.3g})",
                 "ksp_limit",
             )
         if self.comm.rank == 0:
             logger.warning("KSP reached %d iterations without tol=%g; using the inexact direction", its, rtol)
+
+    def _remedies(self) -> str:
+        """The preconditioners to suggest after ``self.pc`` failed (the stages of pc = auto's ladder it skipped)."""
+        if self.settings.pc != "auto":
+            return "--pc auto (it hands a stagnating solve to GAMG, BoomerAMG and LU in turn)"
+        return "--pc hypre or --pc lu (pc auto has no stage left)"
 
     # -- the line search --------------------------------------------------------------------------
     def line_search(self, it: Iterate, direction: Direction, k: int) -> tuple[float, Iterate]:

@@ -73,7 +73,14 @@ UNSMOOTHED_CELL_TYPES = ("hexahedron",)
 HYPRE_ELASTICITY = {"pc_hypre_boomeramg_strong_threshold": 0.7, "pc_hypre_boomeramg_nodal_coarsen": 6}
 
 
-def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str) -> str:
+#: A body whose largest Poisson ratio is at least this is nearly incompressible for the preconditioners: ILU-GMRES
+#: breaks down (d3/L2 lev 6, 2 ranks, ν = 0.49 and 0.499: DIVERGED_BREAKDOWN after 100 iterations in the first
+#: Newton step) and GAMG needs smoothed aggregation also on hexahedra (ν = 0.49: 11 Newton / 170 Krylov against
+#: 14 / 273 unsmoothed; ν = 0.499: 14 / 493 against 14 / 737; BoomerAMG 12 / 178 and 22 / 855, 10-20x slower).
+NEARLY_INCOMPRESSIBLE_POISSON = 0.48
+
+
+def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str, poisson: float | None = None) -> str:
     """The preconditioner that ``pc = "auto"`` stands for, chosen from the measurements in docs/pc-auto.
 
     GAMG (on A, with the rigid-body near-nullspace) kept every linear solve of every measured case within one
@@ -90,13 +97,15 @@ def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str) -> str:
         n_global: Global number of unknowns (>= 1).
         n_ranks: Number of MPI ranks (>= 1).
         cell_type: The mesh's cell type name (``"hexahedron"``, ``"tetrahedron"``, ...).
+        poisson: The body's largest Poisson ratio when known: GAMG from NEARLY_INCOMPRESSIBLE_POISSON on.
 
     Returns:
         ``"ilu"`` or ``"gamg"``.
     """
     if n_global < 1 or n_ranks < 1:
         raise ValueError(f"choose_preconditioner: n_global = {n_global}, n_ranks = {n_ranks} must be >= 1")
-    if cell_type == "hexahedron" and n_global < AUTO_GAMG_UNKNOWNS and n_ranks <= AUTO_ILU_MAX_RANKS:
+    if cell_type == "hexahedron" and n_global < AUTO_GAMG_UNKNOWNS and n_ranks <= AUTO_ILU_MAX_RANKS and (
+            poisson is None or poisson < NEARLY_INCOMPRESSIBLE_POISSON):
         return "ilu"
     return "gamg"
 
@@ -112,17 +121,18 @@ def auto_ladder(first: str, n_global: int) -> list[str]:
     return [pc for pc in ladder if pc != "lu" or n_global <= AUTO_LU_MAX_UNKNOWNS]
 
 
-def resolve_pc(pc: str, n_global: int, n_ranks: int, cell_type: str) -> str:
+def resolve_pc(pc: str, n_global: int, n_ranks: int, cell_type: str, poisson: float | None = None) -> str:
     """The preconditioner to use: ``auto`` resolved by :func:`choose_preconditioner`."""
-    return pc if pc != "auto" else choose_preconditioner(n_global, n_ranks, cell_type)
+    return pc if pc != "auto" else choose_preconditioner(n_global, n_ranks, cell_type, poisson)
 
 
-def default_options(pc: str, cell_type: str) -> dict[str, object]:
+def default_options(pc: str, cell_type: str, poisson: float | None = None) -> dict[str, object]:
     """Options (without prefix) the preconditioner ``pc`` sets on a mesh of ``cell_type`` unless the user gave
-    them: one Chebyshev sweep per level for GAMG, and unsmoothed aggregation on UNSMOOTHED_CELL_TYPES."""
+    them: one Chebyshev sweep per level for GAMG, and unsmoothed aggregation on UNSMOOTHED_CELL_TYPES unless the
+    body is nearly incompressible (``poisson`` >= NEARLY_INCOMPRESSIBLE_POISSON); BoomerAMG's elasticity options."""
     if pc in ("gamg", "gamg-newton"):
         options: dict[str, object] = {"mg_levels_ksp_max_it": GAMG_SMOOTHER_SWEEPS}
-        if cell_type in UNSMOOTHED_CELL_TYPES:
+        if cell_type in UNSMOOTHED_CELL_TYPES and (poisson is None or poisson < NEARLY_INCOMPRESSIBLE_POISSON):
             options["pc_gamg_agg_nsmooths"] = GAMG_PROLONGATOR_SMOOTHS
         return options
     if pc == "hypre":

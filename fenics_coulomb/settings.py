@@ -76,6 +76,9 @@ class SolverSettings:
             false (the default) leaves them those of A: fewer Krylov iterations (lev 8: 58 instead of 91) but more
             Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md). Needs pc
             "gamg" or "auto" (where it applies when GAMG is chosen) and variant 4a, else an InputError.
+        poisson_ratio: The body's largest Poisson ratio, when known (scenes set it from their materials; the
+            solver never sees a material otherwise): from 0.48 on (nearly incompressible) ``auto`` takes GAMG with
+            smoothed aggregation on every mesh (:data:`~fenics_coulomb.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
     """
 
     variant: str = "4a"
@@ -96,6 +99,7 @@ class SolverSettings:
     no_contact_shortcut: bool = True
     matrix_free: bool = True
     galerkin_coarse: bool = False
+    poisson_ratio: float | None = None
 
     @property
     def reduction(self) -> float:
@@ -128,6 +132,8 @@ class SolverSettings:
                              f"operators), not pc = {self.pc!r} with variant {self.variant!r}")
         if self.gamma is not None and not (_number("gamma", self.gamma) > 0.0):
             raise InputError(f"gamma = {self.gamma!r}: must be finite and > 0")
+        if self.poisson_ratio is not None and not -1.0 < _number("poisson_ratio", self.poisson_ratio) < 0.5:
+            raise InputError(f"poisson_ratio = {self.poisson_ratio!r}: must lie in (-1, 0.5)")
         if self.gamma_node_scale is not None and not _number("gamma_node_scale", self.gamma_node_scale) > 0.0:
             raise InputError(f"gamma_node_scale = {self.gamma_node_scale!r}: must be finite and > 0 (or none)")
         if not _number("gamma_scale", self.gamma_scale) > 0.0:

@@ -165,3 +165,13 @@ def test_bad_pair_input_exits_2_with_one_line(mesh_file, extra, message, capsys)
         assert len(err) == 1 and message in err[0], err
     else:
         assert err == [], err
+
+
+def test_the_header_names_each_pairs_friction(mesh_file, capsys):
+    """The first line of a two-body run gives the pair's own F (0.3), not the scene's default [friction] (0.23)."""
+    scene_path = write_scene(mesh_file.parent / f"header{MPI.COMM_WORLD.size}.toml", mesh_file)
+    out = mesh_file.parent / f"header-out{MPI.COMM_WORLD.size}"
+    assert main(["--scene", str(scene_path), "--out", str(out), "--no-plots"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        header = capsys.readouterr().err.splitlines()[0]
+        assert "pair 1 F = 0.3," in header and "F = 0.23" not in header, header

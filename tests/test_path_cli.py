@@ -130,6 +130,15 @@ def test_steps_one_is_the_static_solve(mpi_tmp_path):
     assert [float(g.find("Time").get("Value")) for g in grids(one)] == [1.0]
 
 
+def test_each_step_shows_its_newton_progress(mpi_tmp_path, capsys):
+    """Without -v a load path prints every solve's Newton lines (its target first), not only one line per step."""
+    assert main(["--lev", "2", "--steps", "2", "--out", str(mpi_tmp_path / "progress"), "--no-plots"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        err = capsys.readouterr().err
+        assert err.count("SCD semismooth* Newton") == 2 and err.count("stops at |y| <=") == 2
+        assert "it   1  |y|/|y0|" in err
+
+
 def test_frictionless_end_does_not_depend_on_the_steps(mpi_tmp_path):
     """F = 0: --steps 3 ends where the static solve is (1e-8); with F > 0 it differs (the load's history)."""
     tight = ("--lev", "2", "--rtol", "1e-12", "--tol", "1e-6", "--no-plots")

@@ -9,6 +9,7 @@ stagnates as well (forced here by a GAMG without coarse levels or smoothing) pas
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from fenics_coulomb.checks import physics_residuals
@@ -25,8 +26,9 @@ def assert_physics(problem, uh):
 
 @pytest.mark.parametrize(("pc", "expected"), [("auto", "gamg"), ("ilu", "ilu")])
 def test_stalled_ilu_falls_back_to_gamg_only_under_auto(problem_factory, pc, expected):
-    problem = problem_factory(lev=2, poisson=0.49, rtol=1e-12, pc=pc, ksp_max_it=4 * AUTO_STALL_ITS,
-                              max_it=30 if pc == "auto" else 3)
+    # poisson_ratio 0.3: the solver is not told that the body is nearly incompressible (an API user's own forms)
+    problem = problem_factory(lev=2, poisson=0.49, poisson_ratio=0.3, rtol=1e-12, pc=pc,
+                              ksp_max_it=4 * AUTO_STALL_ITS, max_it=30 if pc == "auto" else 3)
     try:
         uh, result = problem.solve()
     except Exception as err:  # an explicit ILU may fail; it must not switch preconditioners
@@ -47,7 +49,7 @@ def test_every_stage_of_the_ladder_takes_over_when_the_previous_one_stagnates(pr
     """With ksp_max_it = 2 every stage that needs more than 2 GMRES iterations for tol = 0.1 counts as stagnated:
     ILU (ν = 0.49) → GAMG → BoomerAMG on the explicit Newton matrix (the operator is no longer matrix-free) → LU
     where needed, within the first Newton step, and the solve still converges to the same physics."""
-    problem = problem_factory(lev=2, poisson=0.49, rtol=1e-12, pc="auto", ksp_max_it=2, max_it=60)
+    problem = problem_factory(lev=2, poisson=0.49, poisson_ratio=0.3, rtol=1e-12, pc="auto", ksp_max_it=2, max_it=60)
     uh, result = problem.solve()
     assert result.converged and result.pc in ("hypre", "lu")
     steps = [(h["from"], h["to"]) for h in result.pc_history]
@@ -70,3 +72,20 @@ def test_no_fallback_where_ilu_works(problem_factory):
     problem = problem_factory(lev=3)
     _, result = problem.solve()
     assert result.converged and result.pc == "ilu" and result.pc_history == []
+
+
+@pytest.mark.parametrize("poisson", [0.3, 0.49])
+def test_nearly_incompressible_bodies_get_gamg_with_smoothed_aggregation(problem_factory, poisson):
+    """The scene's material reaches the policy (SolverSettings.poisson_ratio, set by the builder): from ν = 0.48 on
+    pc = auto skips ILU (it breaks down) and GAMG smooths its prolongators also on hexahedra (rows spread over
+    neighbouring aggregates: more than the six rigid-body coefficients)."""
+    from test_solver import finest_prolongator_row_lengths
+
+    problem = problem_factory(lev=3, poisson=poisson)
+    assert problem.settings.poisson_ratio == poisson
+    nearly = poisson >= 0.48
+    assert problem.solver.pc == ("gamg" if nearly else "ilu")
+    _, result = problem.solve()
+    assert result.converged and result.pc_history == []
+    if nearly:
+        assert not np.all(finest_prolongator_row_lengths(problem.solver.ksp.getPC()) <= 6)
