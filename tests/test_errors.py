@@ -247,8 +247,9 @@ def test_no_expression_writes_into_its_inputs(text):
 
 # -- no convergence is exit 3 ---------------------------------------------------------------------------
 def test_unconverged_linear_solve_exits_3(mpi_tmp_path, capsys):
-    """A body without contact nodes is one linear solve; when it fails, the run exits 3 (it exited 0)."""
-    scene = shared_file(mpi_tmp_path / "free.toml", "[body]\nlev = 1\ncontact = []\n")
+    """A body without contact nodes is one linear solve; when it fails, the run exits 3 (it exited 0). (With
+    pc auto a stage that stops short hands the solve to the next, down to LU: an explicit pc fails.)"""
+    scene = shared_file(mpi_tmp_path / "free.toml", "[body]\nlev = 1\ncontact = []\n[solver]\npc = 'ilu'\n")
     out = mpi_tmp_path / "out"
     from petsc4py import PETSc
 
