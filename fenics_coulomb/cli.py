@@ -28,7 +28,7 @@ from fenics_coulomb.builder import build_problem, cuboid_gap
 from fenics_coulomb.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.config import Scene
 from fenics_coulomb.display import virtual_display
-from fenics_coulomb.errors import InputError, SolverError, check_all
+from fenics_coulomb.errors import InputError, Interrupted, OutputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.output import ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.records import SolveResult
@@ -39,6 +39,7 @@ logger = logging.getLogger("fenics_coulomb")
 
 EXIT_INPUT = 2
 EXIT_DIVERGED = 3
+EXIT_OUTPUT = 4
 EXIT_INTERRUPTED = 128  # + the signal number (130 SIGINT, 143 SIGTERM), as a shell reports it
 
 #: Peak memory (summed over ranks) of a cuboid solve: a base per rank plus bytes per unknown. With the
@@ -49,14 +50,6 @@ BYTES_PER_UNKNOWN = 4.2e3
 BYTES_PER_RANK = 150 * 2**20
 #: Largest scene-independent start file read for validation (an XDMF is a few kB of XML).
 MAX_XDMF_BYTES = 16 * 2**20
-
-
-class Interrupted(BaseException):
-    """A termination signal (SIGTERM, SIGHUP) received by this rank; handled like KeyboardInterrupt."""
-
-    def __init__(self, signum: int) -> None:
-        super().__init__(signal.Signals(signum).name)
-        self.signum = signum
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -626,7 +619,7 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
     parser = build_parser(prog)
     args, petsc_args = parser.parse_known_args(argv)
     configure_logging(comm, args.quiet, args.verbose)
-    handlers = _raise_on_termination()
+    handlers = _end_on_signals(comm)
     try:
         set_petsc_options(petsc_args)
         with virtual_display(enabled=not args.no_plots and comm.rank == 0):
@@ -636,6 +629,17 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
             print(f"{prog}: error: {err}", file=sys.stderr, flush=True)
         _finish_together(comm)
         return EXIT_INPUT
+    except OutputError as err:  # raised on every rank together (output.ResultDirectory.writing)
+        if comm.rank == 0:
+            print(f"{prog}: error: {err}", file=sys.stderr, flush=True)
+        _finish_together(comm)
+        return EXIT_OUTPUT
+    except OSError as err:  # a file that failed on this rank alone (e.g. in a collective HDF5 write)
+        print(f"{prog}: error: results could not be written ({err.strerror or err}); the earlier results are kept",
+              file=sys.stderr, flush=True)
+        if comm.size > 1:
+            comm.Abort(EXIT_OUTPUT)
+        return EXIT_OUTPUT
     except (KeyboardInterrupt, Interrupted) as err:  # any rank interrupted ends all ranks, none hangs
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
         print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all "
@@ -658,15 +662,23 @@ def _finish_together(comm: MPI.Comm) -> None:
     comm.Barrier()
 
 
-def _raise_on_termination() -> dict[int, object]:
-    """Turn SIGTERM and SIGHUP into :class:`Interrupted` (SIGINT already raises KeyboardInterrupt), so that
-    the rank aborts the whole MPI job and leaves nothing behind; return the previous handlers."""
+def _end_on_signals(comm: MPI.Comm) -> dict[int, object]:
+    """End the run at once on SIGINT, SIGTERM and SIGHUP: one line on stderr, the partial result set removed, and
+    MPI_Abort with 128 + the signal (every rank ends; the earlier results stay untouched). Aborting from the
+    handler, not by unwinding the stack: the signal may arrive inside a PETSc call (the matrix-free operator's
+    mult runs in Python inside GMRES and a multigrid cycle), after which the PETSc objects are in no state to be
+    destroyed collectively. Returns the previous handlers."""
     def handler(signum: int, frame: object) -> None:
-        raise Interrupted(signum)
+        print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all ranks",
+              file=sys.stderr, flush=True)
+        from fenics_coulomb.output import abandon_results
+
+        abandon_results()
+        comm.Abort(EXIT_INTERRUPTED + signum)
 
     previous: dict[int, object] = {}
     try:
-        for signum in (signal.SIGTERM, signal.SIGHUP):
+        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
             previous[signum] = signal.signal(signum, handler)
     except ValueError:  # not the main thread (e.g. main() called from a worker thread): keep the defaults
         pass

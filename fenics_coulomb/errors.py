@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 from typing import Any
 
 from mpi4py import MPI
@@ -9,6 +10,20 @@ from mpi4py import MPI
 
 class InputError(ValueError):
     """A bad input value (exit status 2 on the command line)."""
+
+
+class OutputError(OSError):
+    """The result set could not be written (disk full, a file-size limit, a name too long, ...): exit status 4 on
+    the command line; an earlier result set in the output directory is kept."""
+
+
+class Interrupted(BaseException):
+    """A termination signal (SIGTERM, SIGHUP) received by this rank; handled like KeyboardInterrupt (exit status
+    128 + the signal number on the command line)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signal.Signals(signum).name)
+        self.signum = signum
 
 
 class SolverError(RuntimeError):

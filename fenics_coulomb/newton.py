@@ -51,7 +51,7 @@ import contextlib
 import logging
 import math
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -383,13 +383,24 @@ class SCDNewtonSolver:
         """One GMRES solve of the Newton system (right-hand side b, solution x) to tolerance eta; its iterations."""
         self._set_tolerance(eta)
         self.x.set(0.0)
+        self._petsc_call(self.step.linear_solve, self.ksp, self.b, self.x)
+        return int(self.ksp.getIterationNumber())
+
+    def _petsc_call(self, call: Callable[..., object], *args: object) -> None:
+        """Run a KSP call with the solver's options. An exception raised by a Python callback inside it — the
+        matrix-free operator's mult, where a SIGINT or SIGTERM (:class:`~fenics_coulomb.errors.Interrupted`) arriving
+        during a linear solve is raised — reaches PETSc only as an error code, and petsc4py keeps it as the cause
+        of the PETSc.Error: it is raised again as itself (the interrupt must end the run, not count as a failed
+        solve that the other ranks would wait on). Any other PETSc error is a failed linear solve (e.g. a
+        -coulomb_ksp_type that cannot do what is asked of it)."""
         try:
             with self.petsc_options():
-                self.step.linear_solve(self.ksp, self.b, self.x)
-        except PETSc.Error as err:  # e.g. a -coulomb_ksp_type that cannot do what is asked of it
+                call(*args)
+        except PETSc.Error as err:
+            if err.__cause__ is not None:
+                raise err.__cause__ from None
             detail = str(err).strip().splitlines()
             raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
-        return int(self.ksp.getIterationNumber())
 
     def _check_linear_solve(self, its: int, du: Array) -> None:
         """Raise SolverError for a failed or non-finite linear solve, or for the KSP_LIMIT_STEPS-th consecutive one
@@ -611,8 +622,7 @@ class SCDNewtonSolver:
         """Solve A x = l̃ (the Newton matrix is A) to the reduction; its iterations."""
         self._set_tolerance(self.settings.reduction)
         self.x.set(0.0)
-        with self.petsc_options():
-            self.ksp.solve(self.model.load, self.x)
+        self._petsc_call(self.ksp.solve, self.model.load, self.x)
         self.ksp.setTolerances(rtol=self.tol)
         return int(self.ksp.getIterationNumber())
 

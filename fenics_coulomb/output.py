@@ -42,14 +42,17 @@ the (shared) geometry and topology data items.
 from __future__ import annotations
 
 import contextlib
+import functools
+import glob
 import json
 import logging
 import os
 import platform
 import shutil
+import socket
 import uuid
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -65,6 +68,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
+from fenics_coulomb.errors import OutputError
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.problem import interpolate_displacement
 from fenics_coulomb.records import SolveResult
@@ -222,6 +226,41 @@ XDMF_CELLS: dict[str, str] = {"hexahedron": "Hexahedron", "tetrahedron": "Tetrah
 
 MESH_GEOMETRY = "/Mesh/mesh/geometry"
 MESH_TOPOLOGY = "/Mesh/mesh/topology"
+
+
+#: Deferred write errors of rank-0-only files, one list per active :meth:`ResultDirectory.writing` (a stack).
+_DEFERRED: list[list[str]] = []
+#: The temporary directories of the result sets being written by this process (:func:`abandon_results`).
+_WRITING: set[Path] = set()
+
+
+def abandon_results() -> None:
+    """Remove the temporary directories of every result set this process is writing (for a run that ends now,
+    e.g. on a signal, without unwinding: the earlier result sets stay untouched)."""
+    for path in list(_WRITING):
+        shutil.rmtree(path, ignore_errors=True)
+        _WRITING.discard(path)
+
+
+def rank0_file(write: Callable[..., None]) -> Callable[..., None]:
+    """Make a writer that writes ``path`` (its first argument) on rank 0 alone safe inside
+    :meth:`ResultDirectory.writing`: an OSError there (disk full, a file-size limit) is kept for the whole set
+    instead of raised on rank 0 alone, which would leave the other ranks waiting in the next collective call; the
+    set then fails on every rank together. Outside a result directory it raises as usual."""
+
+    @functools.wraps(write)
+    def wrapper(path: Path, *args: Any, **kwargs: Any) -> None:
+        if not _DEFERRED:
+            write(path, *args, **kwargs)
+            return
+        if _DEFERRED[-1]:  # an earlier file of the set failed: the set is lost anyway
+            return
+        try:
+            write(path, *args, **kwargs)
+        except OSError as err:
+            _DEFERRED[-1].append(f"{Path(path).name}: {err.strerror or err}")
+
+    return wrapper
 
 
 def _number_type(dtype: np.dtype) -> tuple[str, str]:
@@ -415,10 +454,16 @@ class XDMFTimeSeries:
         series = ET.SubElement(domain, "Grid", Name=self.name, GridType="Collection", CollectionType="Temporal")
         series.extend(self._grids)
         ET.indent(root)
-        tmp = self.path.with_name(f".{self.path.name}.tmp")
-        tmp.write_text('<?xml version="1.0" encoding="utf-8"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
-                       + ET.tostring(root, encoding="unicode") + "\n", encoding="utf-8")
-        os.replace(tmp, self.path)
+        _write_xml(self.path, '<?xml version="1.0" encoding="utf-8"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+                   + ET.tostring(root, encoding="unicode") + "\n")
+
+
+@rank0_file
+def _write_xml(path: Path, text: str) -> None:
+    """Replace ``path`` by ``text`` atomically (rank 0)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
 
 
 def write_xdmf(path: Path, model: ContactModel, result: SolveResult) -> None:
@@ -626,6 +671,7 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
     return data
 
 
+@rank0_file
 def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> None:
     """Per-iteration history as CSV on rank 0: residual, relative residual, step, Krylov, states."""
     if comm.rank != 0:
@@ -642,6 +688,7 @@ def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> No
     path.write_text("\n".join(lines) + "\n")
 
 
+@rank0_file
 def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Comm) -> None:
     """One row per solve of a load path on rank 0 (``steps``: summary.json's "steps"): solve, time (the step
     number), step, substep, load factor, converged, Newton and Krylov iterations, open/stick/slip, the total
@@ -671,6 +718,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
     path.write_text("\n".join(lines) + "\n")
 
 
+@rank0_file
 def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
     """Write the summary as JSON on rank 0."""
     if comm.rank == 0:
@@ -680,6 +728,20 @@ def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
 #: Files of a result set written before the manifest (``summary.json`` "files") existed.
 RESULT_FILES = ("solution.xdmf", "solution.h5", "summary.json", "convergence.csv", "convergence.png",
                 "contact_states.png", "deformed.png", "path.csv", "path.png")
+
+
+def _owner() -> str:
+    """HOST-PID of this process, for the names of temporary result directories."""
+    return f"{socket.gethostname().replace('-', '_')}-{os.getpid()}"
+
+
+def _split_owner(rest: str) -> tuple[str, str]:
+    """(host as :func:`_owner` writes it, pid) of the HOST-PID-RANDOM tail of a temporary result directory's name
+    ("", "" if it has none)."""
+    parts = rest.split("-")
+    if len(parts) != 3:
+        return "", ""
+    return parts[0], parts[1]
 
 
 class ResultDirectory:
@@ -732,38 +794,75 @@ class ResultDirectory:
     def writing(self) -> Iterator[Path]:
         """Yield the temporary directory to write the result set into; commit it on success (collective).
 
-        On an exception the temporary directory is removed by rank 0 (no communication, so that a failure
-        on one rank cannot hang the others) and the exception propagates.
+        The temporary directory is named ``.NAME.partial-HOST-PID-RANDOM`` after rank 0's host and process, so that
+        a later run into the same parent removes what a run that was killed left behind (:meth:`clean_stale`).
+        On an exception (an interrupt included) every rank that sees it removes the temporary directory at once
+        (no communication: the run ends, and a rank waiting for another must not keep it) and the exception
+        propagates. Rank-0-only files that fail (:func:`rank0_file`) fail the set on every rank together:
+        :class:`~fenics_coulomb.errors.OutputError`, one line, with the earlier result set kept.
         """
         tmp = ""
         if self.comm.rank == 0:
-            tmp = str(self.path.parent / f".{self.path.name}.partial-{uuid.uuid4().hex[:12]}")
-            os.mkdir(tmp)
-        tmp_path = Path(self.comm.bcast(tmp, root=0))
+            self.clean_stale()
+            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
+            try:
+                os.mkdir(tmp)
+            except OSError as err:
+                tmp = f"\0{err.strerror or err}"
+        tmp = self.comm.bcast(tmp, root=0)
+        if tmp.startswith("\0"):
+            raise OutputError(f"--out {self.given!r}: the results cannot be written ({tmp[1:]})")
+        tmp_path = Path(tmp)
+        errors: list[str] = []
+        _DEFERRED.append(errors)
+        _WRITING.add(tmp_path)
         try:
             yield tmp_path
         except BaseException:
+            shutil.rmtree(tmp_path, ignore_errors=True)
+            raise
+        finally:
+            _DEFERRED.remove(errors)
+            _WRITING.discard(tmp_path)
+        failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
+        error = None
+        if failed:
+            error = f"results could not be written into {self.given} ({failed[0]}); the earlier results are kept"
             if self.comm.rank == 0:
                 shutil.rmtree(tmp_path, ignore_errors=True)
-            raise
-        self.comm.barrier()
-        error = None
-        if self.comm.rank == 0:
+        elif self.comm.rank == 0:
             try:
                 self._commit(tmp_path)
             except OSError as err:
-                error = f"results could not be moved into {self.given}: {err}"
-                logger.error("fenics-coulomb: %s (the complete set is kept in %s)", error, tmp_path)
+                error = (f"results could not be moved into {self.given}: {err.strerror or err} (the complete set is "
+                         f"kept in {tmp_path})")
         error = self.comm.bcast(error, root=0)
         if error:
-            raise OSError(error)
+            raise OutputError(error)
+
+    def clean_stale(self) -> None:
+        """Remove temporary siblings (``.NAME.partial-*``, ``.NAME.previous-*``) of runs on this host whose
+        process is gone (rank 0 only; no communication)."""
+        host = _owner().rsplit("-", 1)[0]
+        for kind in ("partial", "previous"):
+            prefix = f".{self.path.name}.{kind}-"
+            for entry in self.path.parent.glob(f"{glob.escape(prefix)}*"):
+                owner_host, pid = _split_owner(entry.name[len(prefix):])
+                if owner_host != host or not pid.isdigit() or int(pid) == os.getpid():
+                    continue
+                try:
+                    os.kill(int(pid), 0)
+                except ProcessLookupError:
+                    shutil.rmtree(entry, ignore_errors=True)
+                except OSError:  # alive under another user: not ours to remove
+                    continue
 
     def _commit(self, tmp: Path) -> None:
         """Rename the new set into place; carry over foreign entries of the previous one; drop the rest."""
         if not self.path.exists():
             os.rename(tmp, self.path)
             return
-        previous = self.path.parent / f".{self.path.name}.previous-{uuid.uuid4().hex[:12]}"
+        previous = self.path.parent / f".{self.path.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
         os.rename(self.path, previous)
         os.rename(tmp, self.path)
         ours = set(RESULT_FILES)

@@ -352,5 +352,9 @@ class ContactProblem:
     def __enter__(self) -> ContactProblem:
         return self
 
-    def __exit__(self, *args: object) -> None:
+    def __exit__(self, exc_type: type[BaseException] | None, *args: object) -> None:
+        if exc_type is not None and not issubclass(exc_type, Exception):
+            # KeyboardInterrupt, SIGTERM, SystemExit: the run ends, possibly from inside a PETSc call (the
+            # matrix-free operator's mult), after which destroying the objects collectively can crash or hang
+            return
         self.destroy()

@@ -3,15 +3,23 @@
 Each run is a real ``mpirun -n 2 python3 -m fenics_coulomb`` in its own session; after the signal the test
 waits for mpirun and then looks for any process left in that session (``ps -s``). The same for
 ``container/run`` from the host is tests/host/interrupts.sh (the sandbox cannot start a sandbox).
+
+A signal to a rank (Ctrl-C in a rank's terminal, a batch system's time limit that signals every task) ends the
+job with 128 + the signal on every solver path — the matrix-free operator (its mult runs in Python inside GMRES,
+where the interrupt used to be swallowed as a failed linear solve), GAMG, ILU and a load path — and leaves the
+earlier result set byte for byte and no partial one. A signal to mpirun itself is OpenMPI's to handle: PRRTE
+sends SIGTERM to the ranks (they end with 143) and exits 1 (it does not forward SIGINT/SIGTERM, by design).
 """
 
 from __future__ import annotations
 
+import hashlib
 import os
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -81,3 +89,51 @@ def test_signal_ends_all_ranks(tmp_path, target, signum):
     while (left := _session(proc.pid)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not left, left  # ... and neither it nor a rank is left behind
+
+
+def _digest(directory: Path) -> str:
+    h = hashlib.sha256()
+    for name in sorted(os.listdir(directory)):
+        h.update(name.encode())
+        h.update((directory / name).read_bytes())
+    return h.hexdigest()
+
+
+@pytest.mark.parametrize("path", [
+    ["--lev", "4", "--pc", "none", "--tol", "1e-12"],        # the matrix-free shell, no preconditioner
+    ["--lev", "5", "--pc", "gamg", "--tol", "1e-12"],        # GAMG on A, the shell operator
+    ["--lev", "5", "--pc", "ilu", "--tol", "1e-12"],         # the explicit Newton matrix
+    ["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"],  # a load path
+], ids=["shell", "gamg", "ilu", "load-path"])
+@pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("ranks", signal.SIGTERM)],
+                         ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
+def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
+    out = tmp_path / "out"
+    subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--no-plots",
+                    "--quiet"], env=_env(), check=True)
+    before = _digest(out)
+    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", *path, "--out", str(out), "--no-plots"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
+                            start_new_session=True)
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if line.startswith("it "):
+            break
+    else:
+        pytest.fail(f"the run ended before its first Newton iteration (status {proc.wait()})")
+    ranks = [p for p in _children(proc.pid) if "fenics_coulomb" in open(f"/proc/{p}/cmdline").read()]
+    for rank in ranks[-1:] if target == "rank" else ranks:
+        os.kill(rank, signum)
+    try:
+        rest, _ = proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail(f"{signal.Signals(signum).name} to {target}: the run hung")
+    assert proc.returncode == 128 + signum, rest
+    assert f"interrupted by {signal.Signals(signum).name}" in rest
+    deadline = time.monotonic() + 5.0
+    while (left := _session(proc.pid)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not left, left
+    assert _digest(out) == before  # the earlier result set, byte for byte
+    assert not [p for p in os.listdir(tmp_path) if "partial" in p]
