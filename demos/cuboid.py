@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import sys
 
-from fenics_coulomb.cli import main
+from fenics_coulomb.cli import run_command
 
 # -
 
@@ -80,5 +80,5 @@ if __name__ == "__main__":
         argv = ["--lev", "6", *argv]
     if "--out" not in argv:
         argv = [*argv, "--out", "out/cuboid"]
-    sys.exit(main(argv, prog="demos/cuboid.py"))
+    sys.exit(run_command(argv, prog="demos/cuboid.py"))
 # -

@@ -2,6 +2,6 @@
 
 import sys
 
-from fenics_coulomb.cli import main
+from fenics_coulomb.cli import run_command
 
-sys.exit(main())
+sys.exit(run_command())

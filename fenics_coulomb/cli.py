@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import re
 import signal
 import sys
@@ -656,6 +657,42 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
             signal.signal(signum, handler)
 
 
+def exit_status(status: int, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
+    """The process's exit status for the command ``status`` of :func:`main` (collective; call it once, as the
+    program ends: it finalizes MPI).
+
+    Under mpirun a rank that exits non-zero while others still run makes OpenMPI print a block about "one or more
+    processes exited with non-zero status" after our one-line message, and the PMIx server sometimes a
+    "PMIX ERROR: PMIX_ERR_UNREACH" line. So on a failure every rank synchronizes and finalizes MPI, the other
+    ranks end with 0 and rank 0, a moment later, with the status, which mpirun (and srun: the largest status of
+    its tasks) then reports alone: the launcher stays quiet.
+    """
+    if status == 0 or comm.size == 1:
+        return status
+    import gc
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    comm.Barrier()
+    rank = comm.rank
+    gc.collect()  # PETSc and DOLFINx objects go while PETSc and MPI are still there
+    PETSc._finalize()
+    MPI.Finalize()
+    if rank == 0:
+        time.sleep(QUIET_EXIT_DELAY)
+    os._exit(status if rank == 0 else 0)  # nothing may touch MPI any more (DOLFINx's destructors at shutdown)
+
+
+#: Rank 0 ends this long after the others on a failure (:func:`exit_status`).
+QUIET_EXIT_DELAY = 0.2
+
+
+def run_command(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb") -> int:
+    """The command line as a program: :func:`main`, then :func:`exit_status` (``python3 -m fenics_coulomb``, the
+    ``fenics-coulomb`` script and the demos end through it; tests call :func:`main` in-process)."""
+    return exit_status(main(argv, prog))
+
+
 def _finish_together(comm: MPI.Comm) -> None:
     """Synchronize the ranks before a non-zero exit: mpirun ends the job at the first non-zero exit, and a
     rank that is still starting up or finalizing then prints PMIx errors after the one-line message."""
@@ -774,4 +811,4 @@ def _is_option(token: str) -> bool:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_command())

@@ -722,7 +722,12 @@ class Scene:
         def component(c: Any) -> Any:
             if isinstance(c, str):
                 f = parse_point_expression(c, f"traction expression on {name!r}")
-                return lambda x: s * f(x)
+
+                def scaled(x: Any) -> Any:
+                    return s * f(x)
+
+                scaled.__name__ = c if s == 1.0 else f"{s:g}*({c})"
+                return scaled
             return s * float(c)
 
         return tuple(component(c) for c in value)  # type: ignore[return-value]

@@ -140,6 +140,7 @@ def parse_point_expression(text: str, what: str = "expression") -> Callable[[Arr
             out = _evaluate(tree, {"x1": x[0], "x2": x[1], "x3": x[2]})
         return np.broadcast_to(np.asarray(out, dtype=np.float64), x[0].shape).copy()
 
+    value.__name__ = text.strip()
     return value
 
 

@@ -48,6 +48,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.contact import ContactMap
+from fenics_coulomb.mesh_checks import check_mesh
 from fenics_coulomb.pairing import ContactPair, Pairing, pair_surfaces
 from fenics_coulomb.preconditioner import rigid_body_modes
 from fenics_coulomb.two_body import body_rigid_modes, check_rigid_support, connected_bodies, coupling_matrix
@@ -123,6 +124,7 @@ class ContactModel:
         V = function_space(a)
         msh = V.mesh
         comm = msh.comm
+        check_mesh(msh)
         self.V = V
         self.comm = comm
         self.bcs = list(bcs)

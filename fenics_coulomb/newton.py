@@ -533,8 +533,6 @@ class SCDNewtonSolver:
                 records.append(self.record(len(records) + 1, it, alpha, direction, rule))
         except SolverError as err:
             err.result = self.result(it, history, records, False, err.reason, t_start, rule=rule)
-            if self.comm.rank == 0:
-                logger.error("%s", err)
             raise
         return self.result(it, history, records, True, "converged", t_start, rule=rule)
 

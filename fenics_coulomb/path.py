@@ -37,8 +37,8 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.config import PathStep, Scene
-from fenics_coulomb.errors import SolverError
+from fenics_coulomb.config import MAX_LOAD, PathStep, Scene
+from fenics_coulomb.errors import SolverError, check_all
 from fenics_coulomb.records import SolveResult
 
 logger = logging.getLogger(__name__)
@@ -208,7 +208,28 @@ class StepLoads:
         # keyed by the traction itself (numbers and callables, held by the key): an id() of a state could be
         # reused by a later state once the first is freed, and hand it the first state's field
         self._cache: dict[Traction, npt.NDArray[np.float64]] = {}
+        for state in (initial, *states):  # every expression evaluated and checked before anything is solved
+            for name in fields & set(state.tractions):
+                self._check_field(name, state.tractions[name], self._field(state, name))
         self.apply(initial, initial, 1.0)
+
+    def _check_field(self, name: str, traction: Traction, values: npt.NDArray[np.float64]) -> None:
+        """InputError on every rank unless the traction ``name`` is finite and at most MAX_LOAD at every node of
+        its boundary (collective): an expression that overflows or divides by zero there would give a load of
+        inf or 1e300 that no solver reports (issue 24)."""
+        V = self.V
+        facets = self.facet_tags.find(self.tags[name])
+        blocks = dolfinx.fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facets)
+        blocks = blocks[blocks < V.dofmap.index_map.size_local]
+        at = values.reshape(-1, 3)[blocks]
+        bad = np.flatnonzero(~(np.all(np.isfinite(at), axis=1) & np.all(np.abs(at) <= MAX_LOAD, axis=1)))
+        message = ""
+        if bad.size:
+            x = V.tabulate_dof_coordinates()[blocks[bad[0]]]
+            text = [getattr(c, "__name__", c) if callable(c) else c for c in traction]
+            message = (f"traction on {name!r} = {text}: {at[bad[0]].tolist()} at the boundary node "
+                       f"({', '.join(f'{c:.6g}' for c in x)}) is not finite or exceeds {MAX_LOAD:g} GPa in magnitude")
+        check_all(V.mesh.comm, not message, message)
 
     def form(self, v: ufl.Argument) -> ufl.Form:
         """The load form ∫ f·v dx + Σ ∫ t_b·v ds(b) on the coefficients (built once)."""

@@ -38,6 +38,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
+from fenics_coulomb.checks import physics_failure, physics_residuals
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model import ContactModel, Friction
 from fenics_coulomb.newton import SCDNewtonSolver
@@ -306,18 +307,32 @@ class ContactProblem:
             result = solver.solve_linear()
             if model.p == 0:
                 self._log("no contact boundary: one linear solve")
+                self._verify(result)
                 return self._finish(result, commit=result.converged), result
             if result.converged and solver.is_separated(result):
                 self._log("the linear solution does not reach the obstacle: it is the solution")
+                self._verify(result)
                 return self._finish(result, commit=True), result
             self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
             result = solver.solve(start)
         except SolverError as err:
             if err.result is not None:
+                err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
                 self._finish(err.result)
             raise
+        self._verify(result)
         return self._finish(result, commit=True), result
+
+    def _verify(self, result: SolveResult) -> None:
+        """Let the physics checks decide a converged solve (collective): the residuals are kept in the result,
+        and a failure (:func:`~fenics_coulomb.checks.physics_failure`) makes it a SolverError "physics_check"."""
+        result.checks = physics_residuals(self.model, result.displacement, balance=False)
+        failure = physics_failure(result.checks, result.rtol or self.settings.reduction)
+        if result.converged and failure:
+            result.converged, result.reason = False, "physics_check"
+            self._finish(result)
+            raise SolverError(failure, "physics_check", result)
 
     def _log(self, message: str) -> None:
         if self.model.comm.rank == 0:

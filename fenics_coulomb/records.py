@@ -61,6 +61,8 @@ class SolveResult:
         gamma: γ of the approximation step (off the contact nodes, and the cap of every γᵢ).
         node_gamma: (min, max) over the contact nodes of their γᵢ (see :mod:`fenics_coulomb.newton`).
         rtol: The residual reduction used (``rtol``, or the one ``accuracy`` maps to).
+        checks: The physics residuals of the solution (:func:`fenics_coulomb.checks.physics_residuals`), which
+            decide whether a solve that met its stopping target counts as converged.
         target: The residual norm that ended the iteration, rtol·‖ŷ(ũ = 0)‖ or the round-off floor
             (:mod:`fenics_coulomb.stopping`; 0 for a linear solve).
         timings: Wall time per phase in seconds (this rank).
@@ -101,6 +103,7 @@ class SolveResult:
     node_gamma: tuple[float, float] = (0.0, 0.0)
     rtol: float = 0.0
     target: float = 0.0
+    checks: dict[str, Any] = field(default_factory=dict)
     relative_displacement: Array | None = None
     master_force: Array | None = None
 
@@ -128,6 +131,7 @@ class SolveResult:
             "node_gamma": list(self.node_gamma),
             "rtol": self.rtol,
             "stopping_target": self.target,
+            "physics_checks": dict(self.checks),
             "preconditioner": self.pc,
             "preconditioner_history": [dict(h) for h in self.pc_history],
             "timings_s": timings,

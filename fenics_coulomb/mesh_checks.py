@@ -1,0 +1,96 @@
+r"""Checks of a mesh before anything is assembled on it: finite coordinates, no degenerate or inverted cell.
+
+A zero-volume cell makes the stiffness matrix singular in a way no preconditioner reports (the solve
+"converges" to u = 0 with the equilibrium 87.5 % off, issue 24); a NaN coordinate turns every residual into
+NaN. Both are rejected with an :class:`~fenics_coulomb.errors.InputError` naming the cell (its index in the
+mesh as read, e.g. the gmsh file's order, and its vertices) or the node.
+
+Cell measure. P1 tetrahedra: the signed volume det(x₁ − x₀, x₂ − x₀, x₃ − x₀)/6 — a cell is degenerate when
+|det| <= DEGENERATE·h³ (h its longest edge). Q1 hexahedra (DOLFINx's tensor-product vertex order,
+vertex i at (i & 1, (i >> 1) & 1, (i >> 2) & 1) of the reference cube): the Jacobian determinant of the
+trilinear map at each of the 8 corners, det(∂x/∂ξ, ∂x/∂η, ∂x/∂ζ) with the edge vectors leaving that corner; the
+map is invertible on the cell only if these have one sign (checking the corners is the usual test of mesh
+generators), so a cell is degenerate or inverted when min/max of the 8 determinants (taken with the sign of
+their sum) is <= DEGENERATE·h³ after normalization.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+import dolfinx.mesh
+
+from fenics_coulomb.errors import check_all
+
+__all__ = ["DEGENERATE", "check_mesh"]
+
+#: A cell whose (smallest corner) Jacobian determinant is at most this fraction of h³ is degenerate.
+DEGENERATE = 1e-10
+
+Array = npt.NDArray[np.float64]
+
+
+def _where(x: Array) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
+
+
+def corner_determinants(cell_type: str, X: Array) -> Array:
+    """The Jacobian determinants of each cell's map at its corners, shape (cells, corners), from the vertex
+    coordinates X of shape (cells, vertices, 3) (tetrahedra: one value, the map is affine)."""
+    if cell_type == "tetrahedron":
+        e = X[:, 1:] - X[:, :1]
+        return np.linalg.det(np.swapaxes(e, 1, 2))[:, None]
+    corners = []
+    for i in range(8):
+        a, b, c = i & 1, (i >> 1) & 1, (i >> 2) & 1
+        d_xi = X[:, (1 | (b << 1) | (c << 2))] - X[:, (0 | (b << 1) | (c << 2))]
+        d_eta = X[:, (a | (1 << 1) | (c << 2))] - X[:, (a | (0 << 1) | (c << 2))]
+        d_zeta = X[:, (a | (b << 1) | (1 << 2))] - X[:, (a | (b << 1) | (0 << 2))]
+        corners.append(np.linalg.det(np.stack([d_xi, d_eta, d_zeta], axis=2)))
+    return np.stack(corners, axis=1)
+
+
+def check_mesh(msh: dolfinx.mesh.Mesh) -> None:
+    """InputError on every rank for a non-finite node coordinate or a degenerate or inverted cell (collective;
+    the first by the cells' input index over all ranks is named).
+
+    Raises:
+        InputError: naming the node or the cell (input index and vertices).
+    """
+    comm = msh.comm
+    x = msh.geometry.x
+    bad = np.flatnonzero(~np.all(np.isfinite(x), axis=1))
+    message = ""
+    if bad.size:
+        message = f"the mesh has a node with non-finite coordinates: {_where(x[bad[0]])}"
+    check_all(comm, not message, message)
+    cell_type = msh.topology.cell_name()
+    if cell_type not in ("tetrahedron", "hexahedron"):
+        return
+    num = msh.topology.index_map(msh.topology.dim).size_local
+    dofmap = msh.geometry.dofmap[:num]
+    if dofmap.shape[1] not in (4, 8):  # a higher-order geometry: its cells are not checked here
+        return
+    X = x[dofmap]
+    edges = X[:, :, None, :] - X[:, None, :, :]
+    h = np.sqrt(np.max(np.einsum("cijk,cijk->cij", edges, edges).reshape(num, -1), axis=1, initial=0.0))
+    det = corner_determinants(cell_type, X)
+    if cell_type == "hexahedron":
+        sign = np.where(det.sum(axis=1) < 0.0, -1.0, 1.0)
+        worst = np.min(det * sign[:, None], axis=1)
+    else:
+        worst = np.abs(det[:, 0])
+    failing = np.flatnonzero(~(worst > DEGENERATE * h**3))
+    original = np.asarray(msh.topology.original_cell_index, dtype=np.int64)[:num]
+    found = None
+    if failing.size:
+        i = failing[np.argmin(original[failing])]
+        kind = "zero volume" if cell_type == "tetrahedron" or abs(worst[i]) <= DEGENERATE * h[i] ** 3 else \
+            "an inverted corner (its Jacobian changes sign)"
+        found = (int(original[i]), f"mesh cell {int(original[i])} ({cell_type}, vertices "
+                                   f"{', '.join(_where(v) for v in X[i])}) has {kind}: a degenerate or inverted cell")
+    everyone = [f for f in comm.allgather(found) if f is not None]
+    if everyone:
+        message = min(everyone)[1]
+    check_all(comm, not everyone, message)
