@@ -24,6 +24,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx.fem
+import numpy as np
 
 from fenics_coulomb.builder import build_problem, cuboid_gap
 from fenics_coulomb.checks import boundary_reactions, total_contact_force
@@ -31,6 +32,7 @@ from fenics_coulomb.config import Scene
 from fenics_coulomb.display import virtual_display
 from fenics_coulomb.errors import InputError, Interrupted, OutputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel
+from fenics_coulomb.preconditioner import OPTION_RANGES, check_option_value
 from fenics_coulomb.output import ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.records import SolveResult
 from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES, expected_sizes
@@ -51,6 +53,8 @@ BYTES_PER_UNKNOWN = 4.2e3
 BYTES_PER_RANK = 150 * 2**20
 #: Largest scene-independent start file read for validation (an XDMF is a few kB of XML).
 MAX_XDMF_BYTES = 16 * 2**20
+#: A start file's datasets are checked for non-finite values in blocks of this many rows.
+START_CHECK_ROWS = 1 << 20
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -166,6 +170,8 @@ def configure_logging(comm: MPI.Comm, quiet: bool, verbose: bool) -> None:
 
 def scene_from_args(args: argparse.Namespace) -> Scene:
     """Defaults < scene file < flags; raises InputError naming any bad value (no communication)."""
+    if args.scene is not None and not args.scene.strip():
+        raise InputError(f"--scene {args.scene!r}: give a scene file (TOML), or leave --scene out for the defaults")
     scene = Scene.from_toml(args.scene) if args.scene else Scene()
     return scene.override(
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
@@ -590,7 +596,9 @@ def _start_file_problem(xdmf: Path) -> str:
     if not fields:
         return "no 'displacement' field in the XDMF file"
 
-    def dataset(element: ET.Element) -> tuple[int, ...]:
+    def dataset(element: ET.Element, what: str) -> tuple[int, ...]:
+        """The shape of an element's HDF5 dataset; ValueError naming the first non-finite value in it (read in
+        blocks of rows, so that a large file is not loaded at once)."""
         item = next((el for el in element.iter() if el.tag.rsplit("}", 1)[-1] == "DataItem"), None)
         if item is None or (item.get("Format") or "XML").upper() != "HDF" or not item.text:
             raise ValueError("its data are not stored in HDF5")
@@ -600,12 +608,25 @@ def _start_file_problem(xdmf: Path) -> str:
             data = h5[name]
             if not isinstance(data, h5py.Dataset):
                 raise ValueError(f"{file}:{name} is not a dataset")
+            rows = data.shape[0] if data.ndim else 0
+            for first in range(0, rows, START_CHECK_ROWS):
+                block = np.asarray(data[first:first + START_CHECK_ROWS], dtype=np.float64).reshape(-1, 3) \
+                    if data.ndim == 2 and data.shape[1] == 3 else None
+                if block is None:
+                    break
+                bad = np.flatnonzero(~np.all(np.isfinite(block), axis=1))
+                if bad.size:
+                    raise ValueError(f"{what} of node {first + int(bad[0])} is {block[bad[0]].tolist()}: not finite")
             return tuple(data.shape)
 
     try:
-        points = dataset(geometries[0])
-        values = dataset(fields[0])
-    except (OSError, KeyError, ValueError) as err:
+        points = dataset(geometries[0], "the coordinates")
+        values = dataset(fields[0], "the displacement")
+        for field in fields[1:]:  # a load path's later grids
+            dataset(field, "the displacement")
+    except ValueError as err:
+        return str(err)
+    except (OSError, KeyError) as err:
         return f"the HDF5 data cannot be read ({err})"
     if len(points) != 2 or points[1] != 3 or points[0] == 0:
         return f"the mesh geometry has shape {points}, not (nodes, 3)"
@@ -665,22 +686,22 @@ def exit_status(status: int, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     processes exited with non-zero status" after our one-line message, and the PMIx server sometimes a
     "PMIX ERROR: PMIX_ERR_UNREACH" line. So on a failure every rank synchronizes and finalizes MPI, the other
     ranks end with 0 and rank 0, a moment later, with the status, which mpirun (and srun: the largest status of
-    its tasks) then reports alone: the launcher stays quiet.
+    its tasks) then reports alone: the launcher stays quiet. A failure ends without Python's shutdown (the
+    streams flushed, PETSc and MPI finalized): no destructor runs after MPI or on a file a failed write broke.
     """
-    if status == 0 or comm.size == 1:
+    if status == 0:
         return status
-    import gc
-
     sys.stdout.flush()
     sys.stderr.flush()
     comm.Barrier()
-    rank = comm.rank
-    gc.collect()  # PETSc and DOLFINx objects go while PETSc and MPI are still there
+    rank, size = comm.rank, comm.size
     PETSc._finalize()
     MPI.Finalize()
-    if rank == 0:
+    if rank == 0 and size > 1:
         time.sleep(QUIET_EXIT_DELAY)
-    os._exit(status if rank == 0 else 0)  # nothing may touch MPI any more (DOLFINx's destructors at shutdown)
+    # no destructor may run after MPI (DOLFINx's objects at shutdown), nor one of a file a failed write left
+    # broken (HDF5 crashed closing it at exit)
+    os._exit(status if rank == 0 else 0)
 
 
 #: Rank 0 ends this long after the others on a failure (:func:`exit_status`).
@@ -737,6 +758,8 @@ def set_petsc_options(tokens: list[str]) -> None:
     for key, _ in pairs:
         if not key.startswith("coulomb_"):
             raise InputError(f"unrecognized argument -{key} (PETSc options must carry the prefix -coulomb_)")
+        if key == "coulomb_":
+            raise InputError("PETSc option -coulomb_ has no name after the prefix (e.g. -coulomb_ksp_monitor)")
     for key, value in pairs:
         opts[key] = value
     try:
@@ -772,6 +795,7 @@ def check_petsc_options(prefix: str) -> None:
         ksp.getPC().setType("ilu")
         ksp.setFromOptions()
         ksp.setUp()
+        check_option_values(prefix)
     except PETSc.Error as err:
         given = " ".join(f"-{k} {v}".strip() for k, v in PETSc.Options().getAll().items() if k.startswith(prefix))
         detail = [re.sub(r"^\[\d+\]\s*", "", line.strip()) for line in str(err).splitlines() if line.strip()]
@@ -780,6 +804,15 @@ def check_petsc_options(prefix: str) -> None:
     finally:
         ksp.destroy()
         A.destroy()
+
+
+def check_option_values(prefix: str) -> None:
+    """InputError naming a numeric option of the database (under ``prefix``) whose value is out of its range
+    (:func:`~fenics_coulomb.preconditioner.check_option_value`)."""
+    opts = PETSc.Options()
+    for key in OPTION_RANGES:
+        if opts.hasName(f"{prefix}{key}"):
+            check_option_value(f"{prefix}{key}", opts.getString(f"{prefix}{key}"))
 
 
 def _petsc_pairs(tokens: list[str]) -> list[tuple[str, str]]:

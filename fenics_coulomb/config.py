@@ -484,6 +484,8 @@ class Scene:
             data = tomllib.loads(text)
         except tomllib.TOMLDecodeError as err:
             raise InputError(f"{where} does not parse: {err}") from None
+        except RecursionError:  # tomllib recurses per level of nested arrays or inline tables
+            raise InputError(f"{where} does not parse: its arrays or tables are nested too deeply") from None
         sections: dict[str, Any] = {}
         for section, value in data.items():
             if section not in SECTIONS:

@@ -19,11 +19,13 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+import dolfinx.geometry
 import dolfinx.mesh
+from mpi4py import MPI
 
 from fenics_coulomb.errors import check_all
 
-__all__ = ["DEGENERATE", "check_mesh"]
+__all__ = ["DEGENERATE", "BodyLocator", "check_mesh"]
 
 #: A cell whose (smallest corner) Jacobian determinant is at most this fraction of h³ is degenerate.
 DEGENERATE = 1e-10
@@ -94,3 +96,38 @@ def check_mesh(msh: dolfinx.mesh.Mesh) -> None:
     if everyone:
         message = min(everyone)[1]
     check_all(comm, not everyone, message)
+
+
+class BodyLocator:
+    """Answers "which of these points lie inside the body?" for a mesh (its bounding-box tree, built once; the
+    queries are local to each rank and combined with one allreduce)."""
+
+    def __init__(self, msh: dolfinx.mesh.Mesh) -> None:
+        self.mesh = msh
+        tdim = msh.topology.dim
+        num = msh.topology.index_map(tdim).size_local
+        self.tree = dolfinx.geometry.bb_tree(msh, tdim, np.arange(num, dtype=np.int32))
+        x = msh.geometry.x
+        comm = msh.comm
+        #: The global bounding box of the body (lower, upper corner).
+        self.lo = np.array(x.min(axis=0) if x.size else np.full(3, np.inf), dtype=np.float64)
+        self.hi = np.array(x.max(axis=0) if x.size else np.full(3, -np.inf), dtype=np.float64)
+        comm.Allreduce(MPI.IN_PLACE, self.lo, op=MPI.MIN)
+        comm.Allreduce(MPI.IN_PLACE, self.hi, op=MPI.MAX)
+        edges = x[msh.geometry.dofmap[:num, 1]] - x[msh.geometry.dofmap[:num, 0]] if num else np.zeros((0, 3))
+        shortest = float(np.min(np.linalg.norm(edges, axis=1), initial=np.inf))
+        #: The shortest first edge of any cell: a sampling step that no part of the body is thinner than.
+        self.spacing = comm.allreduce(shortest, op=MPI.MIN)
+
+    def first_inside(self, points: Array) -> int:
+        """The index of the first of ``points`` (the same on every rank) inside the body, or −1 (collective)."""
+        points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        inside = np.zeros(points.shape[0], dtype=np.int32)
+        if points.size:
+            candidates = dolfinx.geometry.compute_collisions_points(self.tree, points)
+            cells = dolfinx.geometry.compute_colliding_cells(self.mesh, candidates, points)
+            inside = (np.diff(cells.offsets) > 0).astype(np.int32)
+        if points.size:
+            self.mesh.comm.Allreduce(MPI.IN_PLACE, inside, op=MPI.MAX)
+        hits = np.flatnonzero(inside)
+        return int(hits[0]) if hits.size else -1

@@ -48,7 +48,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.contact import ContactMap
-from fenics_coulomb.mesh_checks import check_mesh
+from fenics_coulomb.mesh_checks import BodyLocator, check_mesh
 from fenics_coulomb.pairing import ContactPair, Pairing, pair_surfaces
 from fenics_coulomb.preconditioner import rigid_body_modes
 from fenics_coulomb.two_body import body_rigid_modes, check_rigid_support, connected_bodies, coupling_matrix
@@ -58,6 +58,7 @@ from fenics_coulomb.obstacles import (
     Obstacle,
     check_not_overlapping,
     closest_obstacle,
+    core_path,
     local_shift,
     to_global,
 )
@@ -74,8 +75,64 @@ def validate_friction(friction: float) -> None:
         raise InputError(f"friction coefficient F = {friction!r}: must be finite and >= 0")
 
 
+def _cpp(obj: object) -> object:
+    """The C++ object behind a DOLFINx Python wrapper (itself if it is one): identity comparisons of meshes."""
+    return getattr(obj, "_cpp_object", obj)
+
+
+def _same_mesh(mesh: object, msh: dolfinx.mesh.Mesh) -> bool:
+    return _cpp(mesh) is _cpp(msh)
+
+
+def validate_arguments(V: dolfinx.fem.FunctionSpace, L: ufl.Form | None, bcs: Sequence[object],
+                       contact: object, friction: object) -> None:
+    """InputError naming the argument of :class:`ContactModel` that does not belong to V's mesh or has the wrong
+    kind (pure: the same on every rank, before any collective call). A friction Function on another mesh used to
+    end in a segmentation fault; facet tags of another mesh, cell tags, a boundary condition of another space were
+    accepted and built a wrong model."""
+    msh = V.mesh
+    fdim = msh.topology.dim - 1
+    if L is not None:
+        if not isinstance(L, ufl.Form) or len(L.arguments()) != 1:
+            raise InputError(f"L: {type(L).__name__} is not a linear UFL form (or None)")
+        test = L.arguments()[0].ufl_function_space()
+        if not _same_mesh(getattr(test, "mesh", None), msh):
+            raise InputError("L: its test function lives on another mesh than the bilinear form's")
+    for i, bc in enumerate(bcs):
+        if not isinstance(bc, dolfinx.fem.DirichletBC):
+            raise InputError(f"bcs[{i}]: {type(bc).__name__} is not a dolfinx.fem.DirichletBC")
+        space = bc.function_space
+        if not _same_mesh(space.mesh, msh) or space.dofmap.index_map_bs != V.dofmap.index_map_bs or \
+                space.dofmap.index_map.size_global != V.dofmap.index_map.size_global:
+            raise InputError(f"bcs[{i}]: a boundary condition of another function space (give it V or V.sub(i) of "
+                             "the bilinear form's space, not a collapsed or foreign space)")
+    if contact is not None:
+        if not (isinstance(contact, tuple | list) and len(contact) == 2):
+            raise InputError(f"contact = {type(contact).__name__}: give (facet_tags, markers)")
+        tags, markers = contact
+        if not isinstance(tags, dolfinx.mesh.MeshTags):
+            raise InputError(f"contact: {type(tags).__name__} is not dolfinx MeshTags of facets")
+        if tags.dim != fdim:
+            raise InputError(f"contact: mesh tags of dimension {tags.dim} (cells or edges?): the contact boundary "
+                             f"needs facet tags (dimension {fdim})")
+        if _cpp(tags.topology) is not _cpp(msh.topology):
+            raise InputError("contact: the facet tags belong to another mesh than the bilinear form's")
+        values = list(markers) if isinstance(markers, list | tuple | np.ndarray) else [markers]
+        if any(isinstance(m, bool) or not isinstance(m, int | np.integer) for m in values):
+            raise InputError(f"contact: markers {markers!r} must be a list of integer tag values (empty: no contact "
+                             "boundary)")
+    if isinstance(friction, dolfinx.fem.Function):
+        if not _same_mesh(friction.function_space.mesh, msh):
+            raise InputError("friction: the friction Function lives on another mesh than the bilinear form's")
+        if friction.function_space.dofmap.index_map_bs * friction.function_space.dofmap.bs != 1 and \
+                friction.ufl_shape != ():
+            raise InputError("friction: the friction Function must be scalar")
+
+
 def function_space(a: ufl.Form) -> dolfinx.fem.FunctionSpace:
     """The trial space of ``a``; raise InputError unless it is a 3D vector P1/Q1 space."""
+    if not isinstance(a, ufl.Form) or len(a.arguments()) != 2:
+        raise InputError(f"a: {type(a).__name__} is not a bilinear UFL form")
     V = a.arguments()[-1].ufl_function_space()
     if not isinstance(V, dolfinx.fem.FunctionSpace):
         raise InputError("the bilinear form must be defined on a dolfinx.fem.FunctionSpace")
@@ -124,6 +181,7 @@ class ContactModel:
         V = function_space(a)
         msh = V.mesh
         comm = msh.comm
+        validate_arguments(V, L, bcs, contact, friction)
         check_mesh(msh)
         self.V = V
         self.comm = comm
@@ -157,6 +215,12 @@ class ContactModel:
             facet_tags, markers = contact
         self.facet_tags = facet_tags
         self.markers = [int(m) for m in markers]
+        if not pairs:  # a marker no facet carries makes no contact node at all: a typo, not a body without contact
+            counts = comm.allreduce(np.array([facet_tags.find(m).size for m in self.markers], dtype=np.int64),
+                                    op=MPI.SUM)
+            missing = [m for m, c in zip(self.markers, counts, strict=True) if c == 0]
+            check_all(comm, not missing, f"contact: marker {missing[0] if missing else 0} is carried by no facet of "
+                      f"the facet tags (their values: {sorted({int(v) for v in np.unique(facet_tags.values)})})")
         if isinstance(obstacles, Obstacle):
             obstacles = [obstacles]
         self.obstacles: list[Obstacle] = list(obstacles) if obstacles else ([] if pairs else [DEFAULT_PLANE])
@@ -200,6 +264,9 @@ class ContactModel:
             self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
             check_not_overlapping(self.obstacles, self.contact.coordinates, comm=comm)
             self.friction = self._friction_at_contact_nodes(friction)
+        #: Where the body is: rejects obstacles buried in it or moved through it (:meth:`check_motion`).
+        self._locator = BodyLocator(msh) if any(o.core(np.zeros(3), np.ones(3), 2).size
+                                                for o in self.obstacles) else None
         self.shift = self.A.createVecRight()
         self.shift.setOptionsPrefix(f"{prefix}shift_")
         self.rhs = self.A.createVecRight()
@@ -405,6 +472,7 @@ class ContactModel:
             previous_obstacle_displacements: δ_{k−1} per obstacle, shape (number of obstacles, 3); None for 0.
         """
         obstacles = list(obstacles)
+        self.check_motion(obstacles, previous_obstacle_displacements)
         if self.pairing is not None:
             self._place_pairs(obstacles, previous_displacement, previous_obstacle_displacements)
             return
@@ -435,6 +503,35 @@ class ContactModel:
         # l = l̃ + A d (see the module docstring for the derivation).
         self.A.mult(self.shift, self.rhs)
         self.rhs.axpy(1.0, self.load)
+
+    def check_motion(self, obstacles: Sequence[Obstacle], previous_displacements: npt.ArrayLike | None) -> None:
+        """InputError on every rank when an obstacle's core (a sphere's centre, a cylinder's axis) lies inside
+        the body at its placement, or passes through the body on its straight way from the previous placement
+        (``previous_displacements`` per obstacle, None for the scene position) — a buried obstacle, or one
+        moved across the body within one step, which the contact nodes, all on one side, would not see
+        (collective)."""
+        if self._locator is None:
+            return
+        loc = self._locator
+        start = np.zeros((len(obstacles), 3)) if previous_displacements is None else \
+            np.asarray(previous_displacements, dtype=np.float64).reshape(-1, 3)
+        for k, obstacle in enumerate(obstacles):
+            end = np.asarray(obstacle.displacement, dtype=np.float64)
+            points = core_path(obstacle, start[k], end, loc.lo, loc.hi, 0.5 * loc.spacing)
+            if not points.size:
+                continue
+            hit = loc.first_inside(points)
+            if hit < 0:
+                continue
+            core = "centre" if obstacle.kind == "sphere" else "axis"
+            where = "(" + ", ".join(f"{c:.6g}" for c in points[hit]) + ")"
+            if np.any(start[k] != end):
+                what = (f"its {core} would pass through the body at {where} on its way from displacement "
+                        f"{start[k].tolist()} to {end.tolist()}: move it around the body, not through it")
+            else:
+                what = (f"its {core} lies inside the body at {where} (displacement {end.tolist()}): an obstacle "
+                        "buried in the body, or indenting it by more than its radius")
+            raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
 
     def _place_pairs(self, obstacles: list[Obstacle], previous_displacement: npt.NDArray[np.float64] | None,
                      previous_obstacle_displacements: npt.ArrayLike | None) -> None:

@@ -61,7 +61,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.contact_rows import ContactRows
-from fenics_coulomb.errors import SolverError
+from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.forcing import forcing_term, terminal_forcing
 from fenics_coulomb.galerkin import GalerkinCoarsening
 from fenics_coulomb.model import ContactModel
@@ -73,6 +73,7 @@ from fenics_coulomb.preconditioner import (  # noqa: F401  (choose_preconditione
     DETERMINISTIC_PTAP,
     DETERMINISTIC_PTAP_MIN_RANKS,
     auto_ladder,
+    check_option_value,
     choose_preconditioner,
     create_ksp,
     default_options,
@@ -183,6 +184,11 @@ class SCDNewtonSolver:
                                        settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
         self.M = self.operator.M
         self._user_options = dict(petsc_options or {})
+        for key, value in self._user_options.items():
+            if not isinstance(key, str) or not key or key.startswith("-"):
+                raise InputError(f"petsc_options: key {key!r} must be an option name without '-' and prefix, "
+                                 "e.g. 'ksp_monitor'")
+            check_option_value(f"{prefix}{key}", value)
         self._galerkin: GalerkinCoarsening | None = None
         self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.

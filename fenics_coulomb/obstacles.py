@@ -359,6 +359,13 @@ class Obstacle:
         g, n = self._gap_normal(_points(x))
         return g, n, frames_from_normals(n, self._tangent(n))
 
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        """Points deep inside the placed obstacle that must never lie inside the body, shape (k, 3): the sphere's
+        centre, the cylinder's axis across the box [lo, hi] (``samples`` points); none for a plane (a half-space
+        has no core a body could swallow). An obstacle whose core is inside the body is buried in it, or has been
+        moved through it (:func:`core_path`)."""
+        return np.zeros((0, 3))
+
     def closest_point(self, x: npt.ArrayLike) -> Array:
         """The closest point x − g·n on the placed surface, shape (m, 3)."""
         x = _points(x)
@@ -399,6 +406,9 @@ class Sphere(Obstacle):
     keys: ClassVar[tuple[str, ...]] = ("center", "radius")
     position_key: ClassVar[str] = "center"
 
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        return np.asarray(self.placed, dtype=np.float64)[None, :]
+
     def _gap_normal(self, x: Array) -> tuple[Array, Array]:
         c = np.asarray(self.placed)
         d = x - c
@@ -436,6 +446,12 @@ class Cylinder(Obstacle):
 
     def _tangent(self, n: Array) -> Array:
         return np.broadcast_to(np.asarray(self.axis), n.shape).copy()
+
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        p, a = np.asarray(self.placed, dtype=np.float64), np.asarray(self.axis)
+        centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+        s0 = float((centre - p) @ a)  # the axis parameter nearest the box's centre
+        return p + (s0 + np.linspace(-radius, radius, max(samples, 2)))[:, None] * a
 
 
 def _check_name(name: Any, owner: str) -> None:
@@ -522,6 +538,18 @@ def check_not_overlapping(obstacles: Sequence[Obstacle], x: npt.ArrayLike, tol: 
         worst = max(everyone, key=lambda w: w[0]) if everyone else None
     if worst is not None:
         raise InputError(worst[1])
+
+
+def core_path(obstacle: Obstacle, start: npt.ArrayLike, end: npt.ArrayLike, lo: Array, hi: Array,
+              spacing: float, limit: int = 20_000) -> Array:
+    """The cores (:meth:`Obstacle.core`) of ``obstacle`` along its straight motion from displacement ``start`` to
+    ``end``, sampled every ``spacing`` (at most about ``limit`` points), shape (k, 3)."""
+    start, end = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
+    axis_samples = max(2, min(int(np.ceil(np.linalg.norm(hi - lo) / spacing)) + 1, 200))
+    steps = max(1, min(int(np.ceil(np.linalg.norm(end - start) / spacing)), max(1, limit // axis_samples)))
+    points = [obstacle.moved(start + t * (end - start)).core(lo, hi, axis_samples)
+              for t in np.linspace(0.0, 1.0, steps + 1)]
+    return np.concatenate(points) if points else np.zeros((0, 3))
 
 
 def _mpi_max() -> Any:

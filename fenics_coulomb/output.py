@@ -44,12 +44,15 @@ from __future__ import annotations
 import contextlib
 import functools
 import glob
+import io
 import json
 import logging
 import os
 import platform
+import re
 import shutil
 import socket
+import sys
 import uuid
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -258,7 +261,7 @@ def rank0_file(write: Callable[..., None]) -> Callable[..., None]:
         try:
             write(path, *args, **kwargs)
         except OSError as err:
-            _DEFERRED[-1].append(f"{Path(path).name}: {err.strerror or err}")
+            _DEFERRED[-1].append(f"{Path(path).name}: {_io_reason(err)}")
 
     return wrapper
 
@@ -273,6 +276,18 @@ def _number_type(dtype: np.dtype) -> tuple[str, str]:
     if dtype.kind == "u":
         return ("UChar" if dtype.itemsize == 1 else "UInt"), str(dtype.itemsize)
     raise TypeError(f"no XDMF number type for {dtype}")
+
+
+def _io_reason(err: BaseException) -> str:
+    """The reason of a failed write in a few words (HDF5 packs errno and its text into a long message)."""
+    code = getattr(err, "errno", None)
+    if not isinstance(code, int):
+        found = re.search(r"errno = (\d+)", str(err))
+        code = int(found.group(1)) if found else None
+    if isinstance(code, int) and code > 0:
+        return os.strerror(code)
+    lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+    return lines[0] if lines else type(err).__name__
 
 
 def _write_slabs(comm: MPI.Comm, path: Path, slabs: list[tuple[str, np.ndarray, int, int]], create: bool) -> None:
@@ -293,17 +308,36 @@ def _write_slabs(comm: MPI.Comm, path: Path, slabs: list[tuple[str, np.ndarray, 
                 ds[offset : offset + local.shape[0]] = local
         return
     tag = 7301
-    if comm.rank > 0:
-        comm.recv(source=comm.rank - 1, tag=tag)
-    with h5py.File(path, "w" if (create and comm.rank == 0) else "a") as h5:
-        for name, local, rows, offset in slabs:
-            ds = (h5.create_dataset(name, (rows, *local.shape[1:]), dtype=local.dtype) if comm.rank == 0
-                  else h5[name])
-            if local.shape[0]:
-                ds[offset : offset + local.shape[0]] = local
+    # the token carries the first failure (disk full, a file-size limit): the later ranks skip their turn and
+    # every rank raises the same OutputError at the end instead of one rank raising while the others wait
+    failure = comm.recv(source=comm.rank - 1, tag=tag) if comm.rank > 0 else ""
+    if not failure:
+        hook = sys.unraisablehook
+        # a failed write leaves h5py objects whose release fails too ("Exception ignored in ObjectID.__dealloc__" on
+        # stderr, twice): the failure is reported once, in one line
+        sys.unraisablehook = lambda unraisable: None if isinstance(unraisable.exc_value, RuntimeError) else hook(
+            unraisable)
+        def write() -> None:  # the h5py objects live in this frame: released inside the quiet window below
+            with h5py.File(path, "w" if (create and comm.rank == 0) else "a") as h5:
+                for name, local, rows, offset in slabs:
+                    ds = (h5.create_dataset(name, (rows, *local.shape[1:]), dtype=local.dtype) if comm.rank == 0
+                          else h5[name])
+                    if local.shape[0]:
+                        ds[offset : offset + local.shape[0]] = local
+
+        try:
+            with contextlib.redirect_stderr(io.StringIO()):  # Cython prints some of those tracebacks itself
+                try:
+                    write()
+                except (OSError, RuntimeError, ValueError) as err:
+                    failure = f"{path.name}: {_io_reason(err)}"
+        finally:
+            sys.unraisablehook = hook
     if comm.rank < comm.size - 1:
-        comm.send(None, dest=comm.rank + 1, tag=tag)
-    comm.barrier()
+        comm.send(failure, dest=comm.rank + 1, tag=tag)
+    failure = comm.bcast(failure, root=comm.size - 1)
+    if failure:
+        raise OutputError(f"the results could not be written ({failure}); the earlier results are kept")
 
 
 class XDMFTimeSeries:
@@ -763,12 +797,27 @@ class ResultDirectory:
         self.comm = comm
         self.given = str(path)
         final = Path(path)
-        if final.is_symlink():
-            final = Path(os.path.realpath(final))
         self.path = final.absolute()
-        message = self._check() if comm.rank == 0 else ""
+        check_all(comm, not (message := self._check_name()), message)  # pure: every rank, before the file system
+        message = ""
+        if comm.rank == 0:
+            if final.is_symlink():
+                self.path = Path(os.path.realpath(final)).absolute()
+            message = self._check()
         message = comm.bcast(message, root=0)
         check_all(comm, not message, message)
+
+    def _check_name(self) -> str:
+        """"" if every component of the path fits the file system, with room for the temporary directory's tail
+        (the set is written into ".NAME.partial-HOST-PID-RANDOM" first)."""
+        tail = len(f"..partial-{_owner()}-00000000".encode())
+        for i, part in enumerate(self.path.parts):
+            limit = 255 - (tail if i == len(self.path.parts) - 1 else 0)
+            if len(part.encode()) > limit:
+                shown = part if len(part) <= 40 else part[:37] + "..."
+                return (f"--out: the name {shown!r} has {len(part.encode())} bytes; at most {limit} fit a file "
+                        "name here")
+        return ""
 
     def _check(self) -> str:
         prefix = f"--out {self.given!r}"

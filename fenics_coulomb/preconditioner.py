@@ -7,6 +7,7 @@ prefix, so ``-<prefix>ksp_*`` / ``-<prefix>pc_*`` options tune it.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 from mpi4py import MPI
@@ -15,6 +16,8 @@ from petsc4py import PETSc
 import dolfinx
 import dolfinx.la
 import numpy as np
+
+from fenics_coulomb.errors import InputError
 
 #: pc = "auto" (:func:`choose_preconditioner`) takes ILU (the paper's) only on hexahedral meshes below this many
 #: unknowns on at most AUTO_ILU_MAX_RANKS ranks, GAMG everywhere else (docs/pc-auto; docs/ratio, docs/table2:
@@ -78,6 +81,34 @@ HYPRE_ELASTICITY = {"pc_hypre_boomeramg_strong_threshold": 0.7, "pc_hypre_boomer
 #: Newton step) and GAMG needs smoothed aggregation also on hexahedra (ν = 0.49: 11 Newton / 170 Krylov against
 #: 14 / 273 unsmoothed; ν = 0.499: 14 / 493 against 14 / 737; BoomerAMG 12 / 178 and 22 / 855, 10-20x slower).
 NEARLY_INCOMPRESSIBLE_POISSON = 0.48
+
+
+#: Ranges of numeric KSP/PC options that PETSc would take, or silently ignore when negative (a -3 for ksp_max_it
+#: ran with the default): key (without prefix) → (parse, test, what is allowed).
+OPTION_RANGES: dict[str, tuple[Callable[[str], float], Callable[[float], bool], str]] = {
+    "ksp_max_it": (int, lambda v: v >= 1, "an integer >= 1"),
+    "ksp_rtol": (float, lambda v: 0.0 < v < 1.0, "a number in (0, 1)"),
+    "ksp_atol": (float, lambda v: v >= 0.0, "a number >= 0"),
+    "ksp_divtol": (float, lambda v: v > 1.0, "a number > 1"),
+    "ksp_gmres_restart": (int, lambda v: v >= 1, "an integer >= 1"),
+    "mg_levels_ksp_max_it": (int, lambda v: v >= 1, "an integer >= 1"),
+    "pc_gamg_agg_nsmooths": (int, lambda v: v >= 0, "an integer >= 0"),
+    "pc_gamg_threshold": (float, lambda v: -1.0 <= v < 1.0, "a number in [-1, 1)"),
+}
+
+
+def check_option_value(name: str, raw: object) -> None:
+    """InputError unless the option ``name`` (a key of OPTION_RANGES after its prefix) has a value in range."""
+    key = next((k for k in OPTION_RANGES if name.endswith(k)), None)
+    if key is None:
+        return
+    parse, ok, text = OPTION_RANGES[key]
+    try:
+        value = parse(str(raw).strip())
+    except ValueError:
+        raise InputError(f"PETSc option -{name} {raw!r}: must be {text}") from None
+    if not (math.isfinite(value) and ok(value)):
+        raise InputError(f"PETSc option -{name} {raw}: must be {text}")
 
 
 def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str, poisson: float | None = None) -> str:

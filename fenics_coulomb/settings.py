@@ -20,6 +20,18 @@ VARIANTS = ("4a", "4b")
 ERROR_PER_RTOL = 8.0
 
 
+#: Upper bounds of the integer settings: beyond them a run only burns time or memory (a user's typo, e.g. 1e8).
+INTEGER_BOUNDS = {"max_it": 10_000, "power_iterations": 1_000, "gmres_restart": 1_000, "ksp_max_it": 1_000_000,
+                  "line_search_steps": 60}
+INTEGER_REASONS = {
+    "max_it": "the method converges in 5-60 steps on every measured case",
+    "power_iterations": "the estimate of λ_max(A) settles within a few dozen; each costs a product with A",
+    "gmres_restart": "each restart vector is a vector of the mesh's size in memory",
+    "ksp_max_it": "a linear solve that needs more has stagnated",
+    "line_search_steps": "the 60th step length is 1e-56: below every floating-point step",
+}
+
+
 def rtol_for_accuracy(accuracy: float) -> float:
     """The residual reduction that gives a relative displacement error <= ``accuracy`` (the solver's error,
     not the discretization's), from the measured speed–accuracy table docs/tradeoff."""
@@ -142,3 +154,6 @@ class SolverSettings:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise InputError(f"{name} = {value!r}: must be an integer >= 1")
+            if value > INTEGER_BOUNDS[name]:
+                raise InputError(f"{name} = {value!r}: must be at most {INTEGER_BOUNDS[name]} "
+                                 f"({INTEGER_REASONS[name]})")

@@ -1,0 +1,347 @@
+"""Never a wrong answer with exit 0, never a hang, one line for every bad input (issue 24), class by class.
+
+Each test failed on the code before issue 24 (the interrupts of class 1 are in tests/test_interrupts.py). The
+in-process tests run on 1 rank (pytest) and 2 ranks (mpirun -n 2 ... pytest); the subprocess tests start the
+real command.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import resource
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import pytest
+import ufl
+
+from fenics_coulomb import ContactProblem, InputError, SolverError
+from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, EXIT_OUTPUT, main
+from fenics_coulomb.errors import OutputError
+from fenics_coulomb.output import ResultDirectory, _owner
+
+ROOT = Path(__file__).resolve().parents[1]
+PROG = "python3 -m fenics_coulomb: error:"
+
+
+def shared_file(path: Path, content: str) -> Path:
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(content)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def one_line(capsys, *fragments: str) -> str:
+    """Rank 0 printed exactly one line naming every fragment; the other ranks nothing."""
+    lines = capsys.readouterr().err.strip().splitlines()
+    if MPI.COMM_WORLD.rank == 0:
+        assert len(lines) == 1 and lines[0].startswith(PROG), lines
+        for fragment in fragments:
+            assert fragment in lines[0], (fragment, lines)
+        return lines[0]
+    assert lines == [], lines
+    return ""
+
+
+def run(*args: str) -> int:
+    status = main([*args, "--no-plots", "--quiet"])
+    MPI.COMM_WORLD.barrier()
+    return status
+
+
+def _env() -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_", "OMPI_MCA_orte"))}
+    env["PYTHONPATH"] = str(ROOT)
+    return env
+
+
+# -- class 2: wrong answers with exit 0 -----------------------------------------------------------------------
+@pytest.mark.parametrize("expression, shown", [("-1e300*x1", "-1e300*x1"), ("1/0", "inf"), ("0*x1/0", "nan")])
+def test_expression_loads_are_evaluated_and_bounded(mpi_tmp_path, capsys, expression, shown):
+    """A traction expression that overflows or is not finite on its boundary used to give |y0| = inf and
+    "converged: 0 Newton" with a reaction of 1e298 (exit 0); now exit 2 naming the value and the node."""
+    scene = shared_file(mpi_tmp_path / "t.toml", f'[body]\nlev = 1\n[tractions]\ntop = [0, 0, "{expression}"]\n')
+    assert run("--scene", str(scene), "--out", str(mpi_tmp_path / "out")) == EXIT_INPUT
+    one_line(capsys, "traction on 'top'", expression, shown, "boundary node")
+    assert not (mpi_tmp_path / "out").exists()
+
+
+def _box(comm: MPI.Comm, cell: dolfinx.mesh.CellType = dolfinx.mesh.CellType.tetrahedron):
+    msh = dolfinx.mesh.create_box(comm, [np.zeros(3), np.array([1.0, 1.0, 0.5])], [3, 3, 2], cell)
+    msh.topology.create_connectivity(2, 3)
+    return msh
+
+
+def _problem(msh, **kwargs) -> ContactProblem:
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    a = ufl.inner(ufl.sym(ufl.grad(u)), ufl.sym(ufl.grad(v))) * ufl.dx
+    bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0))
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
+    facets = np.concatenate([bottom, top])
+    order = np.argsort(facets)
+    tags = dolfinx.mesh.meshtags(msh, 2, facets[order].astype(np.int32),
+                                 np.concatenate([np.full(bottom.size, 1), np.full(top.size, 2)])[order].astype(np.int32))
+    bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
+    args = dict(a=a, L=None, bcs=[bc], contact=(tags, [1]), friction=0.3)
+    args.update(kwargs)
+    return ContactProblem(args["a"], args["L"], bcs=args["bcs"], contact=args["contact"], friction=args["friction"],
+                          petsc_options_prefix="rel_")
+
+
+@pytest.mark.parametrize("cell", [dolfinx.mesh.CellType.tetrahedron, dolfinx.mesh.CellType.hexahedron])
+def test_zero_volume_cell_is_named_before_assembly(cell):
+    """A zero-volume cell used to solve to u = 0 with the equilibrium 87.5 % off and exit 0."""
+    msh = _box(MPI.COMM_WORLD, cell)
+    if MPI.COMM_WORLD.rank == 0 and msh.topology.index_map(3).size_local:
+        nodes = msh.geometry.dofmap[0]
+        msh.geometry.x[nodes[1]] = msh.geometry.x[nodes[0]]  # collapse an edge of the first cell
+    with pytest.raises(InputError, match=r"mesh cell \d+ \((tetrahedron|hexahedron), vertices .*zero volume"):
+        _problem(msh)
+
+
+def test_non_finite_node_coordinate_is_named():
+    msh = _box(MPI.COMM_WORLD)
+    if MPI.COMM_WORLD.rank == 0:
+        msh.geometry.x[0, 1] = np.nan
+    with pytest.raises(InputError, match="non-finite coordinates"):
+        _problem(msh)
+
+
+def test_the_physics_checks_decide_a_converged_solve(mpi_tmp_path, capsys, monkeypatch):
+    """A solve that met its stopping target but whose solution fails the physics checks is not converged:
+    exit 3 with the check named, summary.json says so."""
+    import fenics_coulomb.problem as problem_module
+
+    real = problem_module.physics_residuals
+
+    def broken(model, displacement, balance=True):
+        checks = real(model, displacement, balance)
+        checks["equilibrium"] = 0.875
+        return checks
+
+    monkeypatch.setattr(problem_module, "physics_residuals", broken)
+    out = mpi_tmp_path / "out"
+    assert run("--lev", "1", "--out", str(out)) == EXIT_DIVERGED
+    summary = json.loads((out / "summary.json").read_text())
+    assert not summary["converged"] and summary["reason"] == "physics_check"
+    assert summary["physics_checks"]["equilibrium"] == 0.875
+
+
+# -- class 3: non-finite input ------------------------------------------------------------------------------
+def test_nan_in_a_start_file_is_named(mpi_tmp_path, capsys):
+    first, second = mpi_tmp_path / "first", mpi_tmp_path / "second"
+    assert run("--lev", "1", "--out", str(first)) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        import h5py
+
+        with h5py.File(first / "solution.h5", "r+") as h5:
+            data = h5["Function/displacement/0"]
+            values = data[:]
+            values[5, 1] = np.nan
+            data[...] = values
+    MPI.COMM_WORLD.barrier()
+    capsys.readouterr()
+    assert run("--lev", "1", "--out", str(second), "--start", str(first / "solution.xdmf")) == EXIT_INPUT
+    one_line(capsys, "--start", "the displacement of node 5", "nan", "not finite")
+    assert not second.exists()
+
+
+# -- class 4: tracebacks ------------------------------------------------------------------------------------
+def test_deeply_nested_toml_is_one_line(mpi_tmp_path, capsys):
+    scene = shared_file(mpi_tmp_path / "deep.toml", "a = " + "[" * 3000 + "]" * 3000 + "\n")
+    assert run("--scene", str(scene), "--out", str(mpi_tmp_path / "o")) == EXIT_INPUT
+    one_line(capsys, "nested too deeply")
+
+
+def test_an_output_name_too_long_is_one_line(mpi_tmp_path, capsys):
+    assert run("--lev", "0", "--out", str(mpi_tmp_path / ("a" * 300))) == EXIT_INPUT
+    one_line(capsys, "--out", "300 bytes")
+
+
+@pytest.mark.serial
+def test_a_file_size_limit_while_writing_is_exit_4_in_one_line(tmp_path):
+    """RLIMIT_FSIZE stops the HDF5 write (it used to end in an h5py traceback, and at exit in a crash of HDF5
+    closing the broken file): exit 4, one line, the earlier result set byte for byte, no partial set."""
+    out = tmp_path / "out"
+    subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--quiet",
+                    "--no-plots"], env=_env(), check=True)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def limit() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (1_000_000, 1_000_000))
+
+    env = dict(_env(), OMPI_MCA_btl="self")  # no shared-memory segment, which the limit would refuse as well
+    proc = subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "6", "--out", str(out), "--quiet",
+                           "--no-plots"], env=env, capture_output=True, text=True, preexec_fn=limit, timeout=300)
+    assert proc.returncode == EXIT_OUTPUT, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "File too large" in lines[0] and "earlier results are kept" in lines[0], lines
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]
+
+
+def test_a_file_that_fails_on_rank_0_alone_fails_the_set_on_every_rank(mpi_tmp_path, capsys, monkeypatch):
+    """summary.json is written by rank 0 alone: a full disk there used to raise on rank 0 while the others waited
+    in the next collective call. Now every rank ends with exit 4 and one line, and the earlier set stays."""
+    import fenics_coulomb.output as output
+
+    out = mpi_tmp_path / "out"
+    assert run("--lev", "0", "--out", str(out)) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()} if MPI.COMM_WORLD.rank == 0 else None
+
+    class FullDisk:  # the output module's json, whose dumps (summary.json, rank 0) meets a full disk
+        loads = staticmethod(json.loads)
+
+        @staticmethod
+        def dumps(*args, **kwargs):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(output, "json", FullDisk)
+    capsys.readouterr()
+    assert run("--lev", "1", "--out", str(out)) == EXIT_OUTPUT
+    one_line(capsys, "summary.json: No space left on device", "earlier results are kept")
+    if MPI.COMM_WORLD.rank == 0:
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+        assert [p.name for p in mpi_tmp_path.iterdir()] == ["out"]
+
+
+# -- class 5: leftovers -------------------------------------------------------------------------------------
+def test_the_next_run_removes_what_a_killed_run_left(mpi_tmp_path):
+    """A run killed while writing leaves .NAME.partial-HOST-PID-*: the next run into the same parent removes it
+    when its process is gone, and leaves the one of a live process alone."""
+    host = _owner().rsplit("-", 1)[0]
+    dead = 2**22 + 12345
+    while True:
+        try:
+            os.kill(dead, 0)
+            dead += 1
+        except ProcessLookupError:
+            break
+    stale = mpi_tmp_path / f".out.partial-{host}-{dead}-deadbeef"
+    alive = mpi_tmp_path / f".out.partial-{host}-{os.getppid()}-cafecafe"
+    if MPI.COMM_WORLD.rank == 0:
+        stale.mkdir()
+        (stale / "solution.h5").write_bytes(b"half")
+        alive.mkdir()
+    MPI.COMM_WORLD.barrier()
+    assert run("--lev", "0", "--out", str(mpi_tmp_path / "out")) == 0
+    assert not stale.exists() and alive.exists()
+
+
+# -- class 6: nonsense accepted ------------------------------------------------------------------------------
+@pytest.mark.parametrize("obstacle, fragment", [
+    ('type = "sphere"\ncenter = [1.0, 0.5, 0.5]\nradius = 0.1', "lies inside the body"),
+    ('type = "cylinder"\npoint = [1.0, 0.5, 1.5]\naxis = [0, 1, 0]\nradius = 0.5\ndisplacement = [0, 0, -2.0]',
+     "would pass through the body"),
+])
+def test_buried_or_teleported_obstacles_are_rejected(mpi_tmp_path, capsys, obstacle, fragment):
+    """A sphere buried inside the body (every node open, exit 0) and a cylinder moved across a plate within one
+    step (ending on the far side: u = 0, exit 0) are rejected with exit 2."""
+    scene = shared_file(mpi_tmp_path / "o.toml", "[body]\nlev = 2\ngap = '0.0*x1'\nclamped = ['bottom']\n"
+                        f"contact = ['top']\n[tractions]\n[[obstacle]]\n{obstacle}\n[solver]\nstart = 'undeformed'\n")
+    assert run("--scene", str(scene), "--out", str(mpi_tmp_path / "o")) == EXIT_INPUT
+    one_line(capsys, "obstacle 1", fragment)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["-coulomb_ksp_max_it", "-3"], "-coulomb_ksp_max_it -3: must be an integer >= 1"),
+    (["-coulomb_ksp_rtol", "-1"], "-coulomb_ksp_rtol -1: must be a number in (0, 1)"),
+    (["-coulomb_"], "has no name after the prefix"),
+    (["--scene", ""], "--scene '': give a scene file"),
+])
+def test_nonsense_options_exit_2(mpi_tmp_path, capsys, args, fragment):
+    assert run("--lev", "0", "--out", str(mpi_tmp_path / "n"), *args) == EXIT_INPUT
+    one_line(capsys, fragment)
+    for key in ("coulomb_ksp_max_it", "coulomb_ksp_rtol"):
+        PETSc.Options().delValue(key)
+
+
+def test_unbounded_integer_settings_exit_2(mpi_tmp_path, capsys):
+    scene = shared_file(mpi_tmp_path / "p.toml", "[solver]\npower_iterations = 100000000\n")
+    assert run("--scene", str(scene), "--out", str(mpi_tmp_path / "p")) == EXIT_INPUT
+    one_line(capsys, "power_iterations = 100000000: must be at most 1000")
+
+
+def test_petsc_options_of_the_api_are_checked():
+    with pytest.raises(InputError, match="ksp_max_it -3"):
+        _problem_with_options({"ksp_max_it": -3})
+    with pytest.raises(InputError, match="without '-'"):
+        _problem_with_options({"-ksp_monitor": ""})
+
+
+def _problem_with_options(options: dict) -> None:
+    msh = _box(MPI.COMM_WORLD)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(bottom).astype(np.int32), np.full(bottom.size, 1, np.int32))
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
+    bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
+    ContactProblem(ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx, None, [bc], (tags, [1]),
+                   petsc_options_prefix="opts_", petsc_options=options).destroy()
+
+
+# -- class 7: API misuse ------------------------------------------------------------------------------------
+def test_api_arguments_are_validated():
+    """Each used to crash (a friction Function on another mesh: SIGSEGV) or build a wrong model silently."""
+    comm = MPI.COMM_WORLD
+    msh, other = _box(comm), _box(comm)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    problem = _problem(msh)
+    tags, markers = problem.model.facet_tags, problem.model.markers
+    problem.destroy()
+    foreign = dolfinx.fem.Function(dolfinx.fem.functionspace(other, ("Lagrange", 1)))
+    with pytest.raises(InputError, match="friction: the friction Function lives on another mesh"):
+        _problem(msh, friction=foreign)
+    V_other = dolfinx.fem.functionspace(other, ("Lagrange", 1, (3,)))
+    other_tags = _problem(other).model.facet_tags
+    with pytest.raises(InputError, match="contact: the facet tags belong to another mesh"):
+        _problem(msh, contact=(other_tags, [1]))
+    cells = dolfinx.mesh.meshtags(msh, 3, np.arange(msh.topology.index_map(3).size_local, dtype=np.int32),
+                                  np.ones(msh.topology.index_map(3).size_local, dtype=np.int32))
+    with pytest.raises(InputError, match="dimension 3"):
+        _problem(msh, contact=(cells, [1]))
+    collapsed, _ = V.sub(0).collapse()
+    bc = dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), np.zeros(1, dtype=np.int32), collapsed)
+    with pytest.raises(InputError, match=r"bcs\[0\]: a boundary condition of another function space"):
+        _problem(msh, bcs=[bc])
+    bc_other = dolfinx.fem.dirichletbc(np.zeros(3), np.zeros(1, dtype=np.int32), V_other)
+    with pytest.raises(InputError, match=r"bcs\[0\]"):
+        _problem(msh, bcs=[bc_other])
+    with pytest.raises(InputError, match="marker 9 is carried by no facet"):
+        _problem(msh, contact=(tags, [9]))
+    with pytest.raises(InputError, match="markers"):
+        _problem(msh, contact=(tags, ["top"]))
+    with pytest.raises(InputError, match=r"bcs\[0\]: int is not a dolfinx.fem.DirichletBC"):
+        _problem(msh, bcs=[1])
+    with pytest.raises(InputError, match="a: NoneType is not a bilinear UFL form"):
+        _problem(msh, a=None)
+    assert markers == [1]
+
+
+# -- class 8: the launcher stays quiet ---------------------------------------------------------------------
+@pytest.mark.serial
+def test_mpirun_prints_only_our_line_on_bad_input(tmp_path):
+    """OpenMPI printed its "exited with non-zero status" block (and sometimes a PMIX_ERR_UNREACH line) after our
+    line whenever rank 0 ended non-zero: the ranks now finalize together, the others end 0 and rank 0 alone with
+    the status."""
+    for args in (["--lev", "-1"], ["--lev", "0", "-coulomb_ksp_rtol", "2"], ["--scene", str(tmp_path / "none.toml")]):
+        proc = subprocess.run(["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", *args, "--out",
+                               str(tmp_path / "o")], capture_output=True, text=True, env=_env(), cwd=tmp_path,
+                              timeout=120)
+        assert proc.returncode == EXIT_INPUT, proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1 and proc.stderr.startswith(PROG), proc.stderr
