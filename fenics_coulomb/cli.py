@@ -1,8 +1,11 @@
 """Command line: ``python3 -m fenics_coulomb [flags]`` (runs unchanged under ``mpirun -n N``).
 
-Exit status: 0 solved, 2 bad input (one line naming the value, on every rank, before any collective
-call), 3 no convergence (the last iterate and the history are still written), 130/143 interrupted by
-SIGINT/SIGTERM (every rank ends: the interrupted rank aborts the MPI job), 1 an unexpected error.
+Exit status (:data:`EXIT_STATUSES`, also in ``--help``): 0 solved, the physics checks passed; 2 bad input (one
+line naming the value, on every rank, before any collective call where the value is known before the mesh);
+3 no convergence, or a solution that fails the physics checks (the last iterate and the history are written);
+4 the results could not be written (disk full, a file-size limit; one line, the earlier results kept);
+128 + signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP) interrupted: every rank ends, the earlier results are kept and
+no partial set is left; 1 an unexpected error (a bug: with a traceback).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ import os
 import re
 import signal
 import sys
+import textwrap
 import time
 import traceback
 import xml.etree.ElementTree as ET
@@ -33,7 +37,7 @@ from fenics_coulomb.display import virtual_display
 from fenics_coulomb.errors import InputError, Interrupted, OutputError, SolverError, check_all
 from fenics_coulomb.model import ContactModel
 from fenics_coulomb.preconditioner import OPTION_RANGES, check_option_value
-from fenics_coulomb.output import ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
+from fenics_coulomb.output import FAILED_SUFFIX, ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
 from fenics_coulomb.records import SolveResult
 from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES, expected_sizes
 from fenics_coulomb.settings import PRECONDITIONERS
@@ -44,6 +48,17 @@ EXIT_INPUT = 2
 EXIT_DIVERGED = 3
 EXIT_OUTPUT = 4
 EXIT_INTERRUPTED = 128  # + the signal number (130 SIGINT, 143 SIGTERM), as a shell reports it
+#: What each exit status guarantees (the --help epilog and the README's table).
+EXIT_STATUSES = {
+    0: "solved: converged and the physics checks passed (summary.json physics_checks)",
+    2: "bad input: one line naming the value; nothing was solved or written",
+    3: "not converged, or the physics checks failed: the last iterate and the history are written (beside an "
+       "earlier converged set in OUT, into OUT.not-converged)",
+    4: "the results could not be written (disk full, a size limit): one line; the earlier results are kept",
+    130: "interrupted (128 + the signal: 143 SIGTERM, 129 SIGHUP): every rank ended; the earlier results are "
+         "kept, no partial set is left",
+    1: "an unexpected error (a bug; it prints a traceback): please report it",
+}
 
 #: Peak memory (summed over ranks) of a cuboid solve: a base per rank plus bytes per unknown. With the
 #: matrix-free Newton operator the measured peak RSS (docs/scale/idle-2026-11-23-2ranks-default-ptap, d3/L2,
@@ -94,10 +109,18 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     d = Scene()
     p = ArgumentParser(
         prog=prog,
-        description="3D static contact of a linear-elastic body with a rigid plane under Coulomb friction, "
-        "solved by the SCD semismooth* Newton method (DOLFINx/PETSc, MPI-parallel).",
-        epilog="Flags override the scene file's values. PETSc options for the Newton system can be appended "
-        "with the prefix -coulomb_, e.g. -coulomb_ksp_monitor -coulomb_pc_type gamg.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=textwrap.fill(
+            "3D contact of linear-elastic bodies with rigid obstacles (planes, spheres, cylinders) and with each "
+            "other (contact pairs) under Coulomb friction, static or along a quasi-static load path, solved by the "
+            "SCD semismooth* Newton method (DOLFINx/PETSc, MPI-parallel). Without --scene: the paper's cuboid on "
+            "the plane x3 = 0 (Section 7); a scene file (TOML) describes any body, obstacles, contact pairs, loads "
+            "and load paths (README, demos/scenes/).", 100),
+        epilog=textwrap.fill("Flags override the scene file's values. PETSc options for the Newton system can be "
+                             "appended with the prefix -coulomb_, e.g. -coulomb_ksp_monitor -coulomb_pc_type gamg.",
+                             100) + "\n\nexit status:\n"
+        + "\n".join(textwrap.fill(text, 100, initial_indent=f"  {code:<5}", subsequent_indent=" " * 7)
+                    for code, text in EXIT_STATUSES.items()),
     )
     p.add_argument("--scene", default=None, help="scene file (TOML), e.g. demos/scenes/d3_L2.toml")
     p.add_argument("--lev", type=int, help=f"discretization level of the cuboid (>= 0; default {d.body.lev})")
@@ -306,6 +329,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             status = EXIT_DIVERGED
             logger.error("fenics-coulomb: the solve did not converge: %s", result.reason)
         t_write = time.perf_counter()
+        out.failed = status != 0
         with out.writing() as tmp:
             files = write_results(tmp, model, result, scene.label, plots=not args.no_plots)
             data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
@@ -317,6 +341,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
                               "krylov_iterations": [r.krylov_iterations for r in coarse.results] if coarse else []}
             data["reactions"] = boundary_reactions(model, result.displacement, built.dirichlet_groups or {})
             data["contact_force"] = total_contact_force(model, result.contact_force)
+            data["applied_load"] = [float(c) for c in model.total_load()]
             data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
             data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
             data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
@@ -328,7 +353,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
-            f"{data['wall_time_s']:.2f} s; results in {args.out}/ ({', '.join(data['files'])})",
+            f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
             flush=True,
         )
         print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
@@ -432,6 +457,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 records, result, failure = run_path(problem, built.loads, todo, labels,
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
+                out.failed = bool(failure)
                 t = time.perf_counter()
                 steps = [r.as_dict() for r in records]
                 write_convergence_csv(tmp / "convergence.csv", result, comm)
@@ -473,7 +499,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
         print(f"{'load path completed' if not failure else 'load path STOPPED at step ' + format(records[-1].time, 'g')}: "
               f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
               f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
-              f"{args.out}/ ({', '.join(data['files'])})", flush=True)
+              f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
         print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
               + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
     return status
@@ -494,6 +520,12 @@ def write_results(directory: Path, model: ContactModel, result: SolveResult, lab
 
         files += write_figures(directory, model, result, label)
     return files
+
+
+def _shown(out: ResultDirectory) -> str:
+    """Where the results went, as the user named it (or the not-converged sibling of an earlier solution)."""
+    return out.given if out.committed == out.path else f"{out.given}{FAILED_SUFFIX} (the earlier solution in " \
+        f"{out.given} is kept)"
 
 
 def friction_text(scene: Scene) -> str:
@@ -642,8 +674,9 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
     args, petsc_args = parser.parse_known_args(argv)
     configure_logging(comm, args.quiet, args.verbose)
     handlers = _end_on_signals(comm)
+    given: list[str] = []
     try:
-        set_petsc_options(petsc_args)
+        given = set_petsc_options(petsc_args)
         with virtual_display(enabled=not args.no_plots and comm.rank == 0):
             return run(args, comm)
     except InputError as err:
@@ -676,6 +709,9 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
     finally:
         for signum, handler in handlers.items():
             signal.signal(signum, handler)
+        options = PETSc.Options()
+        for key in given:  # the command's PETSc options end with it (main may be called again in-process)
+            options.delValue(key)
 
 
 def exit_status(status: int, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
@@ -743,13 +779,16 @@ def _end_on_signals(comm: MPI.Comm) -> dict[int, object]:
     return previous
 
 
-def set_petsc_options(tokens: list[str]) -> None:
+def set_petsc_options(tokens: list[str]) -> list[str]:
     """Put ``-coulomb_*`` options from the command line into PETSc's options database and check them.
 
     Only prefixed options are accepted, so nothing outside fenics-coulomb's objects is changed. The options
     are tried on a small KSP set up as the solver's (GMRES, right preconditioning, unpreconditioned norm) on
     this rank alone (no communication): an option PETSc refuses (an unknown KSP or PC type, a norm the KSP
     cannot monitor, a missing factorization package) is an InputError; the options are then removed again.
+
+    Returns:
+        The option names set (``main`` removes them when it returns, so a second in-process call starts clean).
     """
     from petsc4py import PETSc
 
@@ -768,6 +807,7 @@ def set_petsc_options(tokens: list[str]) -> None:
         for key, _ in pairs:
             opts.delValue(key)
         raise
+    return [key for key, _ in pairs]
 
 
 def check_petsc_options(prefix: str) -> None:

@@ -778,9 +778,15 @@ def _split_owner(rest: str) -> tuple[str, str]:
     return parts[0], parts[1]
 
 
+#: A run that did not converge writes its set here, beside the output directory, when that holds a converged set.
+FAILED_SUFFIX = ".not-converged"
+
+
 class ResultDirectory:
     """The result set of a run, written as a whole: into a temporary sibling of the output directory, then
     renamed into place (MPI-aware: rank 0 checks and renames, every rank writes into the temporary directory).
+    A run that did not converge (``failed``) never replaces a converged set: it goes to ``NAME.not-converged``
+    beside it.
 
     Until :meth:`writing` commits, an existing result set stays untouched; if writing fails the temporary
     directory is removed. The output directory belongs to the run: an existing one is replaced as a whole,
@@ -789,6 +795,8 @@ class ResultDirectory:
     """
 
     MANIFEST = "summary.json"
+    #: Set by the caller before the set is committed: the run did not converge (:meth:`writing`).
+    failed: bool = False
 
     def __init__(self, comm: MPI.Comm, path: str | Path) -> None:
         """Check that the result set can be written to ``path`` (collective; InputError on every rank)."""
@@ -798,6 +806,9 @@ class ResultDirectory:
         self.given = str(path)
         final = Path(path)
         self.path = final.absolute()
+        #: Where the last set went (:meth:`writing`): the output directory, or for a failed run beside an earlier
+        #: converged set, ``NAME.not-converged``.
+        self.committed = self.path
         check_all(comm, not (message := self._check_name()), message)  # pure: every rank, before the file system
         message = ""
         if comm.rank == 0:
@@ -880,14 +891,25 @@ class ResultDirectory:
             if self.comm.rank == 0:
                 shutil.rmtree(tmp_path, ignore_errors=True)
         elif self.comm.rank == 0:
+            target = self.path
+            if self.failed and self._holds_converged_set():  # a failed run never replaces a solution
+                target = self.path.with_name(f"{self.path.name}{FAILED_SUFFIX}")
             try:
-                self._commit(tmp_path)
+                self._commit(tmp_path, target)
+                self.committed = target
             except OSError as err:
-                error = (f"results could not be moved into {self.given}: {err.strerror or err} (the complete set is "
+                error = (f"results could not be moved into {target}: {err.strerror or err} (the complete set is "
                          f"kept in {tmp_path})")
-        error = self.comm.bcast(error, root=0)
+        error, self.committed = self.comm.bcast((error, self.committed), root=0)
         if error:
             raise OutputError(error)
+
+    def _holds_converged_set(self) -> bool:
+        """Whether the output directory holds the result set of a run that converged (rank 0)."""
+        try:
+            return bool(json.loads((self.path / self.MANIFEST).read_text()).get("converged"))
+        except (OSError, ValueError, AttributeError):
+            return False
 
     def clean_stale(self) -> None:
         """Remove temporary siblings (``.NAME.partial-*``, ``.NAME.previous-*``) of runs on this host whose
@@ -906,18 +928,18 @@ class ResultDirectory:
                 except OSError:  # alive under another user: not ours to remove
                     continue
 
-    def _commit(self, tmp: Path) -> None:
-        """Rename the new set into place; carry over foreign entries of the previous one; drop the rest."""
-        if not self.path.exists():
-            os.rename(tmp, self.path)
+    def _commit(self, tmp: Path, target: Path) -> None:
+        """Rename the new set to ``target``; carry over foreign entries of the previous one; drop the rest."""
+        if not target.exists():
+            os.rename(tmp, target)
             return
-        previous = self.path.parent / f".{self.path.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
-        os.rename(self.path, previous)
-        os.rename(tmp, self.path)
+        previous = target.parent / f".{target.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
+        os.rename(target, previous)
+        os.rename(tmp, target)
         ours = set(RESULT_FILES)
         with contextlib.suppress(OSError, ValueError, TypeError):
             ours |= set(json.loads((previous / self.MANIFEST).read_text()).get("files", []))
         for entry in previous.iterdir():
-            if entry.name not in ours and not (self.path / entry.name).exists():
-                os.rename(entry, self.path / entry.name)
+            if entry.name not in ours and not (target / entry.name).exists():
+                os.rename(entry, target / entry.name)
         shutil.rmtree(previous, ignore_errors=True)

@@ -266,8 +266,15 @@ def test_buried_or_teleported_obstacles_are_rejected(mpi_tmp_path, capsys, obsta
 def test_nonsense_options_exit_2(mpi_tmp_path, capsys, args, fragment):
     assert run("--lev", "0", "--out", str(mpi_tmp_path / "n"), *args) == EXIT_INPUT
     one_line(capsys, fragment)
-    for key in ("coulomb_ksp_max_it", "coulomb_ksp_rtol"):
-        PETSc.Options().delValue(key)
+    assert not [k for k in PETSc.Options().getAll() if k.startswith("coulomb_")]
+
+
+def test_the_command_line_petsc_options_end_with_the_command(mpi_tmp_path):
+    """main() in-process (the API user's or a notebook's second call) used to leave -coulomb_pc_type jacobi in
+    PETSc's database, which the next problem with the prefix coulomb_ then silently used."""
+    assert run("--lev", "0", "--out", str(mpi_tmp_path / "o"), "-coulomb_pc_type", "jacobi",
+               "-coulomb_ksp_gmres_restart", "50") == 0
+    assert not [k for k in PETSc.Options().getAll() if k.startswith("coulomb_")]
 
 
 def test_unbounded_integer_settings_exit_2(mpi_tmp_path, capsys):
