@@ -16,9 +16,9 @@ import dolfinx.fem
 import numpy as np
 
 from fenics_coulomb import ContactProblem, SolverError, SolveResult, SolverSettings
-from fenics_coulomb.builder import build_problem
-from fenics_coulomb.config import Scene
-from fenics_coulomb.output import software_versions
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.io.summary import software_versions
 
 CASES = [(g, ld) for g in ("d1", "d2", "d3") for ld in ("L1", "L2")]
 

@@ -26,11 +26,12 @@ from petsc4py import PETSc
 import dolfinx.fem
 import dolfinx.io
 
-from fenics_coulomb.builder import build_body, clamp, isotropic_forms
-from fenics_coulomb.config import Scene
-from fenics_coulomb.model import ContactModel
-from fenics_coulomb.output import displacement_function, software_versions
-from fenics_coulomb.preconditioner import rigid_body_modes
+from fenics_coulomb.scenes.builder import build_body, clamp, isotropic_forms
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.io.xdmf import displacement_function
+from fenics_coulomb.io.summary import software_versions
+from fenics_coulomb.model.nullspace import rigid_body_modes
 
 PREFIX = "elastic_"
 RTOL = 1e-8

@@ -20,9 +20,9 @@ import dolfinx.fem
 import numpy as np
 from common import norm, write_table
 
-from fenics_coulomb.builder import build_problem
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import SolverError
 
 CHECKS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",

@@ -14,7 +14,7 @@ from mpi4py import MPI
 import numpy as np
 from common import CASES, run_case
 
-from fenics_coulomb.figures import STATE_COLOURS, gather_contact
+from fenics_coulomb.io.figures import STATE_COLOURS, gather_contact
 from fenics_coulomb.settings import SolverSettings
 
 

@@ -41,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 #: The statuses a run may end with (128 + SIGINT, SIGTERM, SIGHUP included).
 STATUSES = {0, 2, 3, 4, 129, 130, 143}
-#: The physics checks that decide a converged solve, with their bound (fenics_coulomb.checks).
+#: The physics checks that decide a converged solve, with their bound (fenics_coulomb.model.checks).
 DECISIVE = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone")
 
 

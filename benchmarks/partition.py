@@ -1,4 +1,4 @@
-"""Partition quality: fenics_coulomb.partition (recursive coordinate bisection) against PT-Scotch.
+"""Partition quality: fenics_coulomb.scenes.partition (recursive coordinate bisection) against PT-Scotch.
 
     container/run python3 benchmarks/partition.py --lev 8 --parts 2 4 8 16 --out docs/partition
 
@@ -21,9 +21,9 @@ import numpy as np
 from common import write_table
 from dolfinx import cpp as _cpp
 
-from fenics_coulomb.config import read_gmsh
-from fenics_coulomb.partition import recursive_bisection
-from fenics_coulomb.scene import HEIGHT, LENGTH, WIDTH, cells_per_direction
+from fenics_coulomb.scenes.scene import read_gmsh
+from fenics_coulomb.scenes.partition import recursive_bisection
+from fenics_coulomb.scenes.cuboid import HEIGHT, LENGTH, WIDTH, cells_per_direction
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -92,7 +92,7 @@ def main() -> int:
                              **quality(parts.astype(np.int64), graph, nparts), "repeats": repeat})
                 print(rows[-1], flush=True)
     write_table(args.out, "partition-quality",
-                "Partition quality: recursive coordinate bisection (fenics_coulomb.partition) vs PT-Scotch",
+                "Partition quality: recursive coordinate bisection (fenics_coulomb.scenes.partition) vs PT-Scotch",
                 rows, MPI.COMM_WORLD)
     return 0
 

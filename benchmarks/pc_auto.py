@@ -15,7 +15,7 @@ KSP iteration limit (SolverSettings.ksp_max_it), the exit code and reason, the s
 wall time and the load average of the machine around the run (it is shared: iteration counts are the
 robust quantity, times are indicative). Rows are appended to ``pc-auto.csv`` as they come (``--resume``
 skips the rows already there), then ``pc-auto.md`` and ``pc-auto.png`` are written, with the decision of
-:func:`fenics_coulomb.newton.choose_preconditioner` checked against every measured group.
+:func:`fenics_coulomb.scd.newton.choose_preconditioner` checked against every measured group.
 
     container/run python3 benchmarks/pc_auto.py --out docs/pc-auto
 """
@@ -36,7 +36,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "meshes"))  # the gmsh scripts meshes/hemisphere.py, meshes/roller.py (not a package)
 
-from fenics_coulomb.preconditioner import choose_preconditioner  # noqa: E402
+from fenics_coulomb.scd.preconditioner import choose_preconditioner  # noqa: E402
 from fenics_coulomb.settings import SolverSettings  # noqa: E402
 
 FIELDS = ["body", "cells", "size", "n", "poisson", "pc", "ranks", "oversubscribed", "exit", "reason", "newton",

@@ -90,7 +90,7 @@ def main() -> int:
     lines = ["# Repeatability: the same command on the same ranks, run after run", "",
              "Newton / Krylov counts and SHA-256 prefixes of the residual history (summary.json) and of the",
              "displacement array (solution.h5). `before`: DOLFINx's default partitioner (PT-Scotch);",
-             "`after`: fenics_coulomb.partition (recursive coordinate bisection).", "",
+             "`after`: fenics_coulomb.scenes.partition (recursive coordinate bisection).", "",
              "| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
     lines += ["| " + " | ".join(str(r[k]) for k in keys) + " |" for r in rows]
     (args.out / "repeatability.md").write_text("\n".join(lines) + "\n")

@@ -263,9 +263,9 @@ def linear(scene_path: Path) -> int:
     from mpi4py import MPI
     from petsc4py import PETSc
 
-    from fenics_coulomb.builder import build_problem
-    from fenics_coulomb.config import Scene
-    from fenics_coulomb.preconditioner import HYPRE_ELASTICITY
+    from fenics_coulomb.scenes.builder import build_problem
+    from fenics_coulomb.scenes.scene import Scene
+    from fenics_coulomb.scd.preconditioner import HYPRE_ELASTICITY
 
     comm = MPI.COMM_WORLD
     built = build_problem(Scene.from_toml(scene_path), comm, petsc_options_prefix="linear_")

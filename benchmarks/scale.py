@@ -20,7 +20,7 @@ Studies (each writes ``<study>.csv``, ``<study>.md`` and ``<study>.png`` into ``
 * ``strong``: ``--ranks 1 2 4 8 16`` at the fixed level ``--lev`` (default 10);
 * ``weak``: ``--weak --ranks 1 2 4 8 16``: for each rank count the level whose unknowns per rank are
   closest to those of ``--weak-lev`` (default 7) on the first rank count (from the cuboid's unknown
-  counts, fenics_coulomb.scene.expected_sizes); ``--strong`` runs both.
+  counts, fenics_coulomb.scenes.cuboid.expected_sizes); ``--strong`` runs both.
 
 Nothing depends on the core count: ranks above the available cores are oversubscribed (Open MPI needs
 ``--map-by :OVERSUBSCRIBE`` then; it is added only in that case), and ``--launcher`` replaces
@@ -282,12 +282,12 @@ def environment() -> dict[str, str]:
 
 
 def unknowns_function(python: str) -> Callable[[int], int]:
-    """n(lev) of the cuboid from fenics_coulomb.scene.expected_sizes, asked of a child interpreter.
+    """n(lev) of the cuboid from fenics_coulomb.scenes.cuboid.expected_sizes, asked of a child interpreter.
 
     The driver does not import DOLFINx itself: that would initialize MPI in the process that launches the
     MPI jobs.
     """
-    code = ("import json; from fenics_coulomb.scene import expected_sizes; "
+    code = ("import json; from fenics_coulomb.scenes.cuboid import expected_sizes; "
             "print(json.dumps([expected_sizes(l)[1] for l in range(16)]))")
     table = json.loads(subprocess.run([python, "-c", code], check=True, capture_output=True, text=True,
                                       env=environment(), cwd=REPO).stdout)

@@ -20,7 +20,7 @@ from mpi4py import MPI
 
 from common import CASES, peak_rss_mib, run_case
 
-from fenics_coulomb.output import software_versions
+from fenics_coulomb.io.summary import software_versions
 from fenics_coulomb.settings import SolverSettings
 
 

@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 from common import build, peak_rss_mib, solve, write_table
 
-from fenics_coulomb.figures import plot_convergence
+from fenics_coulomb.io.figures import plot_convergence
 from fenics_coulomb.settings import SolverSettings
 
 

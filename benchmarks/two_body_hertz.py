@@ -6,7 +6,7 @@ The hemisphere (radius R = 1, E₁ = 70 GPa, ν₁ = 0.35: the SLAVE) rests with
 [−2, 2]² × [−2, 0] (E₂ = 210 GPa, ν₂ = 0.3: the MASTER), both meshed with tetrahedra refined toward the
 contact point (meshes/hemisphere_on_block.py; the meshes do not match). The block's bottom is clamped, the
 hemisphere's flat face is moved down by δ (u = (0, 0, −δ)); no friction. For the computed total force P (the
-force on the hemisphere from its own residual, :func:`fenics_coulomb.output.pair_forces`) Hertz's theory of
+force on the hemisphere from its own residual, :func:`fenics_coulomb.io.fields.pair_forces`) Hertz's theory of
 two elastic spheres (here one of infinite radius) gives
 
     a³ = 3 P R / (4 E*),   1/E* = (1 − ν₁²)/E₁ + (1 − ν₂²)/E₂,   p₀ = 3 P / (2 π a²),
@@ -49,9 +49,10 @@ sys.path.insert(0, str(ROOT / "meshes"))
 from hemisphere_on_block import BODIES, TAGS, build  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
-from fenics_coulomb.checks import physics_residuals  # noqa: E402
-from fenics_coulomb.output import contact_areas, pair_forces, software_versions  # noqa: E402
-from fenics_coulomb.resolvent import OPEN  # noqa: E402
+from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
+from fenics_coulomb.io.fields import contact_areas, pair_forces
+from fenics_coulomb.io.summary import software_versions  # noqa: E402
+from fenics_coulomb.scd.resolvent import OPEN  # noqa: E402
 
 R = 1.0
 #: (E in GPa, ν): the hemisphere (slave) and the block (master).

@@ -51,8 +51,9 @@ sys.path.insert(0, str(ROOT / "meshes"))
 from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
-from fenics_coulomb.checks import physics_residuals  # noqa: E402
-from fenics_coulomb.output import contact_areas, pair_forces, software_versions  # noqa: E402
+from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
+from fenics_coulomb.io.fields import contact_areas, pair_forces
+from fenics_coulomb.io.summary import software_versions  # noqa: E402
 
 #: (E in GPa, ν) of the lower and the upper block.
 MATERIALS = ((210.0, 0.0), (70.0, 0.0))

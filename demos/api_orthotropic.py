@@ -43,8 +43,9 @@ import numpy as np
 import ufl
 
 from fenics_coulomb import ContactProblem
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.output import summary, write_summary, write_xdmf
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.io.summary import summary, write_summary
+from fenics_coulomb.io.xdmf import write_xdmf
 
 R, LENGTH, LIFT = 0.5, 0.5, 0.005
 TOP_Z = LIFT + R

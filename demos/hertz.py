@@ -66,11 +66,11 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb import ContactProblem, Sphere
-from fenics_coulomb.checks import boundary_reactions, physics_residuals
-from fenics_coulomb.config import read_gmsh
-from fenics_coulomb.output import contact_areas
-from fenics_coulomb.partition import create_partitioner
-from fenics_coulomb.resolvent import OPEN
+from fenics_coulomb.model.checks import boundary_reactions, physics_residuals
+from fenics_coulomb.scenes.scene import read_gmsh
+from fenics_coulomb.io.fields import contact_areas
+from fenics_coulomb.scenes.partition import create_partitioner
+from fenics_coulomb.scd.resolvent import OPEN
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Mean of √(1 − r²/a²) over the disc r < a/2.

@@ -47,10 +47,10 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb import ContactProblem, Sphere
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.partition import box_partitioner
-from fenics_coulomb.resolvent import OPEN, STICK
+from fenics_coulomb.scenes.partition import box_partitioner
+from fenics_coulomb.scd.resolvent import OPEN, STICK
 
 logger = logging.getLogger("mindlin")
 

@@ -72,8 +72,10 @@ import numpy as np
 import ufl
 
 from fenics_coulomb import ContactPair, ContactProblem
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.output import CONTACT_STATES, XDMFTimeSeries, contact_functions, pair_forces, summary, write_summary
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions, pair_forces
+from fenics_coulomb.io.xdmf import XDMFTimeSeries
+from fenics_coulomb.io.summary import summary, write_summary
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
 from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402

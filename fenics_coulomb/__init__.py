@@ -6,10 +6,10 @@ and the flow of one solve are in docs/architecture.md.
 """
 
 from fenics_coulomb.errors import InputError, SolverError
-from fenics_coulomb.obstacles import Cylinder, Plane, Sphere
-from fenics_coulomb.pairing import ContactPair
+from fenics_coulomb.model.obstacles import Cylinder, Plane, Sphere
+from fenics_coulomb.model.pairing import ContactPair
 from fenics_coulomb.problem import ContactProblem
-from fenics_coulomb.records import IterationRecord, SolveResult
+from fenics_coulomb.scd.records import IterationRecord, SolveResult
 from fenics_coulomb.settings import SolverSettings
 
 __version__ = "0.1.0"

@@ -30,17 +30,28 @@ from petsc4py import PETSc
 import dolfinx.fem
 import numpy as np
 
-from fenics_coulomb.builder import build_problem, cuboid_gap
-from fenics_coulomb.checks import boundary_reactions, total_contact_force
-from fenics_coulomb.config import Scene
-from fenics_coulomb.display import virtual_display
+from fenics_coulomb.scenes.builder import build_problem, cuboid_gap
+from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.io.display import virtual_display
 from fenics_coulomb.errors import InputError, Interrupted, OutputError, SolverError, check_all
-from fenics_coulomb.model import ContactModel
-from fenics_coulomb.preconditioner import OPTION_RANGES, check_option_value
-from fenics_coulomb.output import FAILED_SUFFIX, ResultDirectory, summary, write_convergence_csv, write_summary, write_xdmf
-from fenics_coulomb.records import SolveResult
-from fenics_coulomb.scene import GAP_PROFILES, LOAD_CASES, expected_sizes
+from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.scd.preconditioner import OPTION_RANGES, check_option_value
+from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
+from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
+from fenics_coulomb.io.xdmf import write_xdmf
+from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.scenes.cuboid import GAP_PROFILES, LOAD_CASES, expected_sizes
 from fenics_coulomb.settings import PRECONDITIONERS
+
+__all__ = ["EXIT_INPUT", "EXIT_DIVERGED", "EXIT_OUTPUT", "EXIT_INTERRUPTED", "EXIT_STATUSES", "BYTES_PER_UNKNOWN",
+           "BYTES_PER_RANK", "MAX_XDMF_BYTES", "START_CHECK_ROWS", "ArgumentParser", "NESTED_COARSE_RTOL",
+           "NESTED_LEVEL_STEP", "NESTED_AUTO_MIN_LEV", "build_parser", "configure_logging", "scene_from_args",
+           "prepare_output", "nested_levels", "CoarseStart", "coarse_level_options", "solve_coarse_levels",
+           "start_from_coarse", "resolve_nested", "run", "check_path_arguments", "run_load_path", "write_results",
+           "friction_text", "start_function", "check_memory", "available_memory", "check_start_file", "main",
+           "exit_status", "QUIET_EXIT_DELAY", "run_command", "set_petsc_options", "check_petsc_options",
+           "check_option_values"]
 
 logger = logging.getLogger("fenics_coulomb")
 
@@ -242,7 +253,7 @@ def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStar
     again when it is; None (logged) when a coarse level does not converge: the fine level then starts as without
     nesting (collective). The user's ``-coulomb_*`` options apply to the coarse levels too
     (:func:`coarse_level_options`)."""
-    from fenics_coulomb.nested import solve_nested
+    from fenics_coulomb.scenes.nested import solve_nested
 
     coarse_levels = nested_levels(scene.body.lev, levels)
     coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL), comm,
@@ -266,9 +277,9 @@ def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStar
 
 
 def start_from_coarse(start: CoarseStart, scene: Scene, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function:
-    """The coarse solution on V: through the box grid (:func:`~fenics_coulomb.nested.interpolate_cuboid`), or,
+    """The coarse solution on V: through the box grid (:func:`~fenics_coulomb.scenes.nested.interpolate_cuboid`), or,
     should the coarse mesh not be its level's grid, by DOLFINx's non-matching interpolation in ``solve``."""
-    from fenics_coulomb.nested import interpolate_cuboid
+    from fenics_coulomb.scenes.nested import interpolate_cuboid
 
     u = interpolate_cuboid(start.u, start.lev, V, cuboid_gap(scene))
     return u if u is not None else start.u
@@ -363,9 +374,9 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
 
 def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace) -> list | None:
     """Validate ``--steps``, ``--start-step`` and the scene's path (InputError on every rank); return the
-    path's solves (:func:`fenics_coulomb.path.plan`) or None for a static run (collective)."""
-    from fenics_coulomb.config import MAX_PATH_SOLVES
-    from fenics_coulomb.path import plan
+    path's solves (:func:`fenics_coulomb.scenes.path.plan`) or None for a static run (collective)."""
+    from fenics_coulomb.scenes.scene import MAX_PATH_SOLVES
+    from fenics_coulomb.scenes.path import plan
 
     steps, start_step = getattr(args, "steps", None), getattr(args, "start_step", None)
     if steps is not None:
@@ -388,7 +399,7 @@ def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace)
                   "one is solved after it)")
         message = ""
         if comm.rank == 0:
-            from fenics_coulomb.output import solution_datasets
+            from fenics_coulomb.io.xdmf import solution_datasets
 
             try:
                 info = solution_datasets(Path(scene.start), float(start_step))
@@ -408,9 +419,10 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     solution.xdmf with one grid per solve (time = the step number), path.csv, summary.json with "steps",
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
-    from fenics_coulomb.figures import write_path_figure
-    from fenics_coulomb.output import XDMFTimeSeries, read_displacement, write_path_csv, write_result_grid
-    from fenics_coulomb.path import obstacle_labels, run_path
+    from fenics_coulomb.io.figures import write_path_figure
+    from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_result_grid
+    from fenics_coulomb.io.summary import write_path_csv
+    from fenics_coulomb.scenes.path import obstacle_labels, run_path
 
     out = prepare_output(comm, args.out)
     built = build_problem(scene, comm)
@@ -464,7 +476,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 write_path_csv(tmp / "path.csv", steps, comm)
                 files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv"]
                 if not args.no_plots:
-                    from fenics_coulomb.figures import write_figures
+                    from fenics_coulomb.io.figures import write_figures
 
                     files += write_figures(tmp, model, result, scene.label)
                     files += write_path_figure(tmp, steps, scene.label, comm)
@@ -516,7 +528,7 @@ def write_results(directory: Path, model: ContactModel, result: SolveResult, lab
     write_convergence_csv(directory / "convergence.csv", result, model.V.mesh.comm)
     files = ["solution.xdmf", "solution.h5", "convergence.csv"]
     if plots:
-        from fenics_coulomb.figures import write_figures
+        from fenics_coulomb.io.figures import write_figures
 
         files += write_figures(directory, model, result, label)
     return files
@@ -550,7 +562,7 @@ def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Func
     u0 = dolfinx.fem.Function(V)
     if start == "undeformed":
         return u0
-    from fenics_coulomb.output import read_displacement
+    from fenics_coulomb.io.xdmf import read_displacement
 
     u0.x.petsc_vec.array[:] = read_displacement(Path(start), V)
     u0.x.scatter_forward()
@@ -765,7 +777,7 @@ def _end_on_signals(comm: MPI.Comm) -> dict[int, object]:
     def handler(signum: int, frame: object) -> None:
         print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all ranks",
               file=sys.stderr, flush=True)
-        from fenics_coulomb.output import abandon_results
+        from fenics_coulomb.io.results import abandon_results
 
         abandon_results()
         comm.Abort(EXIT_INTERRUPTED + signum)
@@ -848,7 +860,7 @@ def check_petsc_options(prefix: str) -> None:
 
 def check_option_values(prefix: str) -> None:
     """InputError naming a numeric option of the database (under ``prefix``) whose value is out of its range
-    (:func:`~fenics_coulomb.preconditioner.check_option_value`)."""
+    (:func:`~fenics_coulomb.scd.preconditioner.check_option_value`)."""
     opts = PETSc.Options()
     for key in OPTION_RANGES:
         if opts.hasName(f"{prefix}{key}"):

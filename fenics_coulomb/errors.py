@@ -7,6 +7,8 @@ from typing import Any
 
 from mpi4py import MPI
 
+__all__ = ["InputError", "OutputError", "Interrupted", "SolverError", "check_all"]
+
 
 class InputError(ValueError):
     """A bad input value (exit status 2 on the command line)."""

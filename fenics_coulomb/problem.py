@@ -12,12 +12,12 @@ Dirichlet conditions' values) and the obstacles' displacements (:meth:`ContactPr
 Step k solves the static problem with the obstacles placed at δ_k and friction on the increment: the slip of a
 contact node is s = T(ũ_k − ũ_{k−1}) − T(δ_k − δ_{k−1}) (T the node's tangent rows at step k; ũ₀ = 0,
 δ₀ = 0), i.e. the previous step enters the local shift (:meth:`ContactModel.place
-<fenics_coulomb.model.ContactModel.place>`) as the gap enters the normal component. The first step is the
+<fenics_coulomb.model.contact_model.ContactModel.place>`) as the gap enters the normal component. The first step is the
 static problem. Step k > 1 starts its Newton iteration from ũ_{k−1}. :meth:`ContactProblem.reset` forgets
 the history (or sets it to a known previous step, to resume a path).
 
-The problem owns the algebraic model (:class:`~fenics_coulomb.model.ContactModel`: A, l̃, d, l, the contact
-nodes) and the SCD semismooth* Newton solver (:class:`~fenics_coulomb.newton.SCDNewtonSolver`: the Newton
+The problem owns the algebraic model (:class:`~fenics_coulomb.model.contact_model.ContactModel`: A, l̃, d, l, the contact
+nodes) and the SCD semismooth* Newton solver (:class:`~fenics_coulomb.scd.newton.SCDNewtonSolver`: the Newton
 matrix, its KSP). Every PETSc object it creates carries the options prefix; ``petsc_options`` are set under
 it only while the solver reads them and removed again.
 """
@@ -38,14 +38,16 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.checks import physics_failure, physics_residuals
+from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.errors import InputError, SolverError
-from fenics_coulomb.model import ContactModel, Friction
-from fenics_coulomb.newton import SCDNewtonSolver
-from fenics_coulomb.obstacles import Obstacle
-from fenics_coulomb.pairing import ContactPair
-from fenics_coulomb.records import SolveResult
+from fenics_coulomb.model.contact_model import ContactModel, Friction
+from fenics_coulomb.scd.newton import SCDNewtonSolver
+from fenics_coulomb.model.obstacles import Obstacle
+from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.settings import SolverSettings
+
+__all__ = ["INTERPOLATION_PADDING", "interpolate_displacement", "ContactProblem"]
 
 logger = logging.getLogger(__name__)
 
@@ -108,7 +110,7 @@ class ContactProblem:
             constrained component is never a contact node.
         contact: The facet tags and the markers of the contact boundary.
         friction: Coulomb coefficient: a number or a scalar field (a Function, interpolated at the nodes).
-        obstacles: The rigid obstacles (:class:`~fenics_coulomb.obstacles.Plane`, ``Sphere``, ``Cylinder``,
+        obstacles: The rigid obstacles (:class:`~fenics_coulomb.model.obstacles.Plane`, ``Sphere``, ``Cylinder``,
             each possibly moved by its ``displacement`` δ); default the plane x3 = 0 (half-space x3 <= 0).
             Each contact node belongs to the obstacle with the smallest gap.
         settings: Solver settings (a :class:`~fenics_coulomb.settings.SolverSettings` or a dict of its
@@ -118,8 +120,8 @@ class ContactProblem:
         form_compiler_options: FFCx options.
         jit_options: JIT options.
         contact_pairs: Two (or more) elastic bodies, disconnected parts of the mesh, in contact: the
-            :class:`~fenics_coulomb.pairing.ContactPair` s (slave and master facet tags, friction); replaces
-            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of :mod:`fenics_coulomb.two_body`;
+            :class:`~fenics_coulomb.model.pairing.ContactPair` s (slave and master facet tags, friction); replaces
+            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of :mod:`fenics_coulomb.model.two_body`;
             :attr:`u` and the result's ``displacement`` are the physical u = M z.
 
     Raises:
@@ -286,7 +288,7 @@ class ContactProblem:
         The load l̃ is assembled from the current values of the coefficients of L and of the Dirichlet
         conditions, the obstacles are placed at their current displacements (:meth:`move`).
 
-        The stopping target does not depend on the start (:mod:`fenics_coulomb.stopping`): every start, a
+        The stopping target does not depend on the start (:mod:`fenics_coulomb.scd.stopping`): every start, a
         coarser level's solution interpolated included, is asked for the same solution.
 
         With the ``predictor`` setting (or no contact node and ``no_contact_shortcut``) the linear problem is
@@ -326,7 +328,7 @@ class ContactProblem:
 
     def _verify(self, result: SolveResult) -> None:
         """Let the physics checks decide a converged solve (collective): the residuals are kept in the result,
-        and a failure (:func:`~fenics_coulomb.checks.physics_failure`) makes it a SolverError "physics_check"."""
+        and a failure (:func:`~fenics_coulomb.model.checks.physics_failure`) makes it a SolverError "physics_check"."""
         result.checks = physics_residuals(self.model, result.displacement, balance=False)
         failure = physics_failure(result.checks, result.rtol or self.settings.reduction)
         if result.converged and failure:

@@ -11,6 +11,9 @@ from dataclasses import dataclass
 
 from fenics_coulomb.errors import InputError
 
+__all__ = ["PRECONDITIONERS", "VARIANTS", "ERROR_PER_RTOL", "INTEGER_BOUNDS", "INTEGER_REASONS",
+           "rtol_for_accuracy", "SolverSettings"]
+
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
 
@@ -53,7 +56,7 @@ class SolverSettings:
         tol: Relative unpreconditioned GMRES residual that ends each linear solve (paper: 0.1). A
             ``ksp_rtol`` among the problem's PETSc options (or ``-<prefix>ksp_rtol``) replaces it.
         rtol: Stop when ‖ŷ‖ <= rtol·‖ŷ(ũ = 0)‖, the residual of the undeformed body under the solve's loads
-            (:mod:`fenics_coulomb.stopping`: the same for every start; the paper divides by ‖ŷ⁽⁰⁾‖ of its start,
+            (:mod:`fenics_coulomb.scd.stopping`: the same for every start; the paper divides by ‖ŷ⁽⁰⁾‖ of its start,
             with rtol = 1e-12). The default 1e-7 keeps the Newton steps of the earlier default (1e-8 relative to
             the paper's start) on the cuboid at lev 8 and 10, where that asked for 5e-7 and 1e-6 relative to
             ‖ŷ(ũ = 0)‖, and is stricter than it at every coarser level and far below the discretization error
@@ -61,7 +64,7 @@ class SolverSettings:
         accuracy: A relative displacement error to reach instead of ``rtol`` (mapped by
             :func:`rtol_for_accuracy`); None uses ``rtol``.
         max_it: Newton iterations before giving up.
-        pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.preconditioner.AUTO_GAMG_UNKNOWNS`
+        pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.scd.preconditioner.AUTO_GAMG_UNKNOWNS`
             unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (aggregation
             AMG on the stiffness matrix A with the rigid-body near-nullspace, unsmoothed on hexahedral meshes, set up once and reused by
             every Newton step), gamg-newton (on the Newton matrix, set up every step), hypre, lu, jacobi, none.
@@ -72,7 +75,7 @@ class SolverSettings:
             nearly level-independent (docs/table2: 14–18 iterations for lev 4–7 against 20–82), while 0.001
             is too small (some cases stall).
         gamma_node_scale: κ of the per-node γᵢ = min(γ, κ·λ_max(Aᵢᵢ)) of the contact nodes (Aᵢᵢ the node's 3×3
-            diagonal block of A; :mod:`fenics_coulomb.newton`, "Per-node γ"): on a graded or distorted mesh γ
+            diagonal block of A; :mod:`fenics_coulomb.scd.newton`, "Per-node γ"): on a graded or distorted mesh γ
             from λ_max(A) far exceeds the stiffness at the contact and GMRES stagnates; None (API) keeps γ on every
             node. A fixed ``gamma`` is used on every node as given.
         gmres_restart: GMRES restart length.
@@ -84,13 +87,13 @@ class SolverSettings:
         matrix_free: Apply the Newton matrix as D(A x) + C x (a PETSc shell, no second copy of A) when the
             preconditioner does not read it (gamg, none); false stores the explicit copy always.
         galerkin_coarse: With GAMG on A and variant 4a, scale the contact rows to A's diagonal and keep GAMG's
-            coarse operators equal to the Galerkin products of the Newton matrix (:mod:`fenics_coulomb.galerkin`);
+            coarse operators equal to the Galerkin products of the Newton matrix (:mod:`fenics_coulomb.scd.galerkin`);
             false (the default) leaves them those of A: fewer Krylov iterations (lev 8: 58 instead of 91) but more
             Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md). Needs pc
             "gamg" or "auto" (where it applies when GAMG is chosen) and variant 4a, else an InputError.
         poisson_ratio: The body's largest Poisson ratio, when known (scenes set it from their materials; the
             solver never sees a material otherwise): from 0.48 on (nearly incompressible) ``auto`` takes GAMG with
-            smoothed aggregation on every mesh (:data:`~fenics_coulomb.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
+            smoothed aggregation on every mesh (:data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
     """
 
     variant: str = "4a"

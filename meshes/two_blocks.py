@@ -17,7 +17,7 @@ Tags (``BODIES``, ``TAGS``)::
                 5 "lower_sides" 6 "upper_sides"
 
 The facets are tagged from the UNDEFORMED grid (so ``lower_top`` also holds for a bent top). The default
-partitioner is the deterministic recursive coordinate bisection of :mod:`fenics_coulomb.partition`; pass
+partitioner is the deterministic recursive coordinate bisection of :mod:`fenics_coulomb.scenes.partition`; pass
 e.g. :func:`body_partitioner` to put each body on its own rank (a master facet on another rank than its
 slave nodes).
 
@@ -39,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.partition import create_partitioner
+from fenics_coulomb.scenes.partition import create_partitioner
 
 BODIES = {"lower": 1, "upper": 2}
 TAGS = {"lower_top": 1, "upper_bottom": 2, "lower_bottom": 3, "upper_top": 4, "lower_sides": 5, "upper_sides": 6}

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from fenics_coulomb import ContactProblem
-from fenics_coulomb.builder import build_problem
-from fenics_coulomb.config import Scene
-from fenics_coulomb.scene import paper_tractions  # noqa: F401  (re-exported for the tests)
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.scenes.cuboid import paper_tractions  # noqa: F401  (re-exported for the tests)
 
 
 @pytest.fixture(autouse=True)

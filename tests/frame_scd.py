@@ -1,8 +1,8 @@
 """The SCD semismooth* Newton method in per-node frames, on scipy matrices (tests only).
 
-A transcription of fenics_coulomb.newton's approximation and Newton steps (variants 4a and 4b), once for the
+A transcription of fenics_coulomb.scd.newton's approximation and Newton steps (variants 4a and 4b), once for the
 paper's identity frames and once in Cartesian variables with per-node frames by the formulas derived in
-fenics_coulomb.obstacles, and a small driver with the paper's line search. Used to check the derivation:
+fenics_coulomb.model.obstacles, and a small driver with the paper's line search. Used to check the derivation:
 the frame step against the paper's step on the explicitly rotated problem, and the frame iteration's
 solution against the independent Alart–Curnier solver of brute_force.py.
 """
@@ -15,10 +15,11 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from fenics_coulomb.derivatives import s_blocks, sstar_blocks
-from fenics_coulomb.newton import line_search_steps
-from fenics_coulomb.obstacles import frame_approximation, rotate_rows, to_local
-from fenics_coulomb.resolvent import classify, resolvent
+from fenics_coulomb.scd.derivatives import s_blocks, sstar_blocks
+from fenics_coulomb.scd.newton import line_search_steps
+from fenics_coulomb.model.frames import rotate_rows, to_local
+from fenics_coulomb.scd.resolvent import frame_approximation
+from fenics_coulomb.scd.resolvent import classify, resolvent
 
 
 def block_diagonal(blocks):

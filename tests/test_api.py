@@ -14,10 +14,10 @@ import ufl
 from conftest import gather_by_coordinates, global_norm, read_solution
 
 from fenics_coulomb import ContactProblem, InputError
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import main
-from fenics_coulomb.partition import box_partitioner
-from fenics_coulomb.resolvent import STICK
+from fenics_coulomb.scenes.partition import box_partitioner
+from fenics_coulomb.scd.resolvent import STICK
 
 PHYSICS_TOL = {"equilibrium": 1e-9, "penetration": 1e-9, "negative_pressure": 1e-9, "complementarity": 1e-9,
                "cone": 1e-9, "slip_direction": 1e-6, "reaction_balance": 1e-9}
@@ -302,7 +302,7 @@ def test_predictor_and_no_contact_shortcut(predictor):
 
 
 def test_obstacle_plane_from_obstacles_module():
-    """The obstacle is fenics_coulomb.obstacles.Plane (default x3 = 0): a plane lowered by h gives every gap + h;
+    """The obstacle is fenics_coulomb.model.obstacles.Plane (default x3 = 0): a plane lowered by h gives every gap + h;
     a tilted plane gives each node its signed distance (per-node frames); a non-obstacle is an InputError."""
     from fenics_coulomb import Plane
 

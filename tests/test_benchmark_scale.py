@@ -16,7 +16,7 @@ from mpi4py import MPI
 import pytest
 
 from fenics_coulomb.cli import main as cli_main
-from fenics_coulomb.scene import expected_sizes
+from fenics_coulomb.scenes.cuboid import expected_sizes
 
 BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
 sys.path.insert(0, str(BENCHMARKS))

@@ -14,10 +14,11 @@ from brute_force import solve_contact
 from conftest import assembled, make_problem
 from frame_scd import solve_in_frames
 
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.config import Scene
-from fenics_coulomb.obstacles import DEFAULT_PLANE, Plane, Sphere, closest_obstacle, local_shift, to_global
-from fenics_coulomb.resolvent import OPEN, SLIP, STICK, classify, contact_states
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Plane, Sphere, closest_obstacle
+from fenics_coulomb.model.frames import local_shift, to_global
+from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK, classify, contact_states
 
 pytestmark = pytest.mark.serial
 
@@ -65,7 +66,7 @@ def physics(K, f, cdofs, R, g, shifts, F, sol):
 @pytest.mark.parametrize("friction", [0.0, 0.23])
 def test_agrees_with_the_scd_solver_on_the_papers_plane(friction):
     """Lev 1 and 2 of d3/L2: the SCD solver (LU, 1e-12) and the Alart–Curnier solver on the same assembled
-    matrices, with the default plane's frames and gaps from fenics_coulomb.obstacles, agree to 1e-7."""
+    matrices, with the default plane's frames and gaps from fenics_coulomb.model.obstacles, agree to 1e-7."""
     for lev in (1, 2):
         with make_problem(lev, "d3", "L2", comm=MPI.COMM_SELF, friction=friction, rtol=1e-12, pc="lu",
                           tol=1e-13) as problem:
@@ -106,7 +107,7 @@ def obstacle_scene(lev1, which):
 @pytest.mark.parametrize("which", ["tilted", "sphere"])
 @pytest.mark.parametrize("friction", [0.0, 0.3])
 def test_frames_scd_iteration_agrees_with_brute_force(lev1, which, friction):
-    """The SCD method in per-node frames (the derivation of fenics_coulomb.obstacles, both variants) and the
+    """The SCD method in per-node frames (the derivation of fenics_coulomb.model.obstacles, both variants) and the
     Alart–Curnier solver, on the assembled lev-1 matrices with a tilted moved plane or an indenting sphere
     beside a floor, reach the same displacement (1e-7) and forces; the solution obeys the physics."""
     K, f, cdofs = lev1["K"], lev1["load"], lev1["cdofs"]

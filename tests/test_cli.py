@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
-from fenics_coulomb.forcing import terminal_forcing
-from fenics_coulomb.scene import expected_sizes
+from fenics_coulomb.scd.forcing import terminal_forcing
+from fenics_coulomb.scenes.cuboid import expected_sizes
 
 
 def test_outputs(mpi_tmp_path, capsys):

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fenics_coulomb.derivatives import s_blocks, sstar_blocks
-from fenics_coulomb.resolvent import SET_M1, classify, resolvent
+from fenics_coulomb.scd.derivatives import s_blocks, sstar_blocks
+from fenics_coulomb.scd.resolvent import SET_M1, classify, resolvent
 
 pytestmark = pytest.mark.serial
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_residuals
 
 ROOT = Path(__file__).resolve().parents[1]
 

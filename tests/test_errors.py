@@ -23,9 +23,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
-from fenics_coulomb.config import KINDS, Scene
+from fenics_coulomb.scenes.scene import KINDS, Scene
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.expression import FUNCTIONS, parse_gap_expression
+from fenics_coulomb.scenes.expression import FUNCTIONS, parse_gap_expression
 
 ROOT = Path(__file__).resolve().parents[1]
 PROG = "python3 -m fenics_coulomb: error:"
@@ -270,7 +270,7 @@ def test_linear_solves_stuck_at_their_limit_exit_3(mpi_tmp_path, capsys, max_it)
     --gamma-scale 1 spent 2000 iterations in every step)."""
     from petsc4py import PETSc
 
-    from fenics_coulomb.newton import KSP_LIMIT_STEPS
+    from fenics_coulomb.scd.newton import KSP_LIMIT_STEPS
 
     out = mpi_tmp_path / "out"
     status = main(["--lev", "2", "--out", str(out), "--no-plots", "--pc", "ilu", "-coulomb_ksp_max_it", str(max_it)])

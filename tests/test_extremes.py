@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 from conftest import global_norm, make_problem
 
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import InputError, SolverError
-from fenics_coulomb.stopping import ROUNDOFF_FACTOR
+from fenics_coulomb.scd.stopping import ROUNDOFF_FACTOR
 
 REASONS = {"max_iterations", "line_search", "ksp_breakdown", "non_finite"}
 CHECK_TOL = {"equilibrium": 1e-8, "penetration": 1e-8, "negative_pressure": 1e-8, "complementarity": 1e-8,

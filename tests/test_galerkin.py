@@ -1,4 +1,4 @@
-"""GAMG's coarse operators that follow the Newton matrix (fenics_coulomb.galerkin): the in-place surface update
+"""GAMG's coarse operators that follow the Newton matrix (fenics_coulomb.scd.galerkin): the in-place surface update
 against PETSc's full Galerkin products of the explicit Newton matrix, the row scaling, and the solution."""
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 from conftest import solve_each
 
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.galerkin import row_scaling
-from fenics_coulomb.newton_operator import NewtonOperator
-from fenics_coulomb.obstacles import conjugate
-from fenics_coulomb.resolvent import classify
+from fenics_coulomb.scd.galerkin import row_scaling
+from fenics_coulomb.scd.newton_operator import NewtonOperator
+from fenics_coulomb.model.frames import conjugate
+from fenics_coulomb.scd.resolvent import classify
 from fenics_coulomb.settings import SolverSettings
 
 

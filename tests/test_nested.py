@@ -18,11 +18,11 @@ from fenics_coulomb.cli import (
     resolve_nested,
     solve_coarse_levels,
 )
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.nested import interpolate_cuboid
+from fenics_coulomb.scenes.nested import interpolate_cuboid
 from fenics_coulomb.problem import interpolate_displacement
-from fenics_coulomb.scene import box_coordinates, create_cuboid
+from fenics_coulomb.scenes.cuboid import box_coordinates, create_cuboid
 
 
 def affine_gap(x1, x2):
@@ -128,12 +128,12 @@ def test_coarse_levels_solve_and_a_failure_falls_back(monkeypatch):
     assert start is not None and start.lev == 2 and len(start.results) == 1 and start.results[0].converged
     assert global_norm(start.u.x.array[: 3 * start.u.function_space.dofmap.index_map.size_local]) > 0.0
 
-    import fenics_coulomb.nested
+    import fenics_coulomb.scenes.nested
 
     def failing(*args, **kwargs):
         raise SolverError("no convergence (test)", "max_iterations")
 
-    monkeypatch.setattr(fenics_coulomb.nested, "solve_nested", failing)
+    monkeypatch.setattr(fenics_coulomb.scenes.nested, "solve_nested", failing)
     assert solve_coarse_levels(scene, 1, comm) is None
 
 

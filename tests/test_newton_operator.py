@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from conftest import gather_by_coordinates, solve_each
 
-from fenics_coulomb.newton_operator import NewtonOperator
-from fenics_coulomb.resolvent import classify
+from fenics_coulomb.scd.newton_operator import NewtonOperator
+from fenics_coulomb.scd.resolvent import classify
 
 
 def _random_vec(A: PETSc.Mat, rng: np.random.Generator) -> PETSc.Vec:
@@ -100,7 +100,7 @@ def test_matrix_free_solve_equals_explicit(variant, lev, problem_factory):
 def test_nested_iteration_reaches_the_direct_solution(variant, problem_factory):
     """Solving lev 1 and 2 loosely and starting lev 3 from the interpolated solution gives the solution of
     the direct start (1e-7), with no more fine-level Newton steps."""
-    from fenics_coulomb.nested import solve_nested
+    from fenics_coulomb.scenes.nested import solve_nested
 
     direct = problem_factory(3, "d3", "L2", variant=variant, rtol=1e-12)
     _, ref = direct.solve()
@@ -143,8 +143,8 @@ def test_matrix_free_sees_the_obstacle_frames(variant, problem_factory):
     Newton iterations, and the sphere carries part of the load."""
     import dataclasses
 
-    from fenics_coulomb.config import Scene
-    from fenics_coulomb.obstacles import Plane, Sphere
+    from fenics_coulomb.scenes.scene import Scene
+    from fenics_coulomb.model.obstacles import Plane, Sphere
 
     obstacles = [Sphere(center=[1.0, 0.5, -10.0], radius=10.0, displacement=[0.002, 0.001, 0.012]),
                  Plane(point=[0.0, 0.0, -0.01], normal=[0.01, -0.005, 1.0], name="floor")]

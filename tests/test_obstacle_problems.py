@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from fenics_coulomb import ContactProblem, InputError, Plane, Sphere
-from fenics_coulomb.builder import build_body, build_problem, clamp, isotropic_forms
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.builder import build_body, build_problem, clamp, isotropic_forms
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.scenes.scene import Scene
 
 #: Converged to round-off (the invariance is asserted to 1e-8).
 TIGHT = {"rtol": 1e-12, "tol": 1e-10}

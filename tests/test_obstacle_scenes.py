@@ -99,8 +99,8 @@ def test_bad_obstacle_exits_2(mpi_tmp_path, capsys, table, message):
 def test_traction_expressions(mpi_tmp_path):
     """Tractions as expressions in x1, x2, x3: the load's resultant equals the exact integral of a linear
     traction over the top face (2 × 1), and a constant written as an expression equals the constant."""
-    from fenics_coulomb.builder import build_problem
-    from fenics_coulomb.config import Scene
+    from fenics_coulomb.scenes.builder import build_problem
+    from fenics_coulomb.scenes.scene import Scene
 
     def resultant(tractions: str) -> np.ndarray:
         scene = mpi_tmp_path / "expr.toml"

@@ -10,23 +10,20 @@ import pytest
 import scipy.sparse as sp
 from frame_scd import block_diagonal, frame_direction, paper_direction
 
-from fenics_coulomb.derivatives import s_blocks, sstar_blocks
+from fenics_coulomb.scd.derivatives import s_blocks, sstar_blocks
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.obstacles import (
+from fenics_coulomb.model.obstacles import (
     DEFAULT_PLANE,
     Cylinder,
     Plane,
     Sphere,
     check_not_overlapping,
     closest_obstacle,
-    frames_from_normals,
-    local_shift,
     obstacle_from_dict,
     obstacles_from_list,
-    to_global,
-    to_local,
 )
-from fenics_coulomb.resolvent import SET_L, SET_M1, SET_M3M, SET_M3P, classify, resolvent
+from fenics_coulomb.model.frames import frames_from_normals, local_shift, to_global, to_local
+from fenics_coulomb.scd.resolvent import SET_L, SET_M1, SET_M3M, SET_M3P, classify, resolvent
 
 pytestmark = pytest.mark.serial
 

@@ -17,9 +17,10 @@ import h5py
 import numpy as np
 import pytest
 
-from fenics_coulomb import cli, figures
+from fenics_coulomb import cli
+from fenics_coulomb.io import figures
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
-from fenics_coulomb.output import XDMFTimeSeries, read_displacement
+from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement
 
 A = np.array([[0.3, -0.2, 0.1], [0.05, 0.4, -0.3], [-0.1, 0.2, 0.25]])
 

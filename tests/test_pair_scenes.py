@@ -17,10 +17,10 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-from fenics_coulomb.builder import build_problem
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "meshes"))

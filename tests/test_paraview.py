@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from fenics_coulomb.cli import main
-from fenics_coulomb.display import virtual_display
+from fenics_coulomb.io.display import virtual_display
 
 pytestmark = pytest.mark.serial
 

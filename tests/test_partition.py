@@ -1,4 +1,4 @@
-"""The deterministic partitioner (fenics_coulomb.partition): balance, repeatability and ghost layers."""
+"""The deterministic partitioner (fenics_coulomb.scenes.partition): balance, repeatability and ghost layers."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import dolfinx.mesh
 import numpy as np
 import pytest
 
-from fenics_coulomb.config import read_gmsh
-from fenics_coulomb.partition import recursive_bisection
-from fenics_coulomb.scene import create_cuboid
+from fenics_coulomb.scenes.scene import read_gmsh
+from fenics_coulomb.scenes.partition import recursive_bisection
+from fenics_coulomb.scenes.cuboid import create_cuboid
 
 ROOT = Path(__file__).resolve().parent.parent
 

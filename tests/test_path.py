@@ -22,11 +22,11 @@ import ufl
 from conftest import gather_by_coordinates, global_norm
 
 from fenics_coulomb import ContactProblem, Plane, Sphere
-from fenics_coulomb.builder import build_body, dirichlet_conditions
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.builder import build_body, dirichlet_conditions
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.materials import epsilon, sigma
+from fenics_coulomb.model.materials import epsilon, sigma
 
 #: Tight settings: the comparisons below are at 1e-8.
 TIGHT = {"rtol": 1e-11, "tol": 1e-10}
@@ -161,7 +161,8 @@ def test_path_agrees_with_brute_force(friction):
     from brute_force import solve_contact
     from test_brute_force import scipy_matrix
 
-    from fenics_coulomb.obstacles import closest_obstacle, local_shift
+    from fenics_coulomb.model.obstacles import closest_obstacle
+    from fenics_coulomb.model.frames import local_shift
 
     sphere = Sphere(center=[1.0, 0.5, -10.0], radius=10.0, name="indenter")
     floor = Plane(point=[0.0, 0.0, -0.01], normal=[0.0, 0.0, 1.0], name="floor")

@@ -19,12 +19,12 @@ import h5py
 import numpy as np
 import pytest
 
-from fenics_coulomb.builder import build_problem
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
-from fenics_coulomb.config import Scene
-from fenics_coulomb.path import obstacle_labels, plan, run_path
-from fenics_coulomb.scene import expected_sizes
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.scenes.path import obstacle_labels, plan, run_path
+from fenics_coulomb.scenes.cuboid import expected_sizes
 
 ROOT = Path(__file__).resolve().parents[1]
 DEMO = ROOT / "demos" / "scenes" / "d3_L2_path.toml"

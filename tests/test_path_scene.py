@@ -1,5 +1,5 @@
 """Load-path scenes (issue 14): ``[[path.step]]`` parsing, what a step inherits, the plan of solves and the
-in-place load coefficients (fenics_coulomb.path)."""
+in-place load coefficients (fenics_coulomb.scenes.path)."""
 
 from __future__ import annotations
 
@@ -12,10 +12,10 @@ import dolfinx
 import numpy as np
 import pytest
 
-from fenics_coulomb.builder import build_problem
-from fenics_coulomb.config import PathStep, Scene
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.scenes.scene import PathStep, Scene
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.path import StepLoads, plan, scene_state, step_state, zero_state
+from fenics_coulomb.scenes.path import StepLoads, plan, scene_state, step_state, zero_state
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,6 +1,6 @@
 """pc = auto: the default preconditioner converges on tetrahedral bodies and agrees with the measurements.
 
-The rule (fenics_coulomb.newton.choose_preconditioner) is chosen from docs/pc-auto (benchmarks/pc_auto.py).
+The rule (fenics_coulomb.scd.preconditioner.choose_preconditioner) is chosen from docs/pc-auto (benchmarks/pc_auto.py).
 """
 
 from __future__ import annotations
@@ -16,7 +16,8 @@ from mpi4py import MPI
 import pytest
 
 from fenics_coulomb.cli import main
-from fenics_coulomb.newton import SolverSettings, choose_preconditioner
+from fenics_coulomb.scd.preconditioner import choose_preconditioner
+from fenics_coulomb.settings import SolverSettings
 
 ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "docs" / "pc-auto" / "pc-auto.csv"

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.preconditioner import AUTO_LU_MAX_UNKNOWNS, AUTO_STALL_ITS, auto_ladder
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.scd.preconditioner import AUTO_LU_MAX_UNKNOWNS, AUTO_STALL_ITS, auto_ladder
 
 CHECK_TOL = 1e-8
 

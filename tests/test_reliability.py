@@ -30,7 +30,7 @@ import ufl
 from fenics_coulomb import ContactProblem, InputError, SolverError
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, EXIT_OUTPUT, main
 from fenics_coulomb.errors import OutputError
-from fenics_coulomb.output import ResultDirectory, _owner
+from fenics_coulomb.io.results import ResultDirectory, _owner
 
 ROOT = Path(__file__).resolve().parents[1]
 PROG = "python3 -m fenics_coulomb: error:"
@@ -197,7 +197,7 @@ def test_a_file_size_limit_while_writing_is_exit_4_in_one_line(tmp_path):
 def test_a_file_that_fails_on_rank_0_alone_fails_the_set_on_every_rank(mpi_tmp_path, capsys, monkeypatch):
     """summary.json is written by rank 0 alone: a full disk there used to raise on rank 0 while the others waited
     in the next collective call. Now every rank ends with exit 4 and one line, and the earlier set stays."""
-    import fenics_coulomb.output as output
+    import fenics_coulomb.io.summary as output
 
     out = mpi_tmp_path / "out"
     assert run("--lev", "0", "--out", str(out)) == 0

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize, minimize_scalar
 
-from fenics_coulomb.resolvent import (
+from fenics_coulomb.scd.resolvent import (
     SET_L,
     SET_M1,
     SET_M2,

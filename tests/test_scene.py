@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.scene import GAP_PROFILES, cells_per_direction, create_cuboid, expected_sizes
+from fenics_coulomb.scenes.cuboid import GAP_PROFILES, cells_per_direction, create_cuboid, expected_sizes
 
 
 @pytest.mark.parametrize("lev", range(9))

@@ -12,12 +12,12 @@ import pytest
 from conftest import gather_by_coordinates, global_norm, make_problem, read_solution
 from reference import tresca_fixed_point
 
-from fenics_coulomb.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
-from fenics_coulomb.config import Scene
+from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.expression import parse_gap_expression
-from fenics_coulomb.scene import gap_d3
+from fenics_coulomb.scenes.expression import parse_gap_expression
+from fenics_coulomb.scenes.cuboid import gap_d3
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = sorted((ROOT / "demos" / "scenes").glob("*.toml"))

@@ -20,9 +20,9 @@ from conftest import gather_by_coordinates, make_problem, read_solution
 from reference import tresca_fixed_point
 
 from fenics_coulomb import ContactProblem
-from fenics_coulomb.checks import physics_residuals
-from fenics_coulomb.forcing import forcing_term, terminal_forcing
-from fenics_coulomb.resolvent import SLIP, STICK
+from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.scd.forcing import forcing_term, terminal_forcing
+from fenics_coulomb.scd.resolvent import SLIP, STICK
 from fenics_coulomb.settings import SolverSettings
 
 TIGHT = dict(rtol=1e-12)
@@ -220,7 +220,7 @@ def test_preconditioners_reach_the_same_solution(pc, variant, problem_factory):
 @pytest.mark.parametrize("threshold, expected", [(10**9, "ilu"), (0, "gamg")])
 def test_auto_preconditioner_follows_the_problem_size(threshold, expected, problem_factory, monkeypatch):
     """pc = auto takes ILU below AUTO_GAMG_UNKNOWNS unknowns and GAMG from there on, and says so."""
-    import fenics_coulomb.preconditioner as preconditioner
+    import fenics_coulomb.scd.preconditioner as preconditioner
 
     monkeypatch.setattr(preconditioner, "AUTO_GAMG_UNKNOWNS", threshold)
     solver = problem_factory(2, "d3", "L1", pc="auto").solver

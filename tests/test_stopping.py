@@ -8,7 +8,7 @@ import pytest
 from conftest import gather_by_coordinates
 
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.stopping import ROUNDOFF_FACTOR, StoppingRule
+from fenics_coulomb.scd.stopping import ROUNDOFF_FACTOR, StoppingRule
 
 EPS = np.finfo(np.float64).eps
 

@@ -23,9 +23,9 @@ import ufl
 from conftest import gather_by_coordinates, global_norm
 
 from fenics_coulomb import ContactProblem, Plane
-from fenics_coulomb.checks import physics_residuals, unconstrained_residual
+from fenics_coulomb.model.checks import physics_residuals, unconstrained_residual
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.pairing import ContactPair
+from fenics_coulomb.model.pairing import ContactPair
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
 from two_blocks import TAGS  # noqa: E402
@@ -122,7 +122,7 @@ def test_rigid_master_equals_the_moved_plane(friction):
 
 
 def flat_coupling(V, gap: float, lower=(5, 3, 2), size=(2.0, 1.0)):
-    """The pairing of the flat interface computed here, independently of fenics_coulomb.pairing (serial): every
+    """The pairing of the flat interface computed here, independently of fenics_coulomb.model.pairing (serial): every
     upper-bottom node x_s (height g) projects vertically onto the lower block's structured top grid, whose
     bilinear shape functions at (x, y) are the weights. Returns the slave blocks, G with (G u)_s = u_s − Σ φ u_j,
     and the gaps."""

@@ -15,7 +15,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from two_body_hertz import BODIES, TAGS, contact_radius, hertz, mesh, run  # noqa: E402
 
-from fenics_coulomb.two_body import connected_bodies  # noqa: E402
+from fenics_coulomb.model.two_body import connected_bodies  # noqa: E402
 
 
 def test_contact_radius():

@@ -23,9 +23,11 @@ from conftest import gather_by_coordinates, sort_by_coordinates
 from test_two_body import MASTER, SLAVE, TIGHT, pressed_blocks
 
 from fenics_coulomb import ContactProblem
-from fenics_coulomb.checks import unconstrained_residual
-from fenics_coulomb.output import contact_functions, pair_forces, summary, write_summary, write_xdmf
-from fenics_coulomb.pairing import ContactPair
+from fenics_coulomb.model.checks import unconstrained_residual
+from fenics_coulomb.io.fields import contact_functions, pair_forces
+from fenics_coulomb.io.summary import summary, write_summary
+from fenics_coulomb.io.xdmf import write_xdmf
+from fenics_coulomb.model.pairing import ContactPair
 
 FIELDS = ["displacement", "contact_state", "contact_pressure", "tangential_force", "contact_traction", "gap",
           "contact_normal", "master_reaction"]

@@ -1,0 +1,271 @@
+"""Figures of a solve (matplotlib, no display needed): convergence history and contact states.
+
+``convergence.png``  ‖ŷ⁽ᵏ⁾‖/‖ŷ⁽⁰⁾‖ against the Newton iteration (like the paper's Fig. 3);
+``contact_states.png``  the contact nodes over the bottom (x1, x2), coloured as in the paper's Fig. 2:
+no contact blue, sliding yellow, sticking red;
+``deformed.png``  the deformed body (pyvista, off screen) with the contact nodes in the same categorical colours.
+
+``contact_state`` is categorical: the figures colour it with :data:`STATE_COLOURS` (one colour per state, never a
+continuous map). User text (scene names) is shown literally: matplotlib's math text is not parsed in it. A
+figure that cannot be drawn is a logged warning (:func:`write_figures`), never a lost result; a virtual X
+server started for pyvista is stopped again (:func:`fenics_coulomb.io.display.virtual_display`).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.io.display import virtual_display
+from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK
+
+__all__ = ["STATE_COLOURS", "plot_convergence", "gather_contact", "plot_contact_states", "gather_deformed",
+           "render_deformed", "write_figures", "plot_path", "write_path_figure"]
+
+logger = logging.getLogger(__name__)
+
+#: Categorical colours of the contact states (label, matplotlib colour), as in the paper's Fig. 2.
+STATE_COLOURS = {OPEN: ("no contact", "tab:blue"), SLIP: ("sliding", "gold"), STICK: ("sticking", "tab:red")}
+
+
+def _pyplot():  # type: ignore[no-untyped-def]
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_convergence(histories: dict[str, list[float]], path: Path, title: str = "") -> None:
+    """Plot relative residual histories (one curve per label) to ``path``."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for label, history in histories.items():
+        h = np.asarray(history)
+        ax.semilogy(np.arange(h.size), h / h[0], marker="o", ms=3, label=label)
+    ax.set_xlabel("Newton iteration k")
+    ax.set_ylabel(r"$\|\hat y^{(k)}\| / \|\hat y^{(0)}\|$")
+    ax.grid(True, which="both", alpha=0.3)
+    if title:
+        ax.set_title(title, parse_math=False)
+    if len(histories) > 1:
+        for text in ax.legend().get_texts():
+            text.set_parse_math(False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def gather_contact(
+    comm: MPI.Comm, coordinates: npt.NDArray[np.float64], states: npt.NDArray[np.int8]
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]] | None:
+    """Gather contact-node coordinates and states on rank 0 (None elsewhere)."""
+    xs = comm.gather(coordinates, root=0)
+    ss = comm.gather(states, root=0)
+    if comm.rank != 0:
+        return None
+    return np.concatenate(xs), np.concatenate(ss)
+
+
+def plot_contact_states(
+    coordinates: npt.NDArray[np.float64], states: npt.NDArray[np.int8], path: Path, title: str = "",
+    labels: tuple[str, str] = ("$x_1$", "$x_2$"),
+) -> None:
+    """Scatter the contact nodes over their first two coordinates (x1, x2, or a projection's axes named by
+    ``labels``) coloured by state to ``path``."""
+    plt = _pyplot()
+    extent = np.ptp(coordinates[:, :2], axis=0) if coordinates.size else np.ones(2)
+    aspect = extent[1] / max(extent[0], 1e-12)
+    fig, ax = plt.subplots(figsize=(8, max(2.5, 8 * aspect) + 0.8))
+    size = float(np.clip(20000.0 / max(states.size, 1), 2.0, 60.0))
+    for state, (label, colour) in STATE_COLOURS.items():
+        mask = states == state
+        ax.scatter(coordinates[mask, 0], coordinates[mask, 1], s=size, c=colour, marker="s",
+                   label=f"{label} ({int(mask.sum())})", edgecolors="none")
+    ax.set_aspect("equal")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
+    if title:
+        ax.set_title(title, parse_math=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def gather_deformed(
+    V: object,
+    displacement: npt.NDArray[np.float64],
+    contact_coordinates: npt.NDArray[np.float64],
+    contact_displacement: npt.NDArray[np.float64],
+    states: npt.NDArray[np.int8],
+) -> tuple[list, tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]]] | None:
+    """Gather the VTK pieces of the displaced body and the contact nodes on rank 0 (collective; None
+    elsewhere)."""
+    import dolfinx.fem
+    import dolfinx.plot
+
+    comm: MPI.Comm = V.mesh.comm  # type: ignore[attr-defined]
+    u = dolfinx.fem.Function(V)
+    u.x.petsc_vec.array[:] = displacement
+    u.x.scatter_forward()
+    topology, cell_types, x = dolfinx.plot.vtk_mesh(V)
+    values = u.x.array.reshape(-1, 3)[: x.shape[0]]
+    parts = comm.gather((topology, cell_types, x, values), root=0)
+    contact = gather_contact(comm, np.hstack([contact_coordinates, contact_displacement]), states)
+    if comm.rank != 0:
+        return None
+    assert parts is not None and contact is not None
+    return parts, contact
+
+
+def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]], path: Path,
+                    title: str = "") -> None:
+    """Render the pieces gathered by :func:`gather_deformed` to ``path`` (one process)."""
+    import pyvista
+
+    pyvista.OFF_SCREEN = True
+    grids = []
+    for top, types, pts, vals in parts:
+        grid = pyvista.UnstructuredGrid(top, types, pts)
+        grid.point_data["u"] = vals
+        grids.append(grid)
+    grid = grids[0].merge(grids[1:]) if len(grids) > 1 else grids[0]
+    size = float(np.max(np.ptp(grid.points, axis=0)))
+    umax = float(np.max(np.linalg.norm(grid.point_data["u"], axis=1), initial=0.0))
+    factor = 0.1 * size / umax if umax > 0 else 1.0
+    warped = grid.warp_by_vector("u", factor=factor)
+    warped.point_data["|u|"] = np.linalg.norm(grid.point_data["u"], axis=1)
+    with virtual_display():
+        plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 800))
+        try:
+            plotter.add_mesh(warped, scalars="|u|", cmap="viridis", show_edges=True, edge_color="grey",
+                             line_width=0.5, scalar_bar_args={"title": "|displacement|"})
+            data, st = contact
+            if st.size:
+                points = data[:, :3] + factor * data[:, 3:]
+                for state, (label, colour) in STATE_COLOURS.items():
+                    mask = st == state
+                    if np.any(mask):
+                        plotter.add_points(points[mask], color=colour, point_size=8,
+                                           render_points_as_spheres=True, label=label)
+                plotter.add_legend(bcolor="white", size=(0.15, 0.1), loc="upper left")
+            if title:
+                # VTK renders $...$ as math text: escape user text so it is shown literally
+                plotter.add_title(f"{title} (displacement x{factor:.3g})".replace("$", "\\$"), font_size=10)
+            # from below and in front, so that the contact boundary is seen
+            plotter.view_vector((0.55, -1.0, -0.75), viewup=(0.0, 0.0, 1.0))
+            plotter.screenshot(str(path))
+        finally:
+            plotter.close()
+            plotter.deep_clean()
+            del plotter
+
+
+def write_figures(directory: Path, model: object, result: object, label: str) -> list[str]:
+    """Write convergence.png, contact_states.png and deformed.png of a solve into ``directory`` (collective).
+
+    The data are gathered on rank 0 by all ranks; each figure is then drawn on rank 0 alone and a figure that
+    fails is a logged warning, not an error.
+
+    Returns:
+        The names of the figures written (the same list on every rank).
+    """
+    comm: MPI.Comm = model.V.mesh.comm  # type: ignore[attr-defined]
+    contact = model.contact  # type: ignore[attr-defined]
+    displacement = result.displacement  # type: ignore[attr-defined]
+    deformed = gather_deformed(model.V, displacement, contact.coordinates,  # type: ignore[attr-defined]
+                               displacement[contact.local_dofs], result.states)  # type: ignore[attr-defined]
+    # the contact surface in its own projection: onto the plane ⊥ the mean contact normal (x1, x2 for the
+    # paper's plane)
+    from fenics_coulomb.model.frames import frames_from_normals, to_local
+
+    normal = np.asarray(comm.allreduce(contact.normals.sum(axis=0), op=MPI.SUM))
+    normal = normal / np.linalg.norm(normal) if np.linalg.norm(normal) > 0 else np.array([0.0, 0.0, 1.0])
+    frame = frames_from_normals(normal)
+    axes = ("$x_1$", "$x_2$") if np.allclose(frame[0], np.eye(3)) else ("$t_1$", "$t_2$")
+    projected = to_local(np.broadcast_to(frame, (contact.size, 3, 3)), contact.coordinates)
+    states = gather_contact(comm, projected, result.states)  # type: ignore[attr-defined]
+    written: list[str] = []
+    if comm.rank == 0:
+        assert deformed is not None and states is not None
+        jobs = [
+            ("convergence.png", lambda p: plot_convergence({label: result.residual_history}, p,  # type: ignore
+                                                           f"Convergence, {label}")),
+            ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}", axes)),
+            ("deformed.png", lambda p: render_deformed(*deformed, p, f"Deformed body, {label}")),
+        ]
+        for name, draw in jobs:
+            try:
+                draw(directory / name)
+                written.append(name)
+            except Exception as err:  # a figure never costs the results
+                logger.warning("fenics-coulomb: warning: %s not written (%s: %s)", name, type(err).__name__, err)
+                (directory / name).unlink(missing_ok=True)
+    return comm.bcast(written, root=0)
+
+
+def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
+    """Force–displacement curves of a load path (``steps``: summary.json's "steps") to ``path``.
+
+    When an obstacle moves, the total contact force component along each of its varying displacement
+    components is drawn against that component (the tangential force against the tangential displacement
+    traces a friction hysteresis loop); otherwise the contact force components against the path's time (the
+    step number; the load factor for ``--steps``). Both start at the unloaded state 0.
+    """
+    plt = _pyplot()
+    force = np.array([[0.0, 0.0, 0.0]] + [s["contact_force"] for s in steps])
+    names = list(steps[0]["obstacle_displacements"]) if steps else []
+    deltas = {n: np.array([[0.0, 0.0, 0.0]] + [s["obstacle_displacements"][n] for s in steps]) for n in names}
+    ranges = {(n, c): float(np.ptp(d[:, c])) for n, d in deltas.items() for c in range(3)}
+    moving = [key for key, r in ranges.items() if r > 0]
+    marker = {"marker": "o", "ms": 3}
+    if moving:
+        top = max(ranges.values())
+        moving = [key for key in moving if ranges[key] >= 1e-3 * top]
+        fig, axes = plt.subplots(1, len(moving), figsize=(5.5 * len(moving), 4.5), squeeze=False)
+        for ax, (name, c) in zip(axes[0], moving, strict=True):
+            ax.plot(deltas[name][:, c], force[:, c], **marker)
+            ax.set_xlabel(f"displacement δ{c + 1} of obstacle {name} (L)")
+            ax.set_ylabel(f"total contact force F{c + 1} on the body (GPa·L²)")
+        ax = axes[0][0]
+    else:
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        ramp = all(s["substeps"] == 1 for s in steps) and all(
+            abs(s["load_factor"] - s["time"] / steps[-1]["time"]) < 1e-12 for s in steps)
+        x = np.array([0.0] + [s["load_factor"] if ramp else s["time"] for s in steps])
+        for c in range(3):
+            ax.plot(x, force[:, c], label=f"F{c + 1}", **marker)
+        ax.set_xlabel("load factor" if ramp else "step")
+        ax.set_ylabel("total contact force on the body (GPa·L²)")
+    for axis in fig.axes:
+        axis.grid(True, alpha=0.3)
+    if not steps[-1]["converged"]:
+        ax.plot([], [], " ", label=f"last point NOT converged (t = {steps[-1]['time']:g})")
+    if ax.get_legend_handles_labels()[0]:
+        for text in ax.legend(fontsize=8).get_texts():
+            text.set_parse_math(False)
+    if title:
+        fig.suptitle(title, parse_math=False)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def write_path_figure(directory: Path, steps: list[dict], label: str, comm: MPI.Comm) -> list[str]:
+    """Draw path.png on rank 0 (a failure is a logged warning); return ["path.png"] or [] on every rank."""
+    written: list[str] = []
+    if comm.rank == 0 and steps:
+        try:
+            plot_path(steps, directory / "path.png", f"Load path, {label}")
+            written.append("path.png")
+        except Exception as err:  # a figure never costs the results
+            logger.warning("fenics-coulomb: warning: path.png not written (%s: %s)", type(err).__name__, err)
+            (directory / "path.png").unlink(missing_ok=True)
+    return comm.bcast(written, root=0)

@@ -1,0 +1,263 @@
+"""A run's result directory: written whole or not at all.
+
+Every rank writes into a temporary sibling ``.NAME.partial-HOST-PID-RAND`` that replaces NAME only when
+the whole set is written (:class:`ResultDirectory`); a failed write, an interrupt or a not-converged solve
+never replaces a converged earlier set (that one is written to ``NAME.not-converged``). Files written by
+rank 0 alone carry their failure to every rank (:func:`rank0_file`)."""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import glob
+import json
+import os
+import re
+import shutil
+import socket
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from fenics_coulomb.errors import OutputError
+
+__all__ = ["ResultDirectory", "abandon_results", "rank0_file", "RESULT_FILES", "FAILED_SUFFIX"]
+
+
+class ResultDirectory:
+    """The result set of a run, written as a whole: into a temporary sibling of the output directory, then
+    renamed into place (MPI-aware: rank 0 checks and renames, every rank writes into the temporary directory).
+    A run that did not converge (``failed``) never replaces a converged set: it goes to ``NAME.not-converged``
+    beside it.
+
+    Until :meth:`writing` commits, an existing result set stays untouched; if writing fails the temporary
+    directory is removed. The output directory belongs to the run: an existing one is replaced as a whole,
+    except for entries that the previous run did not write (listed in its ``summary.json`` "files"), which are
+    carried over. A non-empty directory that is not a fenics-coulomb result set is refused.
+    """
+
+    MANIFEST = "summary.json"
+    #: Set by the caller before the set is committed: the run did not converge (:meth:`writing`).
+    failed: bool = False
+
+    def __init__(self, comm: MPI.Comm, path: str | Path) -> None:
+        """Check that the result set can be written to ``path`` (collective; InputError on every rank)."""
+        from fenics_coulomb.errors import check_all
+
+        self.comm = comm
+        self.given = str(path)
+        final = Path(path)
+        self.path = final.absolute()
+        #: Where the last set went (:meth:`writing`): the output directory, or for a failed run beside an earlier
+        #: converged set, ``NAME.not-converged``.
+        self.committed = self.path
+        check_all(comm, not (message := self._check_name()), message)  # pure: every rank, before the file system
+        message = ""
+        if comm.rank == 0:
+            if final.is_symlink():
+                self.path = Path(os.path.realpath(final)).absolute()
+            message = self._check()
+        message = comm.bcast(message, root=0)
+        check_all(comm, not message, message)
+
+    def _check_name(self) -> str:
+        """"" if every component of the path fits the file system, with room for the temporary directory's tail
+        (the set is written into ".NAME.partial-HOST-PID-RANDOM" first)."""
+        tail = len(f"..partial-{_owner()}-00000000".encode())
+        for i, part in enumerate(self.path.parts):
+            limit = 255 - (tail if i == len(self.path.parts) - 1 else 0)
+            if len(part.encode()) > limit:
+                shown = part if len(part) <= 40 else part[:37] + "..."
+                return (f"--out: the name {shown!r} has {len(part.encode())} bytes; at most {limit} fit a file "
+                        "name here")
+        return ""
+
+    def _check(self) -> str:
+        prefix = f"--out {self.given!r}"
+        try:
+            cwd = Path.cwd()
+            if self.path == cwd or self.path in cwd.parents:
+                return f"{prefix}: the output directory would replace the current directory or one above it"
+            if self.path.exists():
+                if not self.path.is_dir():
+                    return f"{prefix}: exists and is not a directory"
+                if any(self.path.iterdir()) and not (self.path / self.MANIFEST).is_file():
+                    return (f"{prefix}: a non-empty directory that is not a fenics-coulomb result set (no "
+                            f"{self.MANIFEST}); refusing to replace it")
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            probe = self.path.parent / f".{self.path.name}.probe-{os.getpid()}"
+            probe.mkdir()
+            probe.rmdir()
+        except OSError as err:
+            return f"{prefix}: output directory is not writable ({err.strerror or err})"
+        return ""
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[Path]:
+        """Yield the temporary directory to write the result set into; commit it on success (collective).
+
+        The temporary directory is named ``.NAME.partial-HOST-PID-RANDOM`` after rank 0's host and process, so that
+        a later run into the same parent removes what a run that was killed left behind (:meth:`clean_stale`).
+        On an exception (an interrupt included) every rank that sees it removes the temporary directory at once
+        (no communication: the run ends, and a rank waiting for another must not keep it) and the exception
+        propagates. Rank-0-only files that fail (:func:`rank0_file`) fail the set on every rank together:
+        :class:`~fenics_coulomb.errors.OutputError`, one line, with the earlier result set kept.
+        """
+        tmp = ""
+        if self.comm.rank == 0:
+            self.clean_stale()
+            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
+            try:
+                os.mkdir(tmp)
+            except OSError as err:
+                tmp = f"\0{err.strerror or err}"
+        tmp = self.comm.bcast(tmp, root=0)
+        if tmp.startswith("\0"):
+            raise OutputError(f"--out {self.given!r}: the results cannot be written ({tmp[1:]})")
+        tmp_path = Path(tmp)
+        errors: list[str] = []
+        _DEFERRED.append(errors)
+        _WRITING.add(tmp_path)
+        try:
+            yield tmp_path
+        except BaseException:
+            shutil.rmtree(tmp_path, ignore_errors=True)
+            raise
+        finally:
+            _DEFERRED.remove(errors)
+            _WRITING.discard(tmp_path)
+        failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
+        error = None
+        if failed:
+            error = f"results could not be written into {self.given} ({failed[0]}); the earlier results are kept"
+            if self.comm.rank == 0:
+                shutil.rmtree(tmp_path, ignore_errors=True)
+        elif self.comm.rank == 0:
+            target = self.path
+            if self.failed and self._holds_converged_set():  # a failed run never replaces a solution
+                target = self.path.with_name(f"{self.path.name}{FAILED_SUFFIX}")
+            try:
+                self._commit(tmp_path, target)
+                self.committed = target
+            except OSError as err:
+                error = (f"results could not be moved into {target}: {err.strerror or err} (the complete set is "
+                         f"kept in {tmp_path})")
+        error, self.committed = self.comm.bcast((error, self.committed), root=0)
+        if error:
+            raise OutputError(error)
+
+    def _holds_converged_set(self) -> bool:
+        """Whether the output directory holds the result set of a run that converged (rank 0)."""
+        try:
+            return bool(json.loads((self.path / self.MANIFEST).read_text()).get("converged"))
+        except (OSError, ValueError, AttributeError):
+            return False
+
+    def clean_stale(self) -> None:
+        """Remove temporary siblings (``.NAME.partial-*``, ``.NAME.previous-*``) of runs on this host whose
+        process is gone (rank 0 only; no communication)."""
+        host = _owner().rsplit("-", 1)[0]
+        for kind in ("partial", "previous"):
+            prefix = f".{self.path.name}.{kind}-"
+            for entry in self.path.parent.glob(f"{glob.escape(prefix)}*"):
+                owner_host, pid = _split_owner(entry.name[len(prefix):])
+                if owner_host != host or not pid.isdigit() or int(pid) == os.getpid():
+                    continue
+                try:
+                    os.kill(int(pid), 0)
+                except ProcessLookupError:
+                    shutil.rmtree(entry, ignore_errors=True)
+                except OSError:  # alive under another user: not ours to remove
+                    continue
+
+    def _commit(self, tmp: Path, target: Path) -> None:
+        """Rename the new set to ``target``; carry over foreign entries of the previous one; drop the rest."""
+        if not target.exists():
+            os.rename(tmp, target)
+            return
+        previous = target.parent / f".{target.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
+        os.rename(target, previous)
+        os.rename(tmp, target)
+        ours = set(RESULT_FILES)
+        with contextlib.suppress(OSError, ValueError, TypeError):
+            ours |= set(json.loads((previous / self.MANIFEST).read_text()).get("files", []))
+        for entry in previous.iterdir():
+            if entry.name not in ours and not (target / entry.name).exists():
+                os.rename(entry, target / entry.name)
+        shutil.rmtree(previous, ignore_errors=True)
+
+
+def abandon_results() -> None:
+    """Remove the temporary directories of every result set this process is writing (for a run that ends now,
+    e.g. on a signal, without unwinding: the earlier result sets stay untouched)."""
+    for path in list(_WRITING):
+        shutil.rmtree(path, ignore_errors=True)
+        _WRITING.discard(path)
+
+
+def rank0_file(write: Callable[..., None]) -> Callable[..., None]:
+    """Make a writer that writes ``path`` (its first argument) on rank 0 alone safe inside
+    :meth:`ResultDirectory.writing`: an OSError there (disk full, a file-size limit) is kept for the whole set
+    instead of raised on rank 0 alone, which would leave the other ranks waiting in the next collective call; the
+    set then fails on every rank together. Outside a result directory it raises as usual."""
+
+    @functools.wraps(write)
+    def wrapper(path: Path, *args: Any, **kwargs: Any) -> None:
+        if not _DEFERRED:
+            write(path, *args, **kwargs)
+            return
+        if _DEFERRED[-1]:  # an earlier file of the set failed: the set is lost anyway
+            return
+        try:
+            write(path, *args, **kwargs)
+        except OSError as err:
+            _DEFERRED[-1].append(f"{Path(path).name}: {_io_reason(err)}")
+
+    return wrapper
+
+
+#: Files of a result set written before the manifest (``summary.json`` "files") existed.
+RESULT_FILES = ("solution.xdmf", "solution.h5", "summary.json", "convergence.csv", "convergence.png",
+                "contact_states.png", "deformed.png", "path.csv", "path.png")
+
+
+#: A run that did not converge writes its set here, beside the output directory, when that holds a converged set.
+FAILED_SUFFIX = ".not-converged"
+
+
+def _owner() -> str:
+    """HOST-PID of this process, for the names of temporary result directories."""
+    return f"{socket.gethostname().replace('-', '_')}-{os.getpid()}"
+
+
+def _split_owner(rest: str) -> tuple[str, str]:
+    """(host as :func:`_owner` writes it, pid) of the HOST-PID-RANDOM tail of a temporary result directory's name
+    ("", "" if it has none)."""
+    parts = rest.split("-")
+    if len(parts) != 3:
+        return "", ""
+    return parts[0], parts[1]
+
+
+def _io_reason(err: BaseException) -> str:
+    """The reason of a failed write in a few words (HDF5 packs errno and its text into a long message)."""
+    code = getattr(err, "errno", None)
+    if not isinstance(code, int):
+        found = re.search(r"errno = (\d+)", str(err))
+        code = int(found.group(1)) if found else None
+    if isinstance(code, int) and code > 0:
+        return os.strerror(code)
+    lines = [line.strip() for line in str(err).splitlines() if line.strip()]
+    return lines[0] if lines else type(err).__name__
+
+
+#: Deferred write errors of rank-0-only files, one list per active :meth:`ResultDirectory.writing` (a stack).
+_DEFERRED: list[list[str]] = []
+
+
+#: The temporary directories of the result sets being written by this process (:func:`abandon_results`).
+_WRITING: set[Path] = set()
+

@@ -1,0 +1,112 @@
+"""The run's numbers as files: ``summary.json`` (the solve's summary, software versions, per-pair forces),
+``convergence.csv`` (one row per Newton iteration) and ``path.csv`` (one row per solve of a load path)."""
+
+from __future__ import annotations
+
+import json
+import platform
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.cpp.io
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.mesh
+import numpy as np
+import ufl
+
+from fenics_coulomb.io.fields import pair_forces
+from fenics_coulomb.io.results import rank0_file
+from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.scd.records import SolveResult
+
+__all__ = ["summary", "write_summary", "write_convergence_csv", "write_path_csv", "software_versions"]
+
+
+def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Global summary of a solve (collective; identical on all ranks): the result's own summary, the software
+    versions, for contact pairs the force on each body per pair (``contact_pairs``, :func:`pair_forces`) and
+    ``extra``."""
+    comm = model.V.mesh.comm
+    data = result.summary(comm)
+    if model.coupling is not None:
+        data["contact_pairs"] = pair_forces(model, result)
+    data["versions"] = software_versions()
+    if extra:
+        data.update(extra)
+    return data
+
+
+@rank0_file
+def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
+    """Write the summary as JSON on rank 0."""
+    if comm.rank == 0:
+        path.write_text(json.dumps(data, indent=2) + "\n")
+
+
+@rank0_file
+def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> None:
+    """Per-iteration history as CSV on rank 0: residual, relative residual, step, Krylov, states."""
+    if comm.rank != 0:
+        return
+    h0 = result.residual_history[0] if result.residual_history else 0.0
+    lines = ["iteration,residual,relative_residual,step_length,krylov_iterations,open,stick,slip,forcing,"
+             "linear_residual"]
+    lines.append(f"0,{h0:.17g},1,,,,,,,")
+    for rec in result.records:
+        rel = rec.residual / h0 if h0 > 0 else 0.0
+        lines.append(f"{rec.iteration},{rec.residual:.17g},{rel:.17g},{rec.step_length:.17g},"
+                     f"{rec.krylov_iterations},{rec.open},{rec.stick},{rec.slip},{rec.forcing:.6g},"
+                     f"{rec.linear_residual:.6g}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+@rank0_file
+def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Comm) -> None:
+    """One row per solve of a load path on rank 0 (``steps``: summary.json's "steps"): solve, time (the step
+    number), step, substep, load factor, converged, Newton and Krylov iterations, open/stick/slip, the total
+    contact force, the applied load's resultant, the reaction per Dirichlet boundary and δ per obstacle (x, y,
+    z components each; a boundary group "a,b" is named "a+b"), wall time."""
+    if comm.rank != 0 or not steps:
+        return
+    xyz = ("x", "y", "z")
+    reactions = list(steps[0]["reactions"])
+    obstacles = list(steps[0]["obstacle_displacements"])
+    header = ["solve", "time", "step", "substep", "load_factor", "converged", "newton_iterations",
+              "krylov_iterations", "open", "stick", "slip",
+              *[f"contact_force_{c}" for c in xyz], *[f"applied_load_{c}" for c in xyz],
+              *[f"reaction_{name.replace(',', '+')}_{c}" for name in reactions for c in xyz],
+              *[f"delta_{name.replace(',', '+')}_{c}" for name in obstacles for c in xyz], "wall_time_s"]
+    lines = [",".join(header)]
+    for s in steps:
+        counts = s["state_counts"]
+        row = [s["index"], f"{s['time']:.17g}", s["step"], s["substep"], f"{s['load_factor']:.17g}",
+               str(bool(s["converged"])).lower(), s["newton_iterations"], s["krylov_iterations"],
+               counts["open"], counts["stick"], counts["slip"],
+               *[f"{c:.17g}" for c in s["contact_force"]], *[f"{c:.17g}" for c in s["applied_load"]],
+               *[f"{c:.17g}" for name in reactions for c in s["reactions"][name]],
+               *[f"{c:.17g}" for name in obstacles for c in s["obstacle_displacements"][name]],
+               f"{s['wall_time_s']:.6g}"]
+        lines.append(",".join(map(str, row)))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def software_versions() -> dict[str, str]:
+    """Versions of the numerical stack."""
+    import ufl
+
+    major, minor, sub = PETSc.Sys.getVersion()
+    return {
+        "dolfinx": dolfinx.__version__,
+        "ufl": ufl.__version__,
+        "petsc": f"{major}.{minor}.{sub}",
+        "numpy": np.__version__,
+        "python": platform.python_version(),
+        "mpi": MPI.Get_library_version().splitlines()[0].strip(),
+    }
+

@@ -1,0 +1,448 @@
+"""Output of a contact solve: XDMF fields for ParaView and a JSON summary.
+
+``solution.xdmf`` + ``solution.h5`` are written by :class:`XDMFTimeSeries`: ONE grid per output time that
+carries ALL point fields, so that ParaView's default reader shows one dataset on which *Warp By Vector* and
+colouring by any field work directly. Fields (point data on the mesh vertices; units with E in GPa and
+lengths in the mesh's unit L):
+
+``displacement``
+    Physical displacement ũ (L), vector, float64.
+``contact_state``
+    Categorical (int32): 0 open, 1 stick, 2 slip on contact nodes; −1 on all other nodes (see
+    :data:`CONTACT_STATES`).
+``contact_pressure``
+    Normal contact force λ = −ϑ ≥ 0 per contact node (the paper's normal nodal force, GPa·L²); 0 elsewhere.
+``tangential_force``
+    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², a Cartesian 3-vector
+    ⊥ the node's obstacle normal: its t₁, t₂ components mapped back to x, y, z); it opposes the slip on
+    sliding nodes. 0 elsewhere.
+``contact_traction``
+    The contact force on the body per unit contact area (GPa, Cartesian vector): the nodal contact force
+    divided by the node's share of the contact surface (the lumped facet areas ∫ φᵢ ds over the contact
+    boundary), comparable with a pressure distribution. 0 elsewhere.
+``gap``
+    The linearized gap g + n·ũ on contact nodes (L, ≥ 0 at a solution); 0 elsewhere.
+``contact_normal``
+    The outward unit normal n of each contact node's obstacle; 0 elsewhere.
+``master_reaction``
+    Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.two_body`): the reaction on each master node,
+    f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
+    slave contact nodes, ``displacement`` is the physical u = M z, ``gap`` is g + n·w with the relative
+    displacement w_s = u_s − Σ_j φ_sj u_j, and ``contact_normal`` is the master's outward normal at the
+    closest point.
+
+All fields go through :class:`XDMFTimeSeries` (:func:`write_xdmf`). HDF5 layout (one file, one mesh for the
+whole series): ``/Mesh/mesh/geometry`` (N × 3 float64 vertex coordinates in the global P1 vertex numbering),
+``/Mesh/mesh/topology`` (cells × vertices, int64 global vertex numbers, VTK/XDMF vertex order) and
+``/Function/<field>/<k>`` (N × block size) for the k-th time. The XML uses no XInclude; every grid repeats
+the (shared) geometry and topology data items.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import sys
+import xml.etree.ElementTree as ET
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import dolfinx
+import dolfinx.cpp.io
+import dolfinx.fem
+import dolfinx.fem.petsc
+import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+import ufl
+
+from fenics_coulomb.errors import OutputError
+from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions
+from fenics_coulomb.io.results import _io_reason, rank0_file
+from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.problem import interpolate_displacement
+from fenics_coulomb.scd.records import SolveResult
+
+__all__ = ["MESH_GEOMETRY", "MESH_TOPOLOGY", "XDMFTimeSeries", "write_xdmf", "write_result_grid",
+           "solution_datasets", "read_displacement", "displacement_function", "XDMF_CELLS"]
+
+
+MESH_GEOMETRY = "/Mesh/mesh/geometry"
+
+
+MESH_TOPOLOGY = "/Mesh/mesh/topology"
+
+
+class XDMFTimeSeries:
+    """Point fields on one mesh over time as ONE XDMF file (a temporal collection of grids, each carrying all
+    fields of its time) with the data in ONE HDF5 file, written in parallel.
+
+    The mesh is written once, in the global numbering of the P1 vertices (owned vertices of each rank as one
+    hyperslab, owned cells with global vertex numbers); every field is written at those vertices. ParaView's
+    readers (the default for ``.xdmf``, Xdmf3ReaderS and the legacy XDMF reader) show one dataset per time.
+
+    Example::
+
+        with XDMFTimeSeries(Path("out/solution.xdmf"), mesh) as xdmf:
+            for t, u, s in steps:
+                xdmf.write(t, [u, s], dtypes={"contact_state": np.int32})
+
+    After every :meth:`write` the ``.xdmf`` on disk is complete (it is replaced atomically on rank 0), so an
+    interrupted series leaves the times written so far.
+    """
+
+    def __init__(self, path: Path | str, mesh: dolfinx.mesh.Mesh, name: str = "solution") -> None:
+        """Create ``path`` (.xdmf) and ``path.with_suffix('.h5')`` and write the mesh (collective)."""
+        self.path = Path(path).with_suffix(".xdmf")
+        self.h5_path = self.path.with_suffix(".h5")
+        self.name = name
+        self.mesh = mesh
+        self.comm: MPI.Comm = mesh.comm
+        cell = mesh.topology.cell_name()
+        if cell not in XDMF_CELLS:
+            raise ValueError(f"XDMFTimeSeries supports {', '.join(XDMF_CELLS)} meshes, not {cell}")
+        self._cell = XDMF_CELLS[cell]
+        self._S = dolfinx.fem.functionspace(mesh, ("Lagrange", 1))
+        imap = self._S.dofmap.index_map
+        self._owned = imap.size_local
+        self._offset = int(imap.local_range[0])
+        self.num_vertices = int(imap.size_global)
+        x = np.ascontiguousarray(self._S.tabulate_dof_coordinates()[: self._owned], dtype=np.float64)
+        tdim = mesh.topology.dim
+        num_cells = mesh.topology.index_map(tdim).size_local
+        cell_dofs = self._S.dofmap.list[:num_cells]
+        # P1 on a degree-1 geometry: cell-local DOF j sits at reference vertex j (DOLFINx order) -> VTK order
+        perm = np.asarray(dolfinx.cpp.io.perm_vtk(mesh.topology.cell_type, cell_dofs.shape[1]))
+        cells = imap.local_to_global(cell_dofs.ravel()).reshape(cell_dofs.shape)[:, perm].astype(np.int64)
+        self.num_cells = int(self.comm.allreduce(num_cells, op=MPI.SUM))
+        cell_offset = int(self.comm.exscan(num_cells, op=MPI.SUM) or 0)
+        self._vertices_per_cell = int(cells.shape[1])
+        if self.comm.rank == 0:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.comm.barrier()
+        _write_slabs(self.comm, self.h5_path, [(MESH_GEOMETRY, x, self.num_vertices, self._offset),
+                                               (MESH_TOPOLOGY, cells, self.num_cells, cell_offset)], create=True)
+        self._grids: list[ET.Element] = []
+
+    def __enter__(self) -> XDMFTimeSeries:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Nothing is held open between writes; kept for the context-manager protocol."""
+
+    @property
+    def times(self) -> list[float]:
+        """The times written so far."""
+        return [float(g.find("Time").get("Value")) for g in self._grids]  # type: ignore[union-attr]
+
+    def _vertex_values(self, f: dolfinx.fem.Function) -> npt.NDArray[np.float64]:
+        """Values of a P1 Function at this rank's owned vertices (rows in the writer's vertex order)."""
+        W = f.function_space
+        if W.dofmap.list.shape != self._S.dofmap.list.shape or W.dofmap.index_map.size_global != self.num_vertices:
+            raise ValueError(f"field {f.name!r} is not a P1 (vertex) field")
+        imap = self._S.dofmap.index_map
+        to_block = np.empty(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        to_block[self._S.dofmap.list.ravel()] = W.dofmap.list.ravel()
+        f.x.scatter_forward()
+        return f.x.array.reshape(-1, W.dofmap.index_map_bs)[to_block[: self._owned]]
+
+    def write(
+        self,
+        t: float,
+        fields: Sequence[dolfinx.fem.Function] | Mapping[str, dolfinx.fem.Function],
+        dtypes: Mapping[str, npt.DTypeLike] | None = None,
+        name: str | None = None,
+        information: Mapping[str, str] | None = None,
+    ) -> None:
+        """Append the grid of time ``t`` holding all ``fields`` as point data (collective).
+
+        Args:
+            t: Time (or load parameter) of this output.
+            fields: P1 Functions on the writer's mesh (scalar or vector), named by ``Function.name`` or by
+                the mapping's keys.
+            dtypes: Stored type per field name (default float64); integer types round, e.g. a categorical
+                field ``{"contact_state": np.int32}``.
+            name: Grid name shown by ParaView (default ``"<series name> t=<t>"``).
+            information: Extra ``<Information Name= Value=>`` items of the grid (e.g. convergence).
+        """
+        named = dict(fields) if isinstance(fields, Mapping) else {f.name: f for f in fields}
+        dtypes = dict(dtypes or {})
+        unknown = set(dtypes) - set(named)
+        if unknown:
+            raise ValueError(f"dtypes given for unknown fields {sorted(unknown)}")
+        step = len(self._grids)
+        slabs = []
+        for key, f in named.items():
+            values = self._vertex_values(f)
+            dtype = np.dtype(dtypes.get(key, np.float64))
+            if dtype.kind in "iu":
+                values = np.rint(values)
+            values = np.ascontiguousarray(values.astype(dtype))
+            if values.shape[1] == 1:
+                values = values.ravel()
+            slabs.append((f"/Function/{key}/{step}", values, self.num_vertices, self._offset))
+        _write_slabs(self.comm, self.h5_path, slabs, create=False)
+        self._grids.append(self._grid_element(t, step, slabs, name, information))
+        if self.comm.rank == 0:
+            self._save_xml()
+        self.comm.barrier()
+
+    def _data_item(self, parent: ET.Element, dataset: str, shape: tuple[int, ...], dtype: np.dtype) -> None:
+        number, precision = _number_type(dtype)
+        item = ET.SubElement(parent, "DataItem", Dimensions=" ".join(map(str, shape)), NumberType=number,
+                             Precision=precision, Format="HDF")
+        item.text = f"{self.h5_path.name}:{dataset}"
+
+    def _grid_element(self, t: float, step: int, slabs: list, name: str | None,
+                      information: Mapping[str, str] | None) -> ET.Element:
+        grid = ET.Element("Grid", Name=name or f"{self.name} t={t:g}", GridType="Uniform")
+        ET.SubElement(grid, "Time", Value=repr(float(t)))
+        for key, value in (information or {}).items():
+            ET.SubElement(grid, "Information", Name=str(key), Value=str(value))
+        topology = ET.SubElement(grid, "Topology", TopologyType=self._cell, NumberOfElements=str(self.num_cells),
+                                 NodesPerElement=str(self._vertices_per_cell))
+        self._data_item(topology, MESH_TOPOLOGY, (self.num_cells, self._vertices_per_cell), np.dtype(np.int64))
+        geometry = ET.SubElement(grid, "Geometry", GeometryType="XYZ")
+        self._data_item(geometry, MESH_GEOMETRY, (self.num_vertices, 3), np.dtype(np.float64))
+        for dataset, values, rows, _ in slabs:
+            width = values.shape[1] if values.ndim == 2 else 1
+            kind = {1: "Scalar", 3: "Vector", 6: "Tensor6", 9: "Tensor"}.get(width, "Matrix")
+            attribute = ET.SubElement(grid, "Attribute", Name=dataset.split("/")[2], AttributeType=kind,
+                                      Center="Node")
+            self._data_item(attribute, dataset, (rows,) if width == 1 else (rows, width), values.dtype)
+        return grid
+
+    def _save_xml(self) -> None:
+        root = ET.Element("Xdmf", Version="3.0")
+        domain = ET.SubElement(root, "Domain")
+        series = ET.SubElement(domain, "Grid", Name=self.name, GridType="Collection", CollectionType="Temporal")
+        series.extend(self._grids)
+        ET.indent(root)
+        _write_xml(self.path, '<?xml version="1.0" encoding="utf-8"?>\n<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>\n'
+                   + ET.tostring(root, encoding="unicode") + "\n")
+
+
+def write_xdmf(path: Path, model: ContactModel, result: SolveResult) -> None:
+    """Write the output fields of a solve as ``solution.xdmf``/``.h5`` (collective).
+
+    A solve that did not converge writes its last iterate, named so in the grid and marked by the grid's
+    ``converged``/``reason`` information items.
+    """
+    with XDMFTimeSeries(path, model.V.mesh) as xdmf:
+        write_result_grid(xdmf, model, result, 0.0, "solution")
+
+
+def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveResult, t: float, name: str) -> None:
+    """Append the output fields of a solve as the grid of time ``t`` (collective); a solve that did not converge
+    is named ``last iterate (NOT converged: <reason>)`` (after ``name`` when it is not "solution") and marked
+    by the grid's ``converged``/``reason`` information items."""
+    functions = contact_functions(model, result)
+    if not result.converged:
+        name = ("" if name == "solution" else f"{name}: ") + f"last iterate (NOT converged: {result.reason})"
+    xdmf.write(t, functions, dtypes={"contact_state": np.int32}, name=name,
+               information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
+                            "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items())})
+
+
+def solution_datasets(path: Path, time: float | None = None) -> dict[str, Any]:
+    """Locate the mesh and the displacement of the last time (or of time ``time``, e.g. a path's step number)
+    of a ``solution.xdmf`` (no MPI).
+
+    Returns:
+        ``cell`` (DOLFINx cell name) and ``(h5 file, dataset)`` pairs for ``topology``, ``geometry`` and
+        ``displacement``.
+
+    Raises:
+        ValueError: The file is not such an XDMF file or lacks a field (message names what is missing).
+        OSError: A file cannot be read.
+    """
+    path = Path(path).with_suffix(".xdmf")
+    try:
+        grid = _last_grid(path, time)
+    except ET.ParseError as err:
+        raise ValueError(f"not an XDMF file ({err})") from err
+    topology = grid.find("Topology")
+    cells = {v: k for k, v in XDMF_CELLS.items()}
+    kind = topology.get("TopologyType") if topology is not None else None
+    if kind not in cells:
+        raise ValueError(f"topology {kind!r} is not one of {', '.join(cells)}")
+    displacement = [a for a in grid.findall("Attribute") if a.get("Name") == "displacement"]
+    if not displacement:
+        raise ValueError("no point field 'displacement'")
+    information = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
+    return {
+        "converged": information.get("converged", "true") != "false",
+        "cell": cells[kind],
+        "topology": _h5_item(path, topology.find("DataItem"), "the topology"),  # type: ignore[union-attr]
+        "geometry": _h5_item(path, grid.find("Geometry/DataItem"), "the geometry"),
+        "displacement": _h5_item(path, displacement[0].find("DataItem"), "displacement"),
+    }
+
+
+def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float | None = None,
+                      time: float | None = None) -> npt.NDArray[np.float64]:
+    """Read ``displacement`` (the last time, or the time ``time``: a load path's step number) of an earlier
+    run's solution.xdmf/.h5 and interpolate it onto V (collective).
+
+    The old mesh is rebuilt in parallel from row blocks of the file; the meshes need not match (nested
+    iteration across levels): the old field is rebuilt as a P1 function on the old mesh and interpolated
+    point-wise; nodes up to ``padding`` outside the old mesh (the bottoms of two levels follow d at different
+    resolutions; default: :func:`~fenics_coulomb.problem.interpolate_displacement`'s) take the value of the
+    closest cell.
+
+    Returns:
+        The interpolated physical displacement on V's owned DOFs.
+    """
+    import basix.ufl
+    import h5py
+    import ufl
+
+    comm = V.mesh.comm
+    info = solution_datasets(Path(path), time)
+    (tfile, tset), (gfile, gset), (ufile, uset) = info["topology"], info["geometry"], info["displacement"]
+    with h5py.File(tfile, "r") as h5:
+        lo, hi = _rows(comm, h5[tset].shape[0])
+        vtk_cells = np.asarray(h5[tset][lo:hi], dtype=np.int64)
+    with h5py.File(gfile, "r") as h5:
+        lo, hi = _rows(comm, h5[gset].shape[0])
+        x = np.asarray(h5[gset][lo:hi], dtype=np.float64)
+    cell_type = dolfinx.mesh.to_type(info["cell"])
+    perm = np.asarray(dolfinx.cpp.io.perm_vtk(cell_type, vtk_cells.shape[1]))
+    cells = np.empty_like(vtk_cells)
+    cells[:, perm] = vtk_cells
+    domain = ufl.Mesh(basix.ufl.element("Lagrange", info["cell"], 1, shape=(3,)))
+    old = dolfinx.mesh.create_mesh(comm, cells, x, domain)
+    V_old = dolfinx.fem.functionspace(old, ("Lagrange", 1, (3,)))
+    u_old = dolfinx.fem.Function(V_old)
+    # P1 on the mesh's own (degree-1) geometry: cell-local node j is cell-local DOF j.
+    nodes = old.geometry.dofmap.ravel()
+    original = np.asarray(old.geometry.input_global_indices, dtype=np.int64)
+    first, last = (int(original.min()), int(original.max()) + 1) if original.size else (0, 0)
+    with h5py.File(ufile, "r") as h5:
+        values = np.asarray(h5[uset][first:last], dtype=np.float64).reshape(-1, 3)
+    u_old.x.array.reshape(-1, 3)[V_old.dofmap.list.ravel()] = values[original[nodes] - first]
+    u_old.x.scatter_forward()
+    return interpolate_displacement(u_old, V, padding)
+
+
+def displacement_function(V: dolfinx.fem.FunctionSpace, owned: npt.NDArray[np.float64]) -> dolfinx.fem.Function:
+    """A Function on V holding the owned DOF values ``owned`` (ghosts updated)."""
+    u = dolfinx.fem.Function(V, name="displacement")
+    u.x.petsc_vec.array[:] = owned
+    u.x.scatter_forward()
+    return u
+
+
+def _last_grid(path: Path, time: float | None = None) -> ET.Element:
+    """The grid of the last time in an XDMF file written by :class:`XDMFTimeSeries` (or a single grid), or
+    the grid of time ``time``."""
+    root = ET.parse(path).getroot()
+    domain = root.find("Domain")
+    grid = domain.find("Grid") if domain is not None else None
+    if grid is None:
+        raise ValueError("no Domain/Grid")
+    children = grid.findall("Grid") if grid.get("GridType") == "Collection" else [grid]
+    if not children:
+        raise ValueError("an empty grid collection")
+    if time is None:
+        return children[-1]
+    for child in children:
+        stamp = child.find("Time")
+        if stamp is not None and float(stamp.get("Value", "nan")) == float(time):
+            return child
+    raise ValueError(f"no grid of time {time:g}")
+
+
+def _h5_item(path: Path, item: ET.Element | None, what: str) -> tuple[Path, str]:
+    """The HDF5 file and dataset of an XDMF DataItem."""
+    if item is None or not (item.text or "").strip() or ":" not in item.text:
+        raise ValueError(f"no HDF5 data item for {what}")
+    file, dataset = item.text.strip().rsplit(":", 1)
+    return path.parent / file, dataset
+
+
+def _rows(comm: MPI.Comm, total: int) -> tuple[int, int]:
+    """This rank's contiguous block of ``total`` rows."""
+    return total * comm.rank // comm.size, total * (comm.rank + 1) // comm.size
+
+
+def _number_type(dtype: np.dtype) -> tuple[str, str]:
+    """XDMF NumberType and Precision of a NumPy dtype."""
+    dtype = np.dtype(dtype)
+    if dtype.kind == "f":
+        return "Float", str(dtype.itemsize)
+    if dtype.kind == "i":
+        return ("Char" if dtype.itemsize == 1 else "Int"), str(dtype.itemsize)
+    if dtype.kind == "u":
+        return ("UChar" if dtype.itemsize == 1 else "UInt"), str(dtype.itemsize)
+    raise TypeError(f"no XDMF number type for {dtype}")
+
+
+def _write_slabs(comm: MPI.Comm, path: Path, slabs: list[tuple[str, np.ndarray, int, int]], create: bool) -> None:
+    """Write distributed row blocks into datasets of ONE HDF5 file (collective).
+
+    Each entry ``(name, local, rows, offset)`` is a dataset of ``rows`` global rows of which this rank owns
+    ``local`` at ``offset``. No rank ever holds more than its own rows. With an MPI-enabled h5py all ranks
+    open the file with the ``mpio`` driver and write their hyperslabs at once; with a serial h5py (Debian's
+    default ``python3-h5py``) rank 0 creates the datasets and the ranks then write their own hyperslabs in
+    rank order, passing a token (each rank opens the file, writes its rows and closes it before the next).
+    """
+    import h5py
+
+    if h5py.get_config().mpi:  # pragma: no cover - Debian's default h5py is serial
+        with h5py.File(path, "w" if create else "a", driver="mpio", comm=comm) as h5:
+            for name, local, rows, offset in slabs:
+                ds = h5.create_dataset(name, (rows, *local.shape[1:]), dtype=local.dtype)
+                ds[offset : offset + local.shape[0]] = local
+        return
+    tag = 7301
+    # the token carries the first failure (disk full, a file-size limit): the later ranks skip their turn and
+    # every rank raises the same OutputError at the end instead of one rank raising while the others wait
+    failure = comm.recv(source=comm.rank - 1, tag=tag) if comm.rank > 0 else ""
+    if not failure:
+        hook = sys.unraisablehook
+        # a failed write leaves h5py objects whose release fails too ("Exception ignored in ObjectID.__dealloc__" on
+        # stderr, twice): the failure is reported once, in one line
+        sys.unraisablehook = lambda unraisable: None if isinstance(unraisable.exc_value, RuntimeError) else hook(
+            unraisable)
+        def write() -> None:  # the h5py objects live in this frame: released inside the quiet window below
+            with h5py.File(path, "w" if (create and comm.rank == 0) else "a") as h5:
+                for name, local, rows, offset in slabs:
+                    ds = (h5.create_dataset(name, (rows, *local.shape[1:]), dtype=local.dtype) if comm.rank == 0
+                          else h5[name])
+                    if local.shape[0]:
+                        ds[offset : offset + local.shape[0]] = local
+
+        try:
+            with contextlib.redirect_stderr(io.StringIO()):  # Cython prints some of those tracebacks itself
+                try:
+                    write()
+                except (OSError, RuntimeError, ValueError) as err:
+                    failure = f"{path.name}: {_io_reason(err)}"
+        finally:
+            sys.unraisablehook = hook
+    if comm.rank < comm.size - 1:
+        comm.send(failure, dest=comm.rank + 1, tag=tag)
+    failure = comm.bcast(failure, root=comm.size - 1)
+    if failure:
+        raise OutputError(f"the results could not be written ({failure}); the earlier results are kept")
+
+
+@rank0_file
+def _write_xml(path: Path, text: str) -> None:
+    """Replace ``path`` by ``text`` atomically (rank 0)."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+#: XDMF topology names of the supported (degree-1) cells.
+XDMF_CELLS: dict[str, str] = {"hexahedron": "Hexahedron", "tetrahedron": "Tetrahedron"}
+

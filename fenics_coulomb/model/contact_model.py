@@ -1,0 +1,607 @@
+r"""The discrete contact model of Section 6 built from a user's forms: stiffness, loads and the shift.
+
+Given a bilinear form a (any linear-elastic operator on a vector P1/Q1 space), a linear form L, Dirichlet
+conditions, the rigid obstacles and the contact boundary, this assembles the stiffness matrix A, the load
+vector l̃, the shift d (dⁱ = Rᵢ sⁱ = gᵢ n − TᵀT δ at contact node i with frame Rᵢ = (t₁, t₂, n), gap gᵢ and
+its obstacle's displacement δ; for the default plane (0, 0, αᵢ), αᵢ the height; 0 elsewhere) and
+l = l̃ + A d. Why the per-node frames change nothing else: see :mod:`fenics_coulomb.model.obstacles`.
+
+**The shifted load.** The physical displacement ũ solves Definition 6.1. In the shifted unknown u = ũ + d
+the problem is the generalized equation (6.3) 0 ∈ A u − l + Q(u), where, substituting ũ = u − d into
+½ ũᵀAũ − ⟨l̃, ũ⟩,
+
+    ½ (u − d)ᵀA(u − d) − ⟨l̃, u − d⟩ = ½ uᵀAu − ⟨l̃ + A d, u⟩ + const,
+
+so the shifted load is **l = l̃ + A d** (the paper prints l̃ − A d, a sign slip; with it the residual
+A u − l would differ from the physical A ũ − l̃ by 2 A d). Check: A u − l = A ũ + A d − l̃ − A d = A ũ − l̃.
+
+**Dirichlet conditions (lifting).** Split the DOFs into free ones F and prescribed ones D with ũ_D = g
+(any values, any single components). The free rows of the physical problem read
+K_FF ũ_F + K_FD g − l̃⁰_F + Q_F(ũ) ∋ 0 with the unconstrained stiffness K and load l̃⁰. Eliminating ũ_D:
+
+    A = [[K_FF, 0], [0, s I]],   l̃ = [l̃⁰_F − K_FD g, s g],
+
+so A ũ = l̃ holds in the D rows exactly when ũ_D = g, and the F rows are the physical ones. DOLFINx's
+``apply_lifting`` forms l̃⁰ − K_{:,D} g and ``set_bc`` with α = s writes s g into the D rows. The D rows and
+columns of A are those of an identity scaled to s = the mean diagonal of the free rows (so that the
+spectrum used for γ and the preconditioners is not polluted). The D rows belong to the non-contact block R
+of (6.4): contact nodes exclude every node with a constrained component, so d_D = 0 and (A d)_D = 0.
+
+**Two bodies (contact pairs).** With ``contact_pairs`` the model is that of :mod:`fenics_coulomb.model.two_body`:
+A is Ã = Mᵀ A_free M with the same Dirichlet treatment, l̃ = Mᵀ(l − A_free M x_D), the contact nodes are the
+paired slave nodes with the pairing's frames and gaps, and the unknown is z (w on the slave nodes);
+:meth:`ContactModel.physical` maps it back to u = M z.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+import numpy.typing as npt
+import ufl
+
+from fenics_coulomb.model.contact_map import ContactMap
+from fenics_coulomb.model.mesh_checks import BodyLocator, check_mesh
+from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
+from fenics_coulomb.model.nullspace import rigid_body_modes
+from fenics_coulomb.model.two_body import body_rigid_modes, check_rigid_support, connected_bodies, coupling_matrix
+from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, closest_obstacle, core_path
+from fenics_coulomb.model.frames import local_shift, to_global
+
+__all__ = ["validate_friction", "validate_arguments", "function_space", "ContactModel"]
+
+logger = logging.getLogger(__name__)
+
+Friction = float | dolfinx.fem.Function
+
+
+def validate_friction(friction: float) -> None:
+    """Raise InputError unless 0 <= F < inf."""
+    if isinstance(friction, bool) or not isinstance(friction, int | float) or not (
+            np.isfinite(friction) and friction >= 0.0):
+        raise InputError(f"friction coefficient F = {friction!r}: must be finite and >= 0")
+
+
+def _cpp(obj: object) -> object:
+    """The C++ object behind a DOLFINx Python wrapper (itself if it is one): identity comparisons of meshes."""
+    return getattr(obj, "_cpp_object", obj)
+
+
+def _same_mesh(mesh: object, msh: dolfinx.mesh.Mesh) -> bool:
+    return _cpp(mesh) is _cpp(msh)
+
+
+def validate_arguments(V: dolfinx.fem.FunctionSpace, L: ufl.Form | None, bcs: Sequence[object],
+                       contact: object, friction: object) -> None:
+    """InputError naming the argument of :class:`ContactModel` that does not belong to V's mesh or has the wrong
+    kind (pure: the same on every rank, before any collective call). A friction Function on another mesh used to
+    end in a segmentation fault; facet tags of another mesh, cell tags, a boundary condition of another space were
+    accepted and built a wrong model."""
+    msh = V.mesh
+    fdim = msh.topology.dim - 1
+    if L is not None:
+        if not isinstance(L, ufl.Form) or len(L.arguments()) != 1:
+            raise InputError(f"L: {type(L).__name__} is not a linear UFL form (or None)")
+        test = L.arguments()[0].ufl_function_space()
+        if not _same_mesh(getattr(test, "mesh", None), msh):
+            raise InputError("L: its test function lives on another mesh than the bilinear form's")
+    for i, bc in enumerate(bcs):
+        if not isinstance(bc, dolfinx.fem.DirichletBC):
+            raise InputError(f"bcs[{i}]: {type(bc).__name__} is not a dolfinx.fem.DirichletBC")
+        space = bc.function_space
+        if not _same_mesh(space.mesh, msh) or space.dofmap.index_map_bs != V.dofmap.index_map_bs or \
+                space.dofmap.index_map.size_global != V.dofmap.index_map.size_global:
+            raise InputError(f"bcs[{i}]: a boundary condition of another function space (give it V or V.sub(i) of "
+                             "the bilinear form's space, not a collapsed or foreign space)")
+    if contact is not None:
+        if not (isinstance(contact, tuple | list) and len(contact) == 2):
+            raise InputError(f"contact = {type(contact).__name__}: give (facet_tags, markers)")
+        tags, markers = contact
+        if not isinstance(tags, dolfinx.mesh.MeshTags):
+            raise InputError(f"contact: {type(tags).__name__} is not dolfinx MeshTags of facets")
+        if tags.dim != fdim:
+            raise InputError(f"contact: mesh tags of dimension {tags.dim} (cells or edges?): the contact boundary "
+                             f"needs facet tags (dimension {fdim})")
+        if _cpp(tags.topology) is not _cpp(msh.topology):
+            raise InputError("contact: the facet tags belong to another mesh than the bilinear form's")
+        values = list(markers) if isinstance(markers, list | tuple | np.ndarray) else [markers]
+        if any(isinstance(m, bool) or not isinstance(m, int | np.integer) for m in values):
+            raise InputError(f"contact: markers {markers!r} must be a list of integer tag values (empty: no contact "
+                             "boundary)")
+    if isinstance(friction, dolfinx.fem.Function):
+        if not _same_mesh(friction.function_space.mesh, msh):
+            raise InputError("friction: the friction Function lives on another mesh than the bilinear form's")
+        if friction.function_space.dofmap.index_map_bs * friction.function_space.dofmap.bs != 1 and \
+                friction.ufl_shape != ():
+            raise InputError("friction: the friction Function must be scalar")
+
+
+def function_space(a: ufl.Form) -> dolfinx.fem.FunctionSpace:
+    """The trial space of ``a``; raise InputError unless it is a 3D vector P1/Q1 space."""
+    if not isinstance(a, ufl.Form) or len(a.arguments()) != 2:
+        raise InputError(f"a: {type(a).__name__} is not a bilinear UFL form")
+    V = a.arguments()[-1].ufl_function_space()
+    if not isinstance(V, dolfinx.fem.FunctionSpace):
+        raise InputError("the bilinear form must be defined on a dolfinx.fem.FunctionSpace")
+    topology = V.mesh.topology
+    vertices = dolfinx.cpp.mesh.cell_num_vertices(topology.cell_type)
+    if V.dofmap.index_map_bs != 3 or V.mesh.geometry.dim != 3 or V.dofmap.dof_layout.num_dofs != vertices:
+        raise InputError(f"the contact solver needs a 3D vector P1/Q1 space (block size 3, one node per vertex); "
+                         f"got block size {V.dofmap.index_map_bs} with {V.dofmap.dof_layout.num_dofs} nodes "
+                         f"per {topology.cell_type.name}")
+    return V
+
+
+class ContactModel:
+    """The algebraic contact problem (A, l̃, d, l, Q) of Section 6, with PETSc storage.
+
+    Owns the stiffness matrix ``A`` (options prefix ``<prefix>A_``) and the vectors ``load`` (l̃), ``shift``
+    (d) and ``rhs`` (l = l̃ + A d). Call :meth:`destroy` when done (the PETSc objects are collective).
+
+    Args:
+        a: Bilinear UFL form of linear elasticity on a vector P1/Q1 space.
+        L: Linear UFL form (tractions, body forces), or None for no load.
+        bcs: Dirichlet conditions (any values; single components allowed).
+        contact: Facet tags and the markers of the contact boundary.
+        friction: Coulomb coefficient F: a number or a scalar field (interpolated at the contact nodes).
+        obstacles: The rigid obstacles (default: the plane x3 = 0); each contact node belongs to the one with
+            the smallest gap. An obstacle overlapping the body at its scene position is an InputError; one
+            whose displacement δ makes it overlap is an indentation.
+        prefix: Options prefix of the problem's PETSc objects.
+        form_compiler_options: FFCx options.
+        jit_options: JIT options.
+    """
+
+    def __init__(
+        self,
+        a: ufl.Form,
+        L: ufl.Form | None,
+        bcs: Sequence[dolfinx.fem.DirichletBC],
+        contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None,
+        friction: Friction,
+        obstacles: Sequence[Obstacle] | None = None,
+        prefix: str = "coulomb_",
+        form_compiler_options: dict | None = None,
+        jit_options: dict | None = None,
+        contact_pairs: Sequence[ContactPair] | None = None,
+    ) -> None:
+        V = function_space(a)
+        msh = V.mesh
+        comm = msh.comm
+        validate_arguments(V, L, bcs, contact, friction)
+        check_mesh(msh)
+        self.V = V
+        self.comm = comm
+        self.bcs = list(bcs)
+        pairs = list(contact_pairs or [])
+        #: The contact pairs (two bodies), in the order given.
+        self.pairs = pairs
+        #: Two bodies: the pairing, M = I + Φ and the stiffness without Dirichlet rows (None for one body).
+        self.pairing: Pairing | None = None
+        self.coupling: PETSc.Mat | None = None
+        self.A_free: PETSc.Mat | None = None
+        self._free_coupling: PETSc.Mat | None = None
+        self._prefix = prefix
+        obstacle_contact = None
+        if pairs:
+            bad = [q for q in pairs if not isinstance(q, ContactPair)]
+            if bad:
+                raise InputError(f"contact_pairs: {bad[0]!r} is not a ContactPair")
+            if obstacles and contact is None:
+                raise InputError("obstacles with contact pairs: give the contact boundary of the obstacles too "
+                                 "(contact=(facet_tags, markers))")
+            obstacle_contact = contact if obstacles else None
+            # the slave surfaces (and the obstacles' contact boundary) are the contact boundary (nodal areas of
+            # the tractions, figures)
+            facet_tags = pairs[0].facet_tags
+            markers = sorted({int(t) for q in pairs for t in np.atleast_1d(q.slave)}
+                             | ({int(m) for m in obstacle_contact[1]} if obstacle_contact else set()))
+        elif contact is None:
+            raise InputError("contact: give the facet tags and the markers of the contact boundary")
+        else:
+            facet_tags, markers = contact
+        self.facet_tags = facet_tags
+        self.markers = [int(m) for m in markers]
+        if not pairs:  # a marker no facet carries makes no contact node at all: a typo, not a body without contact
+            counts = comm.allreduce(np.array([facet_tags.find(m).size for m in self.markers], dtype=np.int64),
+                                    op=MPI.SUM)
+            missing = [m for m, c in zip(self.markers, counts, strict=True) if c == 0]
+            check_all(comm, not missing, f"contact: marker {missing[0] if missing else 0} is carried by no facet of "
+                      f"the facet tags (their values: {sorted({int(v) for v in np.unique(facet_tags.values)})})")
+        if isinstance(obstacles, Obstacle):
+            obstacles = [obstacles]
+        self.obstacles: list[Obstacle] = list(obstacles) if obstacles else ([] if pairs else [DEFAULT_PLANE])
+        # Validate everything before the first collective call: all ranks hold the same values.
+        bad_obstacles = [o for o in self.obstacles if not isinstance(o, Obstacle)]
+        if bad_obstacles:
+            raise InputError(f"obstacles: {bad_obstacles[0]!r} is not a Plane, Sphere or Cylinder")
+        if not isinstance(friction, dolfinx.fem.Function):
+            validate_friction(friction)
+        if L is None:
+            v = a.arguments()[0]
+            L = ufl.inner(dolfinx.fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType)), v) * ufl.dx
+        self.a_ufl = a
+        self.L_ufl = L
+        self.a = dolfinx.fem.form(a, form_compiler_options=form_compiler_options, jit_options=jit_options)
+        self.L = dolfinx.fem.form(L, form_compiler_options=form_compiler_options, jit_options=jit_options)
+
+        # Dirichlet DOFs (local, unrolled; owned and ghost) and the nodes they touch.
+        size_local = V.dofmap.index_map.size_local
+        dofs = [bc.dof_indices()[0] for bc in self.bcs]
+        dirichlet = np.unique(np.concatenate(dofs)).astype(np.int32) if dofs else np.zeros(0, np.int32)
+        owned = dirichlet[dirichlet < 3 * size_local]
+        num_dirichlet = comm.allreduce(int(owned.size), op=MPI.SUM)
+
+        self._size = comm.allreduce(float(np.abs(msh.geometry.x).max(initial=0.0)), op=MPI.MAX)
+        self.dirichlet_rows = owned
+        self.load = None
+        if pairs:
+            self._create_two_body(pairs, dirichlet, prefix, obstacle_contact, friction)
+        else:
+            # Stiffness with the Dirichlet rows/columns replaced by a scaled identity.
+            self.A = dolfinx.fem.petsc.assemble_matrix(self.a, bcs=self.bcs)
+            self.A.assemble()
+            self.A.setOptionsPrefix(f"{prefix}A_")
+            self.dirichlet_diagonal = self._scale_dirichlet_rows(owned)
+            # Load vector l̃ (see the module docstring) and the contact nodes (no node with a constrained
+            # component)
+            self.load = self.A.createVecRight()
+            self.load.setOptionsPrefix(f"{prefix}load_")
+            self.assemble_load()
+            self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
+            check_not_overlapping(self.obstacles, self.contact.coordinates, comm=comm)
+            self.friction = self._friction_at_contact_nodes(friction)
+        #: Where the body is: rejects obstacles buried in it or moved through it (:meth:`check_motion`).
+        self._locator = BodyLocator(msh) if any(o.core(np.zeros(3), np.ones(3), 2).size
+                                                for o in self.obstacles) else None
+        self.shift = self.A.createVecRight()
+        self.shift.setOptionsPrefix(f"{prefix}shift_")
+        self.rhs = self.A.createVecRight()
+        self.rhs.setOptionsPrefix(f"{prefix}rhs_")
+        self.place(self.obstacles)
+
+        imap = V.dofmap.index_map
+        self.num_dofs_global = imap.size_global * 3
+        self.num_clamped_global = num_dirichlet
+        #: n of the paper: unknowns after removing the Dirichlet DOFs.
+        self.n = self.num_dofs_global - num_dirichlet
+        #: p of the paper: number of contact nodes.
+        self.p = self.contact.num_global
+
+    def _create_two_body(self, pairs: list[ContactPair], dirichlet: npt.NDArray[np.int32], prefix: str,
+                         obstacle_contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None = None,
+                         friction: Friction = 0.0) -> None:
+        """Ã = Mᵀ A_free M with the Dirichlet rows and columns of s I, the pairing and l̃_z
+        (:mod:`fenics_coulomb.model.two_body` derives it; collective). With rigid obstacles as well (their contact
+        boundary ``obstacle_contact``), a node that is both a paired slave node and an obstacle contact node
+        belongs to the one with the smaller |g| (ties: the pair); obstacle nodes keep z = u (no row of Φ)."""
+        V, comm = self.V, self.comm
+        excluded = np.unique(dirichlet // 3)
+        #: Body of every local DOF block (connected components of the mesh) and their number.
+        self.body_of_block, self.num_bodies = connected_bodies(V)
+        check_rigid_support(V, self.body_of_block, self.num_bodies, self.dirichlet_rows)
+        pairing = pair_surfaces(V, pairs, excluded)
+        obstacle_map = None
+        if obstacle_contact is not None:
+            tags, markers = obstacle_contact
+            obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], excluded, self.obstacles)
+            check_not_overlapping(self.obstacles, obstacle_map.coordinates, comm=comm)
+            # the smaller |g| wins a node on both (ties: the pair)
+            both_p = np.isin(pairing.blocks, obstacle_map.blocks)
+            where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
+            lose = np.zeros(pairing.blocks.size, dtype=bool)
+            lose[np.flatnonzero(both_p)] = np.abs(obstacle_map.gap[where]) < np.abs(pairing.gap[both_p])
+            pairing = pairing.subset(~lose, comm)
+            keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
+            obstacle_map = obstacle_map.subset(keep, comm)
+        self.pairing = pairing
+        self.coupling = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix)
+        self.A_free = dolfinx.fem.petsc.assemble_matrix(self.a)
+        self.A_free.assemble()
+        self.A_free.setOptionsPrefix(f"{prefix}A_free_")
+        self.A = self.A_free.ptap(self.coupling)
+        self.A.setOptionsPrefix(f"{prefix}A_")
+        r0 = V.dofmap.index_map.local_range[0]
+        self.A.zeroRowsColumns((self.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
+        self.dirichlet_diagonal = self._scale_dirichlet_rows(self.dirichlet_rows)
+        self.load = self.A.createVecRight()
+        self.load.setOptionsPrefix(f"{prefix}load_")
+        self.assemble_load()
+        blocks = pairing.blocks
+        coordinates, gap, frames = pairing.coordinates, pairing.gap, pairing.frames
+        index = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
+        paired = np.ones(blocks.size, dtype=bool)
+        if obstacle_map is not None:
+            blocks = np.concatenate([blocks, obstacle_map.blocks])
+            coordinates = np.concatenate([coordinates, obstacle_map.coordinates])
+            gap = np.concatenate([gap, obstacle_map.gap])
+            frames = np.concatenate([frames, obstacle_map.frames])
+            index = np.concatenate([index, obstacle_map.obstacle_index])
+            paired = np.concatenate([paired, np.zeros(obstacle_map.size, dtype=bool)])
+        order = np.argsort(blocks, kind="stable")
+        blocks = blocks[order].astype(np.int32)
+        offsets = np.arange(3, dtype=np.int32)
+        self.contact = ContactMap(
+            blocks=blocks, local_dofs=(3 * blocks[:, None] + offsets).astype(np.int32),
+            global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
+            coordinates=np.ascontiguousarray(coordinates[order]), gap=np.ascontiguousarray(gap[order]),
+            frames=np.ascontiguousarray(frames[order]), obstacle_index=index[order],
+            num_global=comm.allreduce(int(blocks.size), op=MPI.SUM))
+        #: Which contact nodes are paired slave nodes (the others belong to rigid obstacles).
+        self.paired = paired[order]
+        node_friction = np.zeros(blocks.size)
+        if obstacle_map is not None:  # the problem's coefficient (or field) on the obstacles' nodes
+            node_friction[:] = self._friction_at_contact_nodes(friction)
+        node_friction[self.paired] = pairing.friction  # both in ascending block order
+        self.friction = np.ascontiguousarray(node_friction)
+
+    def near_nullspace(self) -> PETSc.NullSpace:
+        """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""
+        if self.coupling is None:
+            return rigid_body_modes(self.V)
+        return body_rigid_modes(self.V, self.body_of_block, self.num_bodies, self.coupling)
+
+    def physical(self, z: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """u = M z on the owned DOFs (the identity for one body; collective for two)."""
+        if self.coupling is None:
+            return np.array(z, dtype=np.float64)
+        x, y = self.coupling.createVecs()
+        x.array[:] = z
+        self.coupling.mult(x, y)
+        u = y.getArray(readonly=True).copy()
+        x.destroy()
+        y.destroy()
+        return u
+
+    def free_slave_penetrations(self, u: npt.NDArray[np.float64], tol: float = 1e-8) -> int:
+        """The number of free slave nodes (over a master surface, but not contact nodes: beyond the search
+        distance or with a Dirichlet component) whose linearized gap g + n·(u_s − Σ_j φ_j u_j) is below
+        −tol × the mesh size, on all ranks (collective; 0 for one body)."""
+        if self.pairing is None:
+            return 0
+        free = self.pairing.free
+        if self._free_coupling is None:
+            self._free_coupling = coupling_matrix(self.V, free["blocks"], free["master_blocks"], free["weights"],
+                                                  f"{self._prefix}free_")
+        x, y = self._free_coupling.createVecs()
+        x.array[:] = u
+        self._free_coupling.mult(x, y)  # (I + Φ_free) u
+        w = (2.0 * np.asarray(u) - y.getArray(readonly=True)).reshape(-1, 3)[free["blocks"]]
+        x.destroy()
+        y.destroy()
+        gap = free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+        return int(self.comm.allreduce(int(np.sum(gap < -tol * self._size)), op=MPI.SUM))
+
+    def relative(self, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """z = M⁻¹ u = (I − Φ) u = 2u − M u on the owned DOFs (the identity for one body; collective for two)."""
+        if self.coupling is None:
+            return np.array(u, dtype=np.float64)
+        return 2.0 * np.asarray(u, dtype=np.float64) - self.physical(u)
+
+    def master_forces(self, contact_force: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The reaction on the master nodes, f_j = −Σ_s φ_sj f_s, on the owned DOFs (collective; two bodies).
+
+        Args:
+            contact_force: Cartesian force on each owned slave contact node, shape (m, 3).
+        """
+        assert self.coupling is not None, "master forces exist for contact pairs only"
+        x, y = self.coupling.createVecs()
+        x.set(0.0)
+        x.array[self.contact.local_dofs] = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3)
+        self.coupling.multTranspose(x, y)  # Mᵀ f = f + Φᵀ f
+        y.axpy(-1.0, x)
+        out = -y.getArray(readonly=True).copy()
+        x.destroy()
+        y.destroy()
+        return out
+
+    def assemble_load(self) -> None:
+        """(Re-)assemble l̃ from the current values of L's coefficients and of the Dirichlet values (collective).
+
+        Assemble, lift the Dirichlet values into the right-hand side, add the ghost contributions to their
+        owners (reverse scatter), then set the Dirichlet rows to s g (see the module docstring). Call
+        :meth:`place` afterwards to update l = l̃ + A d.
+        """
+        self.dirichlet_values = self._prescribed_values()
+        if self.coupling is not None:
+            self._assemble_two_body_load()
+            return
+        b = dolfinx.fem.petsc.assemble_vector(self.L)
+        dolfinx.fem.petsc.apply_lifting(b, [self.a], bcs=[self.bcs])
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        dolfinx.fem.petsc.set_bc(b, self.bcs, alpha=self.dirichlet_diagonal)
+        b.copy(self.load)
+        b.destroy()
+
+    def _prescribed_values(self) -> npt.NDArray[np.float64]:
+        """The Dirichlet values g of the owned Dirichlet rows, as the boundary conditions set them (bit for bit)."""
+        g = dolfinx.fem.Function(self.V)
+        g.x.array[:] = 0.0
+        for bc in self.bcs:
+            bc.set(g.x.array)
+        return np.array(g.x.array[self.dirichlet_rows], dtype=np.float64)
+
+    def _assemble_two_body_load(self) -> None:
+        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.model.two_body`)."""
+        assert self.coupling is not None and self.A_free is not None
+        l = dolfinx.fem.petsc.assemble_vector(self.L)
+        l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        x_d = self.A.createVecRight()  # M x_D: the Dirichlet values g on D, 0 elsewhere
+        x_d.set(0.0)
+        x_d.array[self.dirichlet_rows] = self.dirichlet_values
+        t, y = self.A_free.createVecs()
+        self.coupling.mult(x_d, t)
+        self.A_free.mult(t, y)
+        y.scale(-1.0)
+        y.axpy(1.0, l)  # y = l − A_free M x_D
+        self.coupling.multTranspose(y, self.load)
+        self.load.array[self.dirichlet_rows] = self.dirichlet_diagonal * x_d.array[self.dirichlet_rows]
+        for vec in (l, x_d, t, y):
+            vec.destroy()
+
+    def place(
+        self,
+        obstacles: Sequence[Obstacle],
+        previous_displacement: npt.NDArray[np.float64] | None = None,
+        previous_obstacle_displacements: npt.ArrayLike | None = None,
+    ) -> None:
+        """Place the obstacles at their displacements and set the shift d and l = l̃ + A d (collective).
+
+        The frames, gaps and obstacle of every contact node are those of the placed obstacles. The local shift
+        is sⁱ = (−T o, g) with the tangential offset o = ũ_{k−1} + δ_k − δ_{k−1} of a load path's step k
+        (:mod:`fenics_coulomb.scenes.path` semantics: the slip is the increment T(ũ_k − ũ_{k−1}) − T(δ_k − δ_{k−1}));
+        without a previous step o = δ_k, the static problem.
+
+        Args:
+            obstacles: The obstacles (the same kinds and geometry as at construction; only their displacements
+                may differ).
+            previous_displacement: ũ_{k−1} at the owned contact nodes, Cartesian, shape (m, 3); None for 0.
+            previous_obstacle_displacements: δ_{k−1} per obstacle, shape (number of obstacles, 3); None for 0.
+        """
+        obstacles = list(obstacles)
+        self.check_motion(obstacles, previous_obstacle_displacements)
+        if self.pairing is not None:
+            self._place_pairs(obstacles, previous_displacement, previous_obstacle_displacements)
+            return
+        if len(obstacles) != len(self.obstacles) or any(
+                o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
+            raise InputError("obstacles: a placement may only change the obstacles' displacements")
+        self.obstacles = obstacles
+        cmap = self.contact
+        index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates.reshape(-1, 3))
+        # round-off below the surface (e.g. from mesh generators) counts as touching
+        gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
+        cmap.obstacle_index = index
+        cmap.gap = np.ascontiguousarray(gap)
+        cmap.frames = np.ascontiguousarray(frames)
+        delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
+        #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
+        self.obstacle_displacement = delta[index]
+        offset = self.obstacle_displacement
+        if previous_obstacle_displacements is not None:
+            previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
+            offset = offset - previous[index]
+        if previous_displacement is not None:
+            offset = offset + np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
+        #: The constant part sⁱ = (−T o, g) of the local block vⁱ = Rᵢᵀũⁱ + sⁱ, shape (m, 3).
+        self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
+        self.shift.set(0.0)
+        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
+        # l = l̃ + A d (see the module docstring for the derivation).
+        self.A.mult(self.shift, self.rhs)
+        self.rhs.axpy(1.0, self.load)
+
+    def check_motion(self, obstacles: Sequence[Obstacle], previous_displacements: npt.ArrayLike | None) -> None:
+        """InputError on every rank when an obstacle's core (a sphere's centre, a cylinder's axis) lies inside
+        the body at its placement, or passes through the body on its straight way from the previous placement
+        (``previous_displacements`` per obstacle, None for the scene position) — a buried obstacle, or one
+        moved across the body within one step, which the contact nodes, all on one side, would not see
+        (collective)."""
+        if self._locator is None:
+            return
+        loc = self._locator
+        start = np.zeros((len(obstacles), 3)) if previous_displacements is None else \
+            np.asarray(previous_displacements, dtype=np.float64).reshape(-1, 3)
+        for k, obstacle in enumerate(obstacles):
+            end = np.asarray(obstacle.displacement, dtype=np.float64)
+            points = core_path(obstacle, start[k], end, loc.lo, loc.hi, 0.5 * loc.spacing)
+            if not points.size:
+                continue
+            hit = loc.first_inside(points)
+            if hit < 0:
+                continue
+            core = "centre" if obstacle.kind == "sphere" else "axis"
+            where = "(" + ", ".join(f"{c:.6g}" for c in points[hit]) + ")"
+            if np.any(start[k] != end):
+                what = (f"its {core} would pass through the body at {where} on its way from displacement "
+                        f"{start[k].tolist()} to {end.tolist()}: move it around the body, not through it")
+            else:
+                what = (f"its {core} lies inside the body at {where} (displacement {end.tolist()}): an obstacle "
+                        "buried in the body, or indenting it by more than its radius")
+            raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
+
+    def _place_pairs(self, obstacles: list[Obstacle], previous_displacement: npt.NDArray[np.float64] | None,
+                     previous_obstacle_displacements: npt.ArrayLike | None) -> None:
+        """The shift with contact pairs: the paired nodes' frames and gaps are fixed by the pairing (tangential
+        offset w_{k−1}); rigid obstacles' nodes as in :meth:`place` (offset ũ_{k−1} + δ_k − δ_{k−1})."""
+        cmap = self.contact
+        rigid = np.flatnonzero(~self.paired)
+        offset = np.zeros((cmap.size, 3))
+        self.obstacle_displacement = np.zeros((cmap.size, 3))
+        if rigid.size or self.obstacles:
+            if len(obstacles) != len(self.obstacles) or any(
+                    o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
+                raise InputError("obstacles: a placement may only change the obstacles' displacements")
+            self.obstacles = obstacles
+        if rigid.size:
+            index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates[rigid])
+            gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
+            cmap.obstacle_index[rigid], cmap.gap[rigid], cmap.frames[rigid] = index, gap, frames
+            delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
+            self.obstacle_displacement[rigid] = delta[index]
+            offset[rigid] = delta[index]
+            if previous_obstacle_displacements is not None:
+                previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
+                offset[rigid] -= previous[index]
+        if previous_displacement is not None:
+            offset += np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
+        self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
+        self.shift.set(0.0)
+        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
+        self.A.mult(self.shift, self.rhs)
+        self.rhs.axpy(1.0, self.load)
+
+    def _friction_at_contact_nodes(self, friction: Friction) -> float | npt.NDArray[np.float64]:
+        """F as a number, or its values at the owned contact nodes for a field (validated on all ranks)."""
+        if not isinstance(friction, dolfinx.fem.Function):
+            return float(friction)
+        S = dolfinx.fem.functionspace(self.V.mesh, ("Lagrange", 1))
+        values = dolfinx.fem.Function(S)
+        values.interpolate(friction)
+        blocks = self.V.dofmap.list.ravel()
+        scalars = S.dofmap.list.ravel()
+        to_scalar = np.full(self.V.dofmap.index_map.size_local + self.V.dofmap.index_map.num_ghosts, -1, np.int32)
+        to_scalar[blocks] = scalars
+        F = np.ascontiguousarray(values.x.array[to_scalar[self.contact.blocks]], dtype=np.float64)
+        bad = ~(np.isfinite(F) & (F >= 0.0))
+        check_all(self.comm, not np.any(bad), f"friction field value {F[bad][0] if np.any(bad) else 0.0!r} at "
+                  "a contact node: must be finite and >= 0")
+        return F
+
+    def _scale_dirichlet_rows(self, rows: npt.NDArray[np.int32]) -> float:
+        """Set the Dirichlet rows' diagonal to the mean diagonal of the free rows (scale-free γ and PCs)."""
+        diag = self.A.getDiagonal()
+        values = diag.array
+        free = np.ones(values.size, dtype=bool)
+        free[rows] = False
+        total = self.comm.allreduce(float(np.sum(values[free])), op=MPI.SUM)
+        count = self.comm.allreduce(int(np.sum(free)), op=MPI.SUM)
+        scale = total / max(count, 1)
+        values[rows] = scale
+        self.A.setDiagonal(diag, addv=PETSc.InsertMode.INSERT_VALUES)
+        self.A.assemble()
+        diag.destroy()
+        return scale
+
+    def total_load(self) -> npt.NDArray[np.float64]:
+        """Resultant of the applied load L (a 3-vector, the same on all ranks): L applied to the three unit
+        translations, which the P1/Q1 basis sums to (partition of unity)."""
+        b = dolfinx.fem.petsc.assemble_vector(self.L)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        local = b.getArray(readonly=True).reshape(-1, 3).sum(axis=0)
+        b.destroy()
+        return np.asarray(self.comm.allreduce(local, op=MPI.SUM))
+
+    def destroy(self) -> None:
+        """Destroy the PETSc objects (collective)."""
+        for obj in (self.A, self.load, self.shift, self.rhs, self.coupling, self.A_free, self._free_coupling):
+            if obj is not None:
+                obj.destroy()

@@ -1,0 +1,425 @@
+r"""Rigid obstacles of any placement and shape — planes, spheres, cylinders — and per-node contact frames.
+
+Geometry (issue 13)
+-------------------
+Each obstacle is placed at its scene position translated by its ``displacement`` δ (default 0):
+
+* :class:`Plane` (``point`` p, unit ``normal`` ν pointing from the obstacle toward the body): the obstacle
+  is {x : (x − p − δ)·ν ≤ 0}; g = (x − p − δ)·ν, n = ν.
+* :class:`Sphere` (``center`` c, ``radius`` R, the solid ball): g = ‖x − c − δ‖ − R,
+  n = (x − c − δ)/‖x − c − δ‖.
+* :class:`Cylinder` (``point`` p, unit ``axis`` a, ``radius`` R, the infinite solid cylinder): with
+  d = x − p − δ and its radial part ρ = d − (d·a)a, g = ‖ρ‖ − R, n = ρ/‖ρ‖.
+
+g is the signed distance from a contact node's REFERENCE position x to the placed surface (> 0 outside)
+and n the outward unit normal at the closest point x − g·n. With several obstacles a node belongs to the one
+with the smallest g (ties: the first). Given normals and axes are normalized; zero or non-finite vectors and
+radii R <= 0 are rejected (:class:`~fenics_coulomb.errors.InputError`).
+
+The contact frames of the nodes and the SCD method in those frames: :mod:`fenics_coulomb.model.frames`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.frames import _E, _NOISE, _perpendicular, frames_from_normals
+
+__all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "closest_obstacle",
+           "find_overlap", "check_not_overlapping", "core_path", "obstacle_from_dict", "obstacles_from_list"]
+
+Array = npt.NDArray[np.float64]
+Vector = tuple[float, float, float]
+
+
+# -- validation helpers --------------------------------------------------------------------------------
+def _label(name: str | None, kind: str) -> str:
+    return f"{kind} {name!r}" if name else kind
+
+
+def _vector(value: Any, key: str, owner: str) -> Vector:
+    """Three finite numbers as a tuple of floats (bool is not a number)."""
+    ok = isinstance(value, (list, tuple, np.ndarray)) and len(value) == 3
+    if ok:
+        ok = all(isinstance(c, (int, float, np.integer, np.floating)) and not isinstance(c, (bool, np.bool_))
+                 for c in value)
+    if ok:
+        vec = tuple(float(c) for c in value)
+        if all(math.isfinite(c) for c in vec):
+            return vec  # type: ignore[return-value]
+    raise InputError(f"{owner}: {key} = {_show(value)}: must be 3 finite numbers")
+
+
+def _unit(value: Any, key: str, owner: str) -> Vector:
+    """A finite non-zero 3-vector, normalized (scaled first, so tiny vectors do not underflow)."""
+    given = _vector(value, key, owner)
+    vec = np.asarray(given)
+    if abs(float(np.linalg.norm(vec)) - 1.0) <= 4.0 * np.finfo(np.float64).eps:
+        return given  # already a unit vector: keep it bit for bit (normalizing is idempotent)
+    big = float(np.max(np.abs(vec)))
+    if big == 0.0:
+        raise InputError(f"{owner}: {key} = {_show(value)}: a zero vector has no direction")
+    vec = vec / big
+    vec = vec / np.linalg.norm(vec)
+    return tuple(float(c) for c in vec)  # type: ignore[return-value]
+
+
+def _radius(value: Any, owner: str) -> float:
+    if (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+            and math.isfinite(float(value)) and float(value) > 0.0):
+        return float(value)
+    raise InputError(f"{owner}: radius = {_show(value)}: must be a finite number > 0")
+
+
+def _show(value: Any) -> str:
+    """A value as the user wrote it, on one line."""
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    text = repr(value).replace("\n", " ")
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _points(x: npt.ArrayLike) -> Array:
+    x = np.asarray(x, dtype=np.float64)
+    if x.ndim != 2 or x.shape[1] != 3:
+        raise ValueError(f"node positions must have shape (m, 3), got {x.shape}")
+    return x
+
+
+# -- obstacles ------------------------------------------------------------------------------------------
+#: How each geometry key is checked (and normalized).
+_CHECKS = {
+    "point": lambda value, owner: _vector(value, "point", owner),
+    "center": lambda value, owner: _vector(value, "center", owner),
+    "normal": lambda value, owner: _unit(value, "normal", owner),
+    "axis": lambda value, owner: _unit(value, "axis", owner),
+    "radius": lambda value, owner: _radius(value, owner),
+    "displacement": lambda value, owner: _vector(value, "displacement", owner),
+}
+
+
+@dataclass(frozen=True)
+class Obstacle:
+    """Base of the rigid obstacles: the geometry of the subclass, a rigid translation δ and a name.
+
+    Subclasses are frozen dataclasses whose fields are checked (and normals/axes normalized) on creation.
+    """
+
+    kind: ClassVar[str] = ""
+    #: The geometry keys (fields and scene-table keys) besides ``displacement`` and ``name``.
+    keys: ClassVar[tuple[str, ...]] = ()
+    #: The key of the scene position that δ translates.
+    position_key: ClassVar[str] = "point"
+
+    def __post_init__(self) -> None:
+        name = getattr(self, "name", None)
+        owner = _label(name, self.kind)
+        _check_name(name, owner)
+        for key in (*self.keys, "displacement"):
+            object.__setattr__(self, key, _CHECKS[key](getattr(self, key), owner))
+
+    @property
+    def label(self) -> str:
+        """How messages name the obstacle, e.g. "sphere 'indenter'" or "plane"."""
+        return _label(getattr(self, "name", None), self.kind)
+
+    @property
+    def placed(self) -> Vector:
+        """The placed position (plane/cylinder point, sphere centre) = scene position + δ."""
+        fields = vars(self)
+        position, displacement = fields[self.position_key], fields["displacement"]
+        return tuple(float(a + b) for a, b in zip(position, displacement, strict=True))  # type: ignore[return-value]
+
+    def at_scene_position(self) -> Obstacle:
+        """The same obstacle with δ = 0."""
+        return dataclasses.replace(self, displacement=(0.0, 0.0, 0.0))  # type: ignore[call-arg]
+
+    def moved(self, displacement: npt.ArrayLike) -> Obstacle:
+        """The same obstacle with its displacement δ replaced."""
+        value = np.asarray(displacement, dtype=np.float64).tolist()
+        return dataclasses.replace(self, displacement=value)  # type: ignore[call-arg]
+
+    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+        raise NotImplementedError
+
+    def _tangent(self, n: Array) -> Array:
+        return _perpendicular(n, 0, 1)
+
+    def signed_distance(self, x: npt.ArrayLike) -> Array:
+        """g of each REFERENCE position x (m, 3), shape (m,): signed distance to the placed surface, > 0 outside."""
+        return self._gap_normal(_points(x))[0]
+
+    def normals(self, x: npt.ArrayLike) -> Array:
+        """n of each position, shape (m, 3): the outward unit normal at the closest surface point."""
+        return self._gap_normal(_points(x))[1]
+
+    def frames(self, x: npt.ArrayLike) -> Array:
+        """The frames R = (t₁, t₂, n) (columns) of each position, shape (m, 3, 3)."""
+        return self.evaluate(x)[2]
+
+    def evaluate(self, x: npt.ArrayLike) -> tuple[Array, Array, Array]:
+        """(g, n, R) of each position: shapes (m,), (m, 3), (m, 3, 3); R = (t₁, t₂, n) as columns."""
+        g, n = self._gap_normal(_points(x))
+        return g, n, frames_from_normals(n, self._tangent(n))
+
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        """Points deep inside the placed obstacle that must never lie inside the body, shape (k, 3): the sphere's
+        centre, the cylinder's axis across the box [lo, hi] (``samples`` points); none for a plane (a half-space
+        has no core a body could swallow). An obstacle whose core is inside the body is buried in it, or has been
+        moved through it (:func:`core_path`)."""
+        return np.zeros((0, 3))
+
+    def closest_point(self, x: npt.ArrayLike) -> Array:
+        """The closest point x − g·n on the placed surface, shape (m, 3)."""
+        x = _points(x)
+        g, n = self._gap_normal(x)
+        return x - g[:, None] * n
+
+
+@dataclass(frozen=True)
+class Plane(Obstacle):
+    """The half-space {x : (x − p − δ)·ν <= 0}; ν (normalized) points from the obstacle toward the body.
+
+    The defaults are the paper's obstacle, the half-space x3 <= 0 (p = 0, ν = e3)."""
+
+    point: Vector = (0.0, 0.0, 0.0)
+    normal: Vector = (0.0, 0.0, 1.0)
+    displacement: Vector = (0.0, 0.0, 0.0)
+    name: str | None = None
+
+    kind: ClassVar[str] = "plane"
+    keys: ClassVar[tuple[str, ...]] = ("point", "normal")
+
+    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+        nu = np.asarray(self.normal)
+        g = (x - np.asarray(self.placed)) @ nu
+        return g, np.broadcast_to(nu, x.shape).copy()
+
+
+@dataclass(frozen=True)
+class Sphere(Obstacle):
+    """The solid ball ‖x − c − δ‖ <= R."""
+
+    center: Vector
+    radius: float
+    displacement: Vector = (0.0, 0.0, 0.0)
+    name: str | None = None
+
+    kind: ClassVar[str] = "sphere"
+    keys: ClassVar[tuple[str, ...]] = ("center", "radius")
+    position_key: ClassVar[str] = "center"
+
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        return np.asarray(self.placed, dtype=np.float64)[None, :]
+
+    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+        c = np.asarray(self.placed)
+        d = x - c
+        dist = np.linalg.norm(d, axis=1)
+        n = np.empty_like(d)
+        centre = dist <= _NOISE * (np.linalg.norm(x, axis=1) + np.linalg.norm(c))
+        n[~centre] = d[~centre] / dist[~centre, None]
+        n[centre] = _E[2]
+        return dist - self.radius, n
+
+
+@dataclass(frozen=True)
+class Cylinder(Obstacle):
+    """The infinite solid cylinder of radius R around the line p + δ + s·a (a normalized)."""
+
+    point: Vector
+    axis: Vector
+    radius: float
+    displacement: Vector = (0.0, 0.0, 0.0)
+    name: str | None = None
+
+    kind: ClassVar[str] = "cylinder"
+    keys: ClassVar[tuple[str, ...]] = ("point", "axis", "radius")
+
+    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+        a = np.asarray(self.axis)
+        d = x - np.asarray(self.placed)
+        radial = d - (d @ a)[:, None] * a
+        dist = np.linalg.norm(radial, axis=1)
+        n = np.empty_like(d)
+        on_axis = dist <= _NOISE * (np.linalg.norm(x, axis=1) + np.linalg.norm(np.asarray(self.placed)))
+        n[~on_axis] = radial[~on_axis] / dist[~on_axis, None]
+        n[on_axis] = _perpendicular(a[None, :], 2, 0)[0]
+        return dist - self.radius, n
+
+    def _tangent(self, n: Array) -> Array:
+        return np.broadcast_to(np.asarray(self.axis), n.shape).copy()
+
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        p, a = np.asarray(self.placed, dtype=np.float64), np.asarray(self.axis)
+        centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+        s0 = float((centre - p) @ a)  # the axis parameter nearest the box's centre
+        return p + (s0 + np.linspace(-radius, radius, max(samples, 2)))[:, None] * a
+
+
+def _check_name(name: Any, owner: str) -> None:
+    if name is not None and (not isinstance(name, str) or not name):
+        raise InputError(f"{owner}: name = {_show(name)}: must be a non-empty string")
+
+
+#: The paper's obstacle, used when a scene gives none: the plane x3 = 0 with normal e₃ (frame = identity).
+DEFAULT_PLANE = Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
+
+OBSTACLE_TYPES: dict[str, type[Obstacle]] = {"plane": Plane, "sphere": Sphere, "cylinder": Cylinder}
+
+
+# -- several obstacles ---------------------------------------------------------------------------------
+def closest_obstacle(obstacles: Sequence[Obstacle], x: npt.ArrayLike) -> tuple[npt.NDArray[np.intp], Array,
+                                                                               Array, Array]:
+    """Assign each node to the obstacle with the smallest g (ties: the first in ``obstacles``).
+
+    Args:
+        obstacles: At least one obstacle (placed at their displacements).
+        x: REFERENCE node positions, shape (m, 3).
+
+    Returns:
+        (index, g, n, R): the obstacle index per node and that obstacle's g, n and frame R.
+    """
+    if not obstacles:
+        raise ValueError("closest_obstacle needs at least one obstacle (DEFAULT_PLANE for the paper's)")
+    x = _points(x)
+    results = [o.evaluate(x) for o in obstacles]
+    gaps = np.stack([r[0] for r in results])  # (k, m)
+    index = np.argmin(gaps, axis=0)  # first minimum on ties
+    nodes = np.arange(x.shape[0])
+    g = gaps[index, nodes]
+    n = np.stack([r[1] for r in results])[index, nodes]
+    R = np.stack([r[2] for r in results])[index, nodes]
+    return index, g, n, R
+
+
+def find_overlap(obstacles: Sequence[Obstacle], x: npt.ArrayLike, tol: float) -> tuple[float, str] | None:
+    """The deepest overlap of the body's nodes x with the obstacles at their SCENE positions (δ = 0).
+
+    Returns None, or (depth, message) for the deepest node with g < −tol over all obstacles (the first
+    obstacle on ties), the message naming the obstacle, the node's coordinates and its depth.
+    """
+    x = _points(x)
+    worst: tuple[float, str] | None = None
+    for k, obstacle in enumerate(obstacles):
+        g = obstacle.at_scene_position().signed_distance(x)
+        if g.size == 0:
+            continue
+        i = int(np.argmin(g))
+        depth = -float(g[i])
+        if depth > tol and (worst is None or depth > worst[0]):
+            where = ", ".join(f"{c:.6g}" for c in x[i])
+            worst = (depth, f"obstacle {k + 1} ({obstacle.label}) overlaps the body at its scene position: "
+                            f"node ({where}) lies {depth:.6g} inside it (move the body or the obstacle; "
+                            "only its displacement may push into the body)")
+    return worst
+
+
+def check_not_overlapping(obstacles: Sequence[Obstacle], x: npt.ArrayLike, tol: float | None = None,
+                          comm: Any = None) -> None:
+    """Raise InputError if an obstacle at its scene position (δ = 0) overlaps the body (g < −tol).
+
+    The obstacles' displacements are ignored (an overlap caused by δ is an indentation, valid input).
+
+    Args:
+        obstacles: The scene's obstacles.
+        x: This rank's contact-node REFERENCE positions, shape (m, 3).
+        tol: Tolerated depth (round-off of mesh generators); default 1e-12 × the largest |coordinate|
+            (global when ``comm`` is given).
+        comm: An MPI communicator: then collective, and every rank raises the same message, that of the
+            deepest node over all ranks.
+    """
+    x = _points(x)
+    if tol is None:
+        size = float(np.abs(x).max(initial=0.0))
+        if comm is not None:
+            size = comm.allreduce(size, op=_mpi_max())
+        tol = 1e-12 * size
+    worst = find_overlap(obstacles, x, tol)
+    if comm is not None:
+        everyone = [w for w in comm.allgather(worst) if w is not None]
+        worst = max(everyone, key=lambda w: w[0]) if everyone else None
+    if worst is not None:
+        raise InputError(worst[1])
+
+
+def core_path(obstacle: Obstacle, start: npt.ArrayLike, end: npt.ArrayLike, lo: Array, hi: Array,
+              spacing: float, limit: int = 20_000) -> Array:
+    """The cores (:meth:`Obstacle.core`) of ``obstacle`` along its straight motion from displacement ``start`` to
+    ``end``, sampled every ``spacing`` (at most about ``limit`` points), shape (k, 3)."""
+    start, end = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
+    axis_samples = max(2, min(int(np.ceil(np.linalg.norm(hi - lo) / spacing)) + 1, 200))
+    steps = max(1, min(int(np.ceil(np.linalg.norm(end - start) / spacing)), max(1, limit // axis_samples)))
+    points = [obstacle.moved(start + t * (end - start)).core(lo, hi, axis_samples)
+              for t in np.linspace(0.0, 1.0, steps + 1)]
+    return np.concatenate(points) if points else np.zeros((0, 3))
+
+
+def _mpi_max() -> Any:
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+# -- scenes ---------------------------------------------------------------------------------------------
+def obstacle_from_dict(table: Mapping[str, Any], index: int | None = None) -> Obstacle:
+    """An obstacle from a scene's ``[[obstacle]]`` table (TOML), every key type-checked.
+
+    Keys: ``type`` (plane | sphere | cylinder), ``name`` (optional), ``displacement`` (optional, default
+    [0, 0, 0]) and the type's own: plane ``point``, ``normal``; sphere ``center``, ``radius``; cylinder
+    ``point``, ``axis``, ``radius``.
+
+    Args:
+        table: The parsed table.
+        index: 1-based position in the scene, used in messages.
+
+    Raises:
+        InputError: One line naming the obstacle and the bad key or value.
+    """
+    where = "[[obstacle]]" if index is None else f"[[obstacle]] {index}"
+    if not isinstance(table, Mapping):
+        raise InputError(f"{where}: must be a table, got {_show(table)}")
+    name = table.get("name")
+    if name is not None and (not isinstance(name, str) or not name):
+        raise InputError(f"{where}: name = {_show(name)}: must be a non-empty string")
+    if name:
+        where = f"{where} ({name!r})"
+    if "type" not in table:
+        raise InputError(f"{where}: missing type (choose one of {sorted(OBSTACLE_TYPES)})")
+    kind = table["type"]
+    if not isinstance(kind, str) or kind not in OBSTACLE_TYPES:
+        raise InputError(f"{where}: type = {_show(kind)}: choose one of {sorted(OBSTACLE_TYPES)}")
+    cls = OBSTACLE_TYPES[kind]
+    allowed = ("type", "name", "displacement", *cls.keys)
+    for key in table:
+        if key not in allowed:
+            raise InputError(f"{where}: unknown key {key!r} for a {kind} (allowed: {', '.join(allowed)})")
+    for key in cls.keys:
+        if key not in table:
+            raise InputError(f"{where}: a {kind} needs {key}")
+    args = {key: _CHECKS[key](table[key], where) for key in cls.keys}
+    displacement = _CHECKS["displacement"](table.get("displacement", [0.0, 0.0, 0.0]), where)
+    return cls(**args, displacement=displacement, name=name)
+
+
+def obstacles_from_list(tables: Iterable[Mapping[str, Any]]) -> list[Obstacle]:
+    """The obstacles of a scene's ``[[obstacle]]`` array; names must be unique (load paths move them by name)."""
+    if isinstance(tables, Mapping) or isinstance(tables, (str, bytes)):
+        raise InputError(f"obstacle = {_show(tables)}: must be an array of tables ([[obstacle]])")
+    obstacles = [obstacle_from_dict(t, i + 1) for i, t in enumerate(tables)]
+    seen: set[str] = set()
+    for i, o in enumerate(obstacles):
+        name = getattr(o, "name", None)
+        if name is not None:
+            if name in seen:
+                raise InputError(f"[[obstacle]] {i + 1}: name {name!r} is used by an earlier obstacle")
+            seen.add(name)
+    return obstacles

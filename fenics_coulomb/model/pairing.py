@@ -1,0 +1,730 @@
+r"""Node-to-surface pairing of two elastic bodies (issue 18): slave nodes, closest master points, gaps, frames.
+
+A :class:`ContactPair` names a slave surface S and a master surface M (facet tag values of one mesh's facet
+tags) and a Coulomb coefficient F. :func:`pair_surfaces` computes, once and in the REFERENCE configuration,
+for every slave vertex the data of the two-body model's change of variables u = (I + Φ) z: the closest
+master point, the stencil φ_j of master vertices (Φ's slave-row, master-column blocks φ_j I₃), the gap and
+the frame::
+
+    pairs = [ContactPair(facet_tags, slave=2, master=1, friction=0.3, name="press")]
+    pairing = pair_surfaces(V, pairs, excluded=dirichlet_blocks)   # collective
+    # pairing.blocks[i] (local, owned) ↔ pairing.master_blocks[i] (global, −1 padded) with pairing.weights[i]
+
+Geometry (exactly the model of issue 18)
+----------------------------------------
+Master facets are P1 triangles (tetrahedral meshes) or Q1 bilinear quadrilaterals (hexahedral meshes),
+x(ξ, η) = v₀(1−ξ)(1−η) + v₁ξ(1−η) + v₂(1−ξ)η + v₃ξη on [0, 1]² (DOLFINx/basix tensor vertex order). For
+each vertex x_s of S (owned by this rank, with no Dirichlet component):
+
+* x_m = the closest point of M to x_s: the minimum over the master facets of the distance to the facet
+  (triangle: projection on the plane, else the closest point of the three edges; quadrilateral: Newton's
+  method for the stationary point (ξ, η) of ½|x(ξ, η) − x_s|² from the centre (the Gauss–Newton matrix
+  where the full Hessian is not positive definite), accepted when it converges inside [0, 1]²; else, or when
+  nearer, the closest point of the four straight edges — "edge/vertex clamping"). Candidate facets come
+  from a KD-tree of the facet centroids (the k nearest, k doubled until no facet outside them can be
+  nearer: centroid distance − the largest facet radius > the best distance found).
+* Facets "containing x_m" (the tie set T): the facets whose own closest point lies within 1e-10 h of the
+  best one (h = the diameter of the best facet) at a distance within 1e-10 h of the best distance.
+  φ_j = the shape functions at x_m of the facet of T whose SORTED GLOBAL vertex (DOF-block) indices are
+  lexicographically smallest (P1: barycentric; Q1: bilinear); x_m is that facet's point, so
+  Σ_j φ_j x_j = x_m exactly up to round-off and Σ_j φ_j = 1. On a shared edge or vertex every facet of T
+  gives the same non-zero φ_j (conforming P1/Q1 shape functions restrict to the edge's linear ones, and to
+  1 at a vertex): the rule only fixes which zero-weight vertices are listed, so the stencil does not depend
+  on the global numbering (which depends on the partition).
+* n_f(x) = the outward unit normal of facet f at x: of the plane (triangle) or of the bilinear surface,
+  ±(x_ξ × x_η)/|x_ξ × x_η| at (ξ, η) — the sign fixed per facet so that it points out of the MASTER body
+  (away from the centroid of the facet's cell, evaluated at the facet centre; a bilinear facet that is not
+  folded keeps that orientation everywhere).
+* x_m in the interior of its facet (|T| = 1 and the reference coordinates farther than 1e-10 from the
+  facet's boundary): n = n_f(x_m). Otherwise (x_m on an edge or vertex, shared by the facets T or on M's
+  outer boundary): n = d/|d|, d = x_s − x_m; when |d| <= 1e-10 h: n = the normalized sum of n_f(x_m), f ∈ T.
+* g = (x_s − x_m)·n; t₁, t₂ = :func:`fenics_coulomb.model.frames.frames_from_normals` (deterministic).
+* Normal cone C = cone{n_f(x_m) : f ∈ T} (the outward normals at x_m of the facets containing it; a single
+  ray inside a facet or on M's outer boundary, so a node beside M's outer edge is free). The node is a
+  contact node of the pair if dist(d, C) <= 1e-8 h or dist(−d, C) <= 1e-8 h (or |d| <= 1e-10 h) and
+  |g| <= ``search_distance`` (default 0.1 × the diagonal of the master surface's bounding box).
+* SIGN CHOICE: "d lies in the normal cone" is read as "±d lies in it", so that a slave node inside the
+  master body (d points into it: −d is in C) is paired with g < 0 (n = −d/|d| at an edge/vertex, n_f inside
+  a facet; g = d·n = −|d|). When both hold (only possible for a cone containing a line), +d is used.
+* Several pairs: a node belongs to the pair with the smallest |g| among those where it is a contact node
+  (ties, |g| equal within 1e-10 × the largest bounding-box diagonal of the pairs' M ∪ S: the first pair).
+
+Dist(d, C) for a polyhedral cone in ℝ³ is evaluated exactly via Carathéodory: the minimum of the
+non-negative least-squares residuals over the single generators and the pairs of generators, and 0 when d
+is a non-negative combination of three independent generators.
+
+Checks (InputError, one line, the same on every rank before the next collective call)
+-------------------------------------------------------------------------------------
+V not a vector P1/Q1 space; facet tags of another dimension than the facets'; a tag that no facet carries
+on any rank; a tagged facet that is not on the mesh boundary; Φ² ≠ 0 (a contact node that is itself a
+vertex of a master facet used by any contact node, both nodes named by coordinates); an overlap at the
+reference configuration: a contact node with g < −1e-6 × the diagonal of the bounding box of M ∪ S (node
+and depth named, the deepest over all ranks). Invalid ContactPair fields (friction, search distance, tags,
+name) are rejected when the pair is created.
+A pair with no contact node is a logged warning (rank 0), not an error.
+
+Parallel
+--------
+Every rank gathers every pair's whole master surface (vertex coordinates, global DOF-block indices, outward
+orientation; facets deduplicated by their global vertices), so the pairing of a slave node does not depend
+on where the master facets are: 1 rank and N ranks give the same pairing (up to the numbering, and the
+zero-weight vertices listed for a node on a shared edge or vertex, see the tie rule).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from mpi4py import MPI
+
+import basix
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.model.frames import frames_from_normals
+
+__all__ = ["ContactPair", "Pairing", "pair_surfaces"]
+
+logger = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+#: Relative tolerances (× the facet size h): coincident closest points, |x_s − x_m| ≈ 0, "on the boundary"
+#: (in reference coordinates); the normal cone; the reference overlap (× the bounding-box diagonal).
+TIE_TOL = 1e-10
+CONE_TOL = 1e-8
+OVERLAP_TOL = 1e-6
+
+
+# -- the pair ---------------------------------------------------------------------------------------------
+def _is_int(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def _tags(value: Any, key: str, owner: str) -> tuple[int, ...]:
+    if _is_int(value):
+        return (int(value),)
+    if isinstance(value, (list, tuple, np.ndarray)) and all(_is_int(v) for v in value):
+        if len(value) == 0:
+            raise InputError(f"{owner}: {key} = {list(value)!r}: an empty surface (name at least one facet tag)")
+        return tuple(int(v) for v in value)
+    raise InputError(f"{owner}: {key} = {value!r}: must be a facet tag (an integer) or a list of them")
+
+
+@dataclass(frozen=True)
+class ContactPair:
+    """A slave surface S, a master surface M (facet tag values of ``facet_tags``), a Coulomb coefficient.
+
+    Attributes:
+        facet_tags: The mesh's facet tags.
+        slave: Tag value(s) of the slave surface S (its vertices become contact nodes).
+        master: Tag value(s) of the master surface M.
+        friction: Coulomb coefficient F >= 0.
+        search_distance: Largest |g| of a contact node; default 0.1 × M's bounding-box diagonal.
+        name: Optional name used in messages.
+    """
+
+    facet_tags: dolfinx.mesh.MeshTags
+    slave: int | Sequence[int]
+    master: int | Sequence[int]
+    friction: float = 0.0
+    search_distance: float | None = None
+    name: str | None = None
+
+    def __post_init__(self) -> None:
+        owner = self.label
+        if self.name is not None and (not isinstance(self.name, str) or not self.name):
+            raise InputError(f"contact pair: name = {self.name!r}: must be a non-empty string")
+        _tags(self.slave, "slave", owner)
+        _tags(self.master, "master", owner)
+        if not _is_real(self.friction) or not math.isfinite(float(self.friction)) or float(self.friction) < 0:
+            raise InputError(f"{owner}: friction = {self.friction!r}: must be a finite number >= 0")
+        sd = self.search_distance
+        if sd is not None and (not _is_real(sd) or not math.isfinite(float(sd)) or float(sd) <= 0):
+            raise InputError(f"{owner}: search_distance = {sd!r}: must be a finite number > 0 (or None)")
+        if not hasattr(self.facet_tags, "find") or getattr(self.facet_tags, "dim", None) is None:
+            raise InputError(f"{owner}: facet_tags = {type(self.facet_tags).__name__}: must be dolfinx MeshTags")
+
+    @property
+    def label(self) -> str:
+        """How messages name the pair (without its position; :func:`pair_surfaces` adds it)."""
+        return f"contact pair {self.name!r}" if self.name else "contact pair"
+
+    @property
+    def slave_tags(self) -> tuple[int, ...]:
+        """The slave tag values as a tuple."""
+        return _tags(self.slave, "slave", self.label)
+
+    @property
+    def master_tags(self) -> tuple[int, ...]:
+        """The master tag values as a tuple."""
+        return _tags(self.master, "master", self.label)
+
+
+@dataclass
+class Pairing:
+    """The contact nodes of all pairs owned by this rank (ascending local block).
+
+    Attributes:
+        blocks: LOCAL owned DOF-block index of each contact node, ascending, shape (m,).
+        coordinates: x_s, shape (m, 3).
+        closest: x_m, shape (m, 3).
+        gap: g = (x_s − x_m)·n, shape (m,).
+        frames: (t₁, t₂, n) as columns, shape (m, 3, 3).
+        master_blocks: GLOBAL DOF-block indices of the chosen master facet's vertices, shape (m, 4) (−1
+            padding for triangles).
+        weights: φ_j at x_m (0 on padding), shape (m, 4); rows sum to 1.
+        pair_index: Index of each node's pair, shape (m,).
+        friction: The pair's F per node, shape (m,).
+        num_global: Number of contact nodes on all ranks.
+        free: The owned slave nodes that are NOT contact nodes but lie over a master surface (in its normal
+            cone): beyond the search distance, or with a Dirichlet component. Keys ``blocks`` (local),
+            ``gap``, ``normals``, ``master_blocks``, ``weights`` as above (the pair with the smallest |g|), for the
+            penetration check after a solve (:meth:`fenics_coulomb.model.contact_model.ContactModel.free_slave_penetrations`).
+    """
+
+    blocks: npt.NDArray[np.int32]
+    coordinates: Array
+    closest: Array
+    gap: Array
+    frames: Array
+    master_blocks: npt.NDArray[np.int64]
+    weights: Array
+    pair_index: npt.NDArray[np.intp]
+    friction: Array
+    num_global: int
+    free: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def subset(self, keep: npt.NDArray[np.bool_], comm: MPI.Comm) -> Pairing:
+        """The pairing of the nodes ``keep`` selects (collective: the global count)."""
+        return Pairing(blocks=self.blocks[keep], coordinates=self.coordinates[keep], closest=self.closest[keep],
+                       gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
+                       weights=self.weights[keep], pair_index=self.pair_index[keep], friction=self.friction[keep],
+                       num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
+
+    @property
+    def normals(self) -> Array:
+        """n of each contact node, shape (m, 3)."""
+        return np.ascontiguousarray(self.frames[:, :, 2])
+
+    @property
+    def size(self) -> int:
+        """Number of contact nodes owned by this rank."""
+        return int(self.blocks.size)
+
+
+# -- facet geometry ---------------------------------------------------------------------------------------
+def _norm(x: Array) -> Array:
+    return np.linalg.norm(x, axis=-1)
+
+
+def _dot(a: Array, b: Array) -> Array:
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _segment(p: Array, a: Array, b: Array) -> tuple[Array, Array]:
+    """Closest points of the segments [a, b] to p and their parameters t ∈ [0, 1]."""
+    ab = b - a
+    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), np.finfo(float).tiny), 0.0, 1.0)
+    return a + t[:, None] * ab, t
+
+
+def _closest_triangle(p: Array, X: Array) -> tuple[Array, Array, Array]:
+    """Closest points of triangles X (k, 3, 3) to p (k, 3): (points, barycentric weights (k, 3), distance)."""
+    A, B, C = X[:, 0], X[:, 1], X[:, 2]
+    e1, e2, r = B - A, C - A, p - A
+    a11, a12, a22 = _dot(e1, e1), _dot(e1, e2), _dot(e2, e2)
+    b1, b2 = _dot(e1, r), _dot(e2, r)
+    det = a11 * a22 - a12 * a12
+    l1 = (a22 * b1 - a12 * b2) / det
+    l2 = (a11 * b2 - a12 * b1) / det
+    inside = (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
+    w = np.stack([1 - l1 - l2, l1, l2], axis=1)
+    candidates = [(A + l1[:, None] * e1 + l2[:, None] * e2, w, inside)]
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        q, t = _segment(p, X[:, i], X[:, j])
+        we = np.zeros((p.shape[0], 3))
+        we[:, i], we[:, j] = 1 - t, t
+        candidates.append((q, we, np.ones_like(inside)))
+    return _pick(p, candidates)
+
+
+def _quad_map(X: Array, xi: Array, eta: Array) -> tuple[Array, Array, Array]:
+    """x(ξ, η), x_ξ, x_η of bilinear quadrilaterals X (k, 4, 3)."""
+    a, b = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
+    c = X[:, 0] - X[:, 1] - X[:, 2] + X[:, 3]
+    x = X[:, 0] + xi[:, None] * a + eta[:, None] * b + (xi * eta)[:, None] * c
+    return x, a + eta[:, None] * c, b + xi[:, None] * c
+
+
+def _quad_weights(xi: Array, eta: Array) -> Array:
+    return np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), (1 - xi) * eta, xi * eta], axis=1)
+
+
+def _closest_quad(p: Array, X: Array) -> tuple[Array, Array, Array]:
+    """Closest points of bilinear quadrilaterals X (k, 4, 3) to p (k, 3): (points, weights (k, 4), distance)."""
+    k = p.shape[0]
+    xi, eta = np.full(k, 0.5), np.full(k, 0.5)
+    scale = np.maximum(_norm(X[:, 3] - X[:, 0]), _norm(X[:, 2] - X[:, 1]))
+    active = np.arange(k)
+    for _ in range(50):  # Newton on the stationarity of ½|x − p|², vectorized over the pairs still moving
+        Xa, pa, xa, ea = X[active], p[active], xi[active], eta[active]
+        x, xx, xe = _quad_map(Xa, xa, ea)
+        r = x - pa
+        g1, g2 = _dot(xx, r), _dot(xe, r)
+        h11, h22, h12 = _dot(xx, xx), _dot(xe, xe), _dot(xx, xe)
+        full = h12 + _dot(r, Xa[:, 0] - Xa[:, 1] - Xa[:, 2] + Xa[:, 3])
+        det_full = h11 * h22 - full * full
+        h12 = np.where(det_full > 1e-12 * h11 * h22, full, h12)  # Gauss–Newton where not positive definite
+        det = np.maximum(h11 * h22 - h12 * h12, np.finfo(float).tiny)
+        dxi = -(h22 * g1 - h12 * g2) / det
+        deta = -(h11 * g2 - h12 * g1) / det
+        xa, ea = np.clip(xa + dxi, -0.5, 1.5), np.clip(ea + deta, -0.5, 1.5)
+        xi[active], eta[active] = xa, ea
+        # done: converged, or pushed to the clipping box (far outside the patch: the edges hold the minimum)
+        moving = (np.maximum(np.abs(dxi), np.abs(deta)) > 1e-14) & (np.abs(xa - 0.5) < 1) & (np.abs(ea - 0.5) < 1)
+        active = active[moving]
+        if active.size == 0:
+            break
+    x, xx, xe = _quad_map(X, xi, eta)
+    r = x - p
+    # the stationarity residual, relative to the patch: a converged interior point
+    stationary = (np.abs(_dot(xx, r)) + np.abs(_dot(xe, r))) <= 1e-12 * scale * (scale + _norm(r))
+    inside = stationary & (xi >= -TIE_TOL) & (xi <= 1 + TIE_TOL) & (eta >= -TIE_TOL) & (eta <= 1 + TIE_TOL)
+    xi_c, eta_c = np.clip(xi, 0.0, 1.0), np.clip(eta, 0.0, 1.0)
+    candidates = [(_quad_map(X, xi_c, eta_c)[0], _quad_weights(xi_c, eta_c), inside)]
+    ones, zeros = np.ones(k), np.zeros(k)
+    for i, j, fixed in ((0, 1, "eta0"), (2, 3, "eta1"), (0, 2, "xi0"), (1, 3, "xi1")):
+        q, t = _segment(p, X[:, i], X[:, j])
+        if fixed.startswith("eta"):
+            a, b = t, (zeros if fixed == "eta0" else ones)
+        else:
+            a, b = (zeros if fixed == "xi0" else ones), t
+        candidates.append((q, _quad_weights(a, b), np.ones(k, dtype=bool)))
+    return _pick(p, candidates)
+
+
+def _pick(p: Array, candidates: list) -> tuple[Array, Array, Array]:
+    """The nearest valid candidate (the first on exact ties)."""
+    dist = np.stack([np.where(ok, _norm(q - p), np.inf) for q, _, ok in candidates])
+    best = np.argmin(dist, axis=0)
+    rows = np.arange(p.shape[0])
+    q = np.stack([c[0] for c in candidates])[best, rows]
+    w = np.stack([c[1] for c in candidates])[best, rows]
+    return q, w, dist[best, rows]
+
+
+def _reference(w: Array) -> tuple[Array, Array]:
+    """Reference coordinates recovered from the weights (triangle: (λ₁, λ₂); quad: (ξ, η))."""
+    if w.shape[-1] == 3:
+        return w[..., 1], w[..., 2]
+    return w[..., 1] + w[..., 3], w[..., 2] + w[..., 3]
+
+
+def _on_boundary(w: Array) -> Array:
+    """Whether the reference point of the weights lies on its facet's boundary (within TIE_TOL)."""
+    if w.shape[-1] == 3:
+        return w.min(axis=-1) <= TIE_TOL
+    xi, eta = _reference(w)
+    return np.minimum(np.minimum(xi, 1 - xi), np.minimum(eta, 1 - eta)) <= TIE_TOL
+
+
+def _facet_normals(X: Array, w: Array, sign: Array) -> Array:
+    """Outward unit normals of facets X (k, nv, 3) at the reference points of the weights w (k, nv)."""
+    if X.shape[1] == 3:
+        N = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+    else:
+        xi, eta = _reference(w)
+        _, xx, xe = _quad_map(X, xi, eta)
+        N = np.cross(xx, xe)
+    return sign[:, None] * N / _norm(N)[:, None]
+
+
+# -- the master surface -----------------------------------------------------------------------------------
+@dataclass
+class _Surface:
+    """Facets of a surface: vertex coordinates (k, nv, 3), global DOF blocks (k, nv), orientation (k,)."""
+
+    X: Array
+    blocks: npt.NDArray[np.int64]
+    sign: Array
+
+    def unique(self) -> _Surface:
+        """Without duplicates (a facet gathered from several ranks), in sorted order of the global blocks."""
+        key = np.sort(self.blocks, axis=1)
+        _, first = np.unique(key, axis=0, return_index=True)
+        return _Surface(self.X[first], self.blocks[first], self.sign[first])
+
+
+def _local_facets(facet_tags: dolfinx.mesh.MeshTags, tags: Sequence[int]) -> npt.NDArray[np.int32]:
+    """This rank's facets carrying any of ``tags``, ascending."""
+    found = [facet_tags.find(t) for t in tags]
+    return np.unique(np.concatenate(found)).astype(np.int32) if found else np.zeros(0, np.int32)
+
+
+def _facet_data(V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], X_dofs: Array) -> _Surface:
+    """This rank's facets with their vertex coordinates, global blocks and outward orientation."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    c2f = msh.topology.connectivity(tdim, tdim - 1)
+    cells = f2c.array[f2c.offsets[facets]]  # boundary facets: one cell
+    nf = c2f.offsets[1] - c2f.offsets[0] if c2f.offsets.size > 1 else 1
+    local = np.argmax(c2f.array.reshape(-1, nf)[cells] == facets[:, None], axis=1)
+    ref = np.asarray(basix.topology(_basix_cell(msh))[tdim - 1], dtype=np.int64)
+    dofs = V.dofmap.list[cells]
+    blocks = np.take_along_axis(dofs, ref[local], axis=1)
+    X = X_dofs[blocks]
+    centroid = X_dofs[dofs].mean(axis=1)
+    nv = ref.shape[1]
+    w = np.full((facets.size, nv), 1.0 / nv)
+    N = _facet_normals(X, w, np.ones(facets.size)) if facets.size else np.zeros((0, 3))
+    centre = X.mean(axis=1)
+    sign = np.where(_dot(N, centroid - centre) > 0, -1.0, 1.0)
+    imap = V.dofmap.index_map
+    gblocks = imap.local_to_global(blocks.ravel().astype(np.int32)).reshape(blocks.shape).astype(np.int64)
+    return _Surface(X, gblocks, sign)
+
+
+def _basix_cell(msh: dolfinx.mesh.Mesh) -> basix.CellType:
+    return {"hexahedron": basix.CellType.hexahedron, "tetrahedron": basix.CellType.tetrahedron}[
+        msh.topology.cell_name()]
+
+
+def _gather(comm: MPI.Comm, surface: _Surface, nv: int) -> _Surface:
+    X = np.concatenate(comm.allgather(surface.X.reshape(-1, nv, 3)))
+    blocks = np.concatenate(comm.allgather(surface.blocks.reshape(-1, nv)))
+    sign = np.concatenate(comm.allgather(surface.sign))
+    return _Surface(X, blocks, sign).unique()
+
+
+# -- closest points ---------------------------------------------------------------------------------------
+def _closest(p: Array, X: Array) -> tuple[Array, Array, Array]:
+    return _closest_triangle(p, X) if X.shape[1] == 3 else _closest_quad(p, X)
+
+
+def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
+    """dist(d, cone{N[:, i] : mask[:, i]}) for each row: d (k, 3), N (k, q, 3), mask (k, q)."""
+    k, q = mask.shape
+    best = np.full(k, np.inf)
+    for i in range(q):
+        c = np.maximum(_dot(d, N[:, i]), 0.0)
+        best = np.where(mask[:, i], np.minimum(best, _norm(d - c[:, None] * N[:, i])), best)
+    for i in range(q):
+        for j in range(i + 1, q):
+            a, b = N[:, i], N[:, j]
+            aa, ab, bb = _dot(a, a), _dot(a, b), _dot(b, b)
+            det = aa * bb - ab * ab
+            ok = mask[:, i] & mask[:, j] & (det > 1e-14)
+            da, db = _dot(d, a), _dot(d, b)
+            safe = np.where(ok, det, 1.0)
+            ca, cb = (bb * da - ab * db) / safe, (aa * db - ab * da) / safe
+            ok &= (ca >= 0) & (cb >= 0)
+            res = _norm(d - ca[:, None] * a - cb[:, None] * b)
+            best = np.where(ok, np.minimum(best, res), best)
+    for i in range(q):
+        for j in range(i + 1, q):
+            for m in range(j + 1, q):
+                M = np.stack([N[:, i], N[:, j], N[:, m]], axis=2)
+                det = np.linalg.det(M)
+                ok = mask[:, i] & mask[:, j] & mask[:, m] & (np.abs(det) > 1e-12)
+                if not ok.any():
+                    continue
+                coef = np.linalg.solve(np.where(ok[:, None, None], M, np.eye(3)), d[:, :, None])[:, :, 0]
+                ok &= (coef >= 0).all(axis=1)
+                best = np.where(ok, 0.0, best)
+    return best
+
+
+def _pair_nodes(x: Array, surface: _Surface, size: Array, rank: npt.NDArray[np.intp]) -> dict[str, Array]:
+    """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface."""
+    m, nv = x.shape[0], surface.X.shape[1]
+    out = {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
+           "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
+    nf = surface.X.shape[0]
+    if m == 0 or nf == 0:
+        return out
+    centres = surface.X.mean(axis=1)
+    radius = _norm(surface.X - centres[:, None]).max(axis=1)
+    rmax, hmax = float(radius.max()), float(size.max())
+    tree = cKDTree(centres)
+    pending = np.arange(m)
+    k = min(nf, 8)
+    while pending.size:  # candidate facets: the k nearest centroids, k doubled until provably enough
+        dd, ii = tree.query(x[pending], k=k)
+        dd, ii = dd.reshape(pending.size, k), ii.reshape(pending.size, k)
+        p = np.repeat(x[pending], k, axis=0)
+        q, w, dist = _closest(p, surface.X[ii.ravel()])
+        q, w, dist = q.reshape(-1, k, 3), w.reshape(-1, k, nv), dist.reshape(-1, k)
+        bound = dd[:, -1] - rmax
+        done = (k == nf) | (bound > dist.min(axis=1) + TIE_TOL * hmax)
+        sel = np.flatnonzero(done)
+        _select(x[pending[sel]], ii[sel], q[sel], w[sel], dist[sel], surface, size, rank, out, pending[sel])
+        pending = pending[~done]
+        k = min(2 * k, nf)
+    return out
+
+
+def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array, surface: _Surface,
+            size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], nodes: npt.NDArray[np.intp]) -> None:
+    """Pick x_m, the lexicographic facet among the tied ones, n and the cone test for a batch of nodes."""
+    if nodes.size == 0:
+        return
+    rows = np.arange(nodes.size)
+    near = np.argmin(dist, axis=1)
+    h = size[ii[rows, near]]
+    tol = TIE_TOL * h
+    tied = (dist <= dist[rows, near][:, None] + tol[:, None]) & (_norm(q - q[rows, near][:, None]) <= tol[:, None])
+    chosen = np.argmin(np.where(tied, rank[ii], np.iinfo(np.intp).max), axis=1)
+    facet = ii[rows, chosen]
+    xm, wm = q[rows, chosen], w[rows, chosen]
+    kq = ii.shape[1]
+    normals = _facet_normals(surface.X[ii.ravel()], w.reshape(-1, w.shape[-1]),
+                             surface.sign[ii.ravel()]).reshape(-1, kq, 3)
+    d = x - xm
+    dn = _norm(d)
+    tiny = dn <= tol
+    edge = (tied.sum(axis=1) > 1) | _on_boundary(wm)
+    n = normals[rows, chosen].copy()
+    # inside a facet: n = n_f(x_m); the node is paired if ±d is along n (always, up to round-off)
+    along = _norm(d - _dot(d, n)[:, None] * n) <= CONE_TOL * h
+    paired = along.copy()
+    # on an edge or vertex: n = ±d/|d| if ±d lies in the cone of the tied facets' normals
+    sel = np.flatnonzero(edge & ~tiny)
+    if sel.size:
+        order = np.argsort(~tied[sel], axis=1, kind="stable")  # tied facets first
+        qt = int(tied[sel].sum(axis=1).max())
+        order = order[:, :qt]
+        Nt = np.take_along_axis(normals[sel], order[:, :, None], axis=1)
+        mt = np.take_along_axis(tied[sel], order, axis=1)
+        plus = _cone_distance(d[sel], Nt, mt) <= CONE_TOL * h[sel]
+        minus = _cone_distance(-d[sel], Nt, mt) <= CONE_TOL * h[sel]
+        unit = d[sel] / dn[sel, None]
+        n[sel] = np.where(plus[:, None], unit, np.where(minus[:, None], -unit, n[sel]))
+        paired[sel] = plus | minus
+    # x_s on the surface: the normalized sum of the tied facets' normals
+    sel = np.flatnonzero(tiny)
+    if sel.size:
+        s = np.einsum("kq,kqi->ki", tied[sel].astype(float), normals[sel])
+        n[sel] = s / _norm(s)[:, None]
+        paired[sel] = True
+    out["closest"][nodes], out["weights"][nodes], out["facet"][nodes] = xm, wm, facet
+    out["normal"][nodes], out["paired"][nodes] = n, paired
+
+
+# -- the pairing ------------------------------------------------------------------------------------------
+def _where(x: Array) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
+
+
+def _diagonal(comm: MPI.Comm, points: Array) -> tuple[Array, Array]:
+    """The global bounding box (lower, upper corner) of every rank's points."""
+    lo = points.min(axis=0) if points.size else np.full(3, np.inf)
+    hi = points.max(axis=0) if points.size else np.full(3, -np.inf)
+    glo, ghi = np.empty(3), np.empty(3)
+    comm.Allreduce(lo, glo, op=MPI.MIN)
+    comm.Allreduce(hi, ghi, op=MPI.MAX)
+    return glo, ghi
+
+
+def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
+                  excluded: npt.NDArray[np.int32]) -> Pairing:
+    """Pair the slave nodes of every contact pair with their master surfaces (see the module docstring).
+
+    Collective.
+
+    Args:
+        V: Vector P1/Q1 function space (block size 3) of the mesh carrying both bodies.
+        pairs: The contact pairs (their facet tags on V's mesh).
+        excluded: Local DOF-block indices (owned and ghost) with any Dirichlet component — never contact
+            nodes.
+
+    Returns:
+        The owned contact nodes of all pairs.
+
+    Raises:
+        InputError: On every rank, one line (see the module docstring).
+    """
+    msh = V.mesh
+    comm = msh.comm
+    tdim = msh.topology.dim
+    cell = msh.topology.cell_name()
+    nv_cell = {"hexahedron": 8, "tetrahedron": 4}.get(cell)
+    ok = (tdim == 3 and nv_cell is not None and V.dofmap.bs == 3 and V.dofmap.dof_layout.num_dofs == nv_cell
+          and getattr(V.ufl_element(), "degree", 1) == 1)
+    check_all(comm, ok, f"contact pairs need a vector P1 (tetrahedra) or Q1 (hexahedra) space in 3D, got "
+                        f"{cell} cells with {V.dofmap.dof_layout.num_dofs} DOF blocks per cell and block size "
+                        f"{V.dofmap.bs}")
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    msh.topology.create_connectivity(tdim, tdim - 1)
+    exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)  # owned exterior facets
+    num_owned = msh.topology.index_map(tdim - 1).size_local
+
+    # tags: every tag must be carried by some facet, and only by boundary facets
+    labels = [f"contact pair {i + 1}" + (f" ({pair.name!r})" if pair.name else "") for i, pair in enumerate(pairs)]
+    surfaces: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]] = []
+    counts, message = [], ""
+    for label, pair in zip(labels, pairs, strict=True):
+        if pair.facet_tags.dim != tdim - 1 and not message:
+            message = f"{label}: facet_tags of dimension {pair.facet_tags.dim}: must tag facets (dimension {tdim - 1})"
+            continue
+        both = []
+        for key, tags in (("slave", pair.slave_tags), ("master", pair.master_tags)):
+            facets = _local_facets(pair.facet_tags, tags)
+            counts.append([pair.facet_tags.find(t).size for t in tags])
+            inner = np.setdiff1d(facets[facets < num_owned], exterior)  # each rank checks its owned facets
+            if inner.size and not message:
+                mid = dolfinx.mesh.compute_midpoints(msh, tdim - 1, inner[:1])[0]
+                message = (f"{label}: {key} tag(s) {list(tags)} mark an interior facet (midpoint "
+                           f"{_where(mid)}): contact surfaces must lie on the mesh boundary")
+            both.append(facets)
+        surfaces.append((both[0], both[1]))
+    total = comm.allreduce(np.asarray([c for cs in counts for c in cs], dtype=np.int64), op=MPI.SUM) \
+        if counts else []
+    position = 0
+    for label, pair in zip(labels, pairs, strict=True):
+        for key, tags in (("slave", pair.slave_tags), ("master", pair.master_tags)):
+            for t in tags:
+                if not message and total[position] == 0:
+                    message = f"{label}: {key} tag {t}: no facet carries it (an unknown tag or an empty surface)"
+                position += 1
+    check_all(comm, not message, message)
+
+    imap = V.dofmap.index_map
+    n_owned = imap.size_local
+    X_dofs = V.tabulate_dof_coordinates()
+    nv = 4 if cell == "hexahedron" else 3
+    excluded = np.asarray(excluded, dtype=np.int32)
+    per_pair = []
+    for pair, (slave_facets, master_facets) in zip(pairs, surfaces, strict=True):
+        master = _gather(comm, _facet_data(V, master_facets, X_dofs), nv)
+        slave_blocks = np.unique(dolfinx.fem.locate_dofs_topological(V, tdim - 1, slave_facets))
+        lo, hi = _diagonal(comm, np.concatenate([X_dofs[slave_blocks], master.X.reshape(-1, 3)]))
+        body = float(np.linalg.norm(hi - lo))
+        mlo, mhi = master.X.reshape(-1, 3).min(axis=0), master.X.reshape(-1, 3).max(axis=0)
+        search = pair.search_distance if pair.search_distance is not None else 0.1 * float(np.linalg.norm(mhi - mlo))
+        owned_slave = slave_blocks[slave_blocks < n_owned].astype(np.int32)
+        nodes = np.setdiff1d(owned_slave, excluded).astype(np.int32)
+        size = np.max([_norm(master.X[:, i] - master.X[:, j]) for i in range(nv) for j in range(i + 1, nv)], axis=0)
+        key = np.sort(master.blocks, axis=1)
+        rank = np.empty(key.shape[0], dtype=np.intp)
+        rank[np.lexsort(key.T[::-1])] = np.arange(key.shape[0])
+        res = _pair_nodes(X_dofs[nodes], master, size, rank)
+        R = frames_from_normals(res["normal"]) if nodes.size else np.zeros((0, 3, 3))
+        g = _dot(X_dofs[nodes] - res["closest"], res["normal"])
+        contact = res["paired"] & (np.abs(g) <= search)
+        # the other owned slave nodes over M (Dirichlet ones, or beyond the search distance): checked for
+        # penetration after a solve
+        others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
+        ro = _pair_nodes(X_dofs[others], master, size, rank)
+        go = _dot(X_dofs[others] - ro["closest"], ro["normal"])
+        over = ro["paired"]
+        per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=res["closest"],
+                             blocks=master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64),
+                             weights=res["weights"], body=body,
+                             free=dict(blocks=others[over], gap=go[over], normals=ro["normal"][over],
+                                       master_blocks=master.blocks[ro["facet"][over]] if others.size
+                                       else np.zeros((0, nv), np.int64), weights=ro["weights"][over])))
+
+    # several pairs: the smallest |g| wins (ties: the first pair)
+    allnodes = np.unique(np.concatenate([p["nodes"] for p in per_pair])) if per_pair else np.zeros(0, np.int32)
+    absg = np.full((len(per_pair), allnodes.size), np.inf)
+    for i, p in enumerate(per_pair):
+        pos = np.searchsorted(allnodes, p["nodes"])
+        absg[i, pos[p["contact"]]] = np.abs(p["g"][p["contact"]])
+    # ties: |g| within TIE_TOL × the largest surfaces' size of the pairs (round-off of g is not a preference)
+    tie = TIE_TOL * max((p["body"] for p in per_pair), default=0.0)
+    best = absg.min(axis=0) if per_pair else np.zeros(0)
+    winner = np.argmax(absg <= best + tie, axis=0) if per_pair else np.zeros(0, np.intp)
+    is_contact = np.isfinite(best)
+    blocks = allnodes[is_contact].astype(np.int32)
+    winner = winner[is_contact]
+    m = blocks.size
+    coordinates = X_dofs[blocks].copy()
+    closest, gap = np.zeros((m, 3)), np.zeros(m)
+    frames, master_blocks, weights = np.zeros((m, 3, 3)), np.full((m, 4), -1, np.int64), np.zeros((m, 4))
+    friction = np.zeros(m)
+    for i, p in enumerate(per_pair):
+        sel = np.flatnonzero(winner == i)
+        src = np.searchsorted(p["nodes"], blocks[sel])
+        closest[sel], gap[sel], frames[sel] = p["closest"][src], p["g"][src], p["R"][src]
+        master_blocks[sel, :nv], weights[sel, :nv] = p["blocks"][src], p["weights"][src]
+        friction[sel] = float(pairs[i].friction)
+
+    # Φ² = 0: no contact node is a vertex of a master facet used by any contact node
+    gblocks = imap.local_range[0] + blocks.astype(np.int64)
+    all_g = np.concatenate(comm.allgather(gblocks))
+    all_x = np.concatenate(comm.allgather(coordinates))
+    all_mb = np.concatenate(comm.allgather(master_blocks))
+    message = ""
+    hit = np.flatnonzero(np.isin(all_g, all_mb))
+    if hit.size:
+        bad = int(hit[np.argmin(all_g[hit])])
+        user = int(np.flatnonzero((all_mb == all_g[bad]).any(axis=1))[0])
+        message = (f"contact node {_where(all_x[bad])} is a vertex of the master facet used by contact node "
+                   f"{_where(all_x[user])}: Φ² = 0 needs slave surfaces without master-surface nodes "
+                   "(check the pairs' slave and master tags)")
+    check_all(comm, not message, message)
+
+    # overlap at the reference configuration
+    worst = None
+    for i, p in enumerate(per_pair):
+        sel = np.flatnonzero(winner == i)
+        depth = -gap[sel]
+        if sel.size and depth.max() > OVERLAP_TOL * p["body"]:
+            j = sel[int(np.argmax(depth))]
+            if worst is None or -gap[j] > worst[0]:
+                worst = (float(-gap[j]), f"{labels[i]}: the bodies overlap at the reference configuration: "
+                                         f"contact node {_where(coordinates[j])} lies {-gap[j]:.6g} inside the master "
+                                         f"body (more than {OVERLAP_TOL:g} × the surfaces' size {p['body']:.6g})")
+    everyone = [w for w in comm.allgather(worst) if w is not None]
+    if everyone:
+        raise InputError(max(everyone, key=lambda w: w[0])[1])
+
+    count = comm.allreduce(np.bincount(winner, minlength=len(pairs)).astype(np.int64), op=MPI.SUM) \
+        if pairs else np.zeros(0, np.int64)
+    if comm.rank == 0:
+        for i, pair in enumerate(pairs):
+            if count[i] == 0:
+                logger.warning("%s (slave %s, master %s) has no contact node (the slave surface is out of the "
+                               "search distance or beside the master surface)", labels[i],
+                               list(pair.slave_tags), list(pair.master_tags))
+    return Pairing(blocks=blocks, coordinates=coordinates, closest=closest, gap=gap, frames=frames,
+                   master_blocks=master_blocks, weights=weights, pair_index=winner.astype(np.intp),
+                   friction=friction, num_global=int(count.sum()) if pairs else 0,
+                   free=_free_nodes([p["free"] for p in per_pair], blocks, nv))
+
+
+def _free_nodes(per_pair: list[dict[str, np.ndarray]], contact: npt.NDArray[np.int32], nv: int
+                ) -> dict[str, np.ndarray]:
+    """The free slave nodes over a master surface, each with the pair of smallest |g| (not contact nodes of
+    another pair)."""
+    out = {"blocks": np.zeros(0, np.int32), "gap": np.zeros(0), "normals": np.zeros((0, 3)),
+           "master_blocks": np.full((0, 4), -1, np.int64), "weights": np.zeros((0, 4))}
+    if not per_pair:
+        return out
+    blocks = np.concatenate([f["blocks"] for f in per_pair])
+    keep = ~np.isin(blocks, contact)
+    gap = np.concatenate([f["gap"] for f in per_pair])
+    order = np.lexsort((np.abs(gap), blocks))
+    order = order[keep[order]]
+    first = order[np.unique(blocks[order], return_index=True)[1]]
+    mb = np.full((first.size, 4), -1, np.int64)
+    w = np.zeros((first.size, 4))
+    mb[:, :nv] = np.concatenate([f["master_blocks"] for f in per_pair])[first]
+    w[:, :nv] = np.concatenate([f["weights"] for f in per_pair])[first]
+    out.update(blocks=blocks[first].astype(np.int32), gap=gap[first],
+               normals=np.concatenate([f["normals"] for f in per_pair])[first], master_blocks=mb, weights=w)
+    return out

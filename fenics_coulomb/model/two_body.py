@@ -1,0 +1,241 @@
+r"""Two elastic bodies in contact, reduced to the one-body problem by a change of variables (Remark 6.2).
+
+The bodies are disconnected parts of one mesh with one vector P1/Q1 space and one stiffness matrix A_free
+(assembled WITHOUT Dirichlet rows). A contact pair (:mod:`fenics_coulomb.model.pairing`) pairs each slave contact
+node s with the closest point x_m of the master surface, with the shape functions φ_sj of the master facet
+there, the gap g, the frame R = (t₁, t₂, n) (n: the master's outward normal at x_m).
+
+**Relative displacement.** w_s = u_s − Σ_j φ_sj u_j. Contact: g + n·w_s ≥ 0, λ ≥ 0, complementarity; Coulomb
+friction on the slip T w_s (on a load path T(w_{s,k} − w_{s,k−1})): exactly the one-body conditions of the
+contact block of a node, with u_s replaced by w_s.
+
+**Change of variables.** Let Φ be the matrix with the slave-row, master-column 3×3 blocks φ_sj I₃, and
+
+    u = M z,   M = I + Φ,   so   z = u − Φ u:   z_s = u_s − Σ_j φ_sj u_j = w_s  (…provided Φ u has no
+                                                         slave entries in its own stencils: Φ² = 0)
+
+Indeed z = M⁻¹ u, and with Φ² = 0, M⁻¹ = I − Φ: (I + Φ)(I − Φ) = I − Φ² = I. z_s = u_s − (Φ u)_s = w_s on slave
+nodes; z_i = u_i elsewhere (Φ has only slave rows). Φ² = 0 holds exactly when no contact node is a node of
+a master facet used by a contact node (the pairing checks it).
+
+**The reduced GE.** The potential energy ½ uᵀA_free u − ⟨l, u⟩ in z is ½ zᵀ(Mᵀ A_free M)z − ⟨Mᵀ l, z⟩, and the
+contact conditions act on the blocks z_s = w_s in their frames: the paper's one-body GE (6.3)
+
+    0 ∈ Ã z − l̃_z + Q(z),   Ã = Mᵀ A_free M (PETSc PtAP),   l̃_z = Mᵀ l,
+
+with Q the contact map of the slave nodes (gaps g, frames R, friction of their pair). The optimality
+conditions in u follow by multiplying with M⁻ᵀ: A_free u − l = M⁻ᵀ(−q) where q ∈ Q(z); M⁻ᵀ = I − Φᵀ puts the
+force f_s = −q_s on slave node s and −Σ_s φ_sj f_s on master node j (the reaction of the master body).
+
+**Dirichlet conditions on z.** Slave contact nodes are never Dirichlet nodes, and Φ has only slave rows, so
+z_D = u_D on the prescribed DOFs D. Eliminating them as in :mod:`fenics_coulomb.model.contact_model` (there for A):
+
+    Ã ← Ã with rows and columns D replaced by s I (s = the mean free diagonal),
+    l̃_z = Mᵀ (l − A_free M x_D) on the free DOFs, s u_D on D,
+
+where x_D holds u_D on D and 0 elsewhere: (Ã x_D)_F = (Mᵀ A_free M x_D)_F is the lifting. A_free and M are
+kept for this lifting (a load path re-lifts at every step) and for the physical residual.
+
+**Near-nullspace.** The rigid modes r_b of body b (6 per body, zero on the other bodies) are the kernel of
+the supportless elastic operator; in z they are M⁻¹ r_b = (I − Φ) r_b. GAMG gets these 6 × (number of
+bodies) vectors. The estimate of γ comes from Ã (the solver's power method on the model's matrix).
+
+**Outputs.** u = M z. The contact force on slave node s is f_s = −q_s (the solver's contact force), on master
+node j the reaction f_j = −Σ_s φ_sj f_s.
+"""
+
+from __future__ import annotations
+
+import logging
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.la
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
+
+from fenics_coulomb.errors import check_all
+
+__all__ = ["connected_bodies", "check_rigid_support", "coupling_matrix", "body_rigid_modes"]
+
+logger = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+
+def connected_bodies(V: dolfinx.fem.FunctionSpace) -> tuple[npt.NDArray[np.int64], int]:
+    """The body (connected component of the mesh) of every local DOF block, owned and ghost (collective).
+
+    Components are found on each rank's local cell–block graph, then merged across ranks through the blocks
+    a rank shares with another (ghosts take the owner's component) and numbered by their smallest input
+    (mesh file) node index, so the numbering does not depend on the partition. Needs P1/Q1 on a first-order
+    mesh (one node per vertex), as the contact solver does.
+
+    Returns:
+        Body index per local block (owned then ghost), and the number of bodies.
+    """
+    comm = V.mesh.comm
+    imap = V.dofmap.index_map
+    nlocal = imap.size_local + imap.num_ghosts
+    cells = V.dofmap.list
+    ncells, per_cell = cells.shape
+    rows = np.repeat(np.arange(ncells), per_cell)
+    graph = sp.csr_matrix((np.ones(rows.size), (rows, cells.ravel())), shape=(ncells, nlocal))
+    adjacency = (graph.T @ graph).tocsr()
+    count, local_label = csgraph.connected_components(adjacency, directed=False)
+    offsets = np.cumsum([0, *comm.allgather(int(count))])
+    label = local_label.astype(np.int64) + offsets[comm.rank]
+    # equivalences: each ghost's component and its owner's component (owners send theirs forward)
+    owner_label = dolfinx.la.vector(imap, bs=1, dtype=np.float64)
+    owner_label.array[: imap.size_local] = label[: imap.size_local]
+    owner_label.scatter_forward()
+    ghosts = np.arange(imap.size_local, nlocal)
+    pairs = np.column_stack([label[ghosts], owner_label.array[ghosts].astype(np.int64)])
+    pairs = np.concatenate(comm.allgather(pairs)).reshape(-1, 2)
+    total = int(offsets[-1])
+    merged = sp.csr_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(total, total))
+    _, body_of_label = csgraph.connected_components(merged, directed=False)
+    body = body_of_label[label]
+    # number the bodies by their smallest input (file) node index: independent of the partition
+    geometry = V.mesh.geometry
+    node_index = np.asarray(geometry.input_global_indices, dtype=np.int64)
+    input_index = np.empty(nlocal, dtype=np.int64)
+    input_index[cells.ravel()] = node_index[geometry.dofmap.ravel()]
+    nb = int(body_of_label.max()) + 1 if total else 0
+    first = np.full(nb, np.iinfo(np.int64).max, dtype=np.int64)
+    np.minimum.at(first, body, input_index)
+    comm.Allreduce(MPI.IN_PLACE, first, op=MPI.MIN)
+    order = np.argsort(np.argsort(first))
+    bodies = np.unique(order)
+    return order[body].astype(np.int64), int(bodies.size)
+
+
+def _modes_at(x: Array) -> Array:
+    """The six rigid modes at points x (m, 3) as an array (m, 3, 6): translations, then rotations about e1..e3
+    (the order of :func:`fenics_coulomb.scd.preconditioner.rigid_body_modes`' rotations is irrelevant here)."""
+    m = x.shape[0]
+    r = np.zeros((m, 3, 6))
+    r[:, 0, 0] = r[:, 1, 1] = r[:, 2, 2] = 1.0
+    r[:, 1, 3], r[:, 2, 3] = -x[:, 2], x[:, 1]    # rotation about e1: (0, −x3, x2)
+    r[:, 0, 4], r[:, 2, 4] = x[:, 2], -x[:, 0]    # about e2: (x3, 0, −x1)
+    r[:, 0, 5], r[:, 1, 5] = -x[:, 1], x[:, 0]    # about e3: (−x2, x1, 0)
+    return r
+
+
+def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
+                        dirichlet: npt.NDArray[np.int32]) -> None:
+    """InputError on every rank unless the Dirichlet DOFs of every body remove its six rigid motions.
+
+    The rigid modes of body b restricted to its prescribed (owned, unrolled) DOFs must have rank 6: the Gram
+    matrix Σ r_Dᵀ r_D (summed over ranks; coordinates relative to the body's centroid, scaled by its size)
+    must be positive definite.
+    """
+    comm = V.mesh.comm
+    imap = V.dofmap.index_map
+    n = imap.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    owned_body = body[:n]
+    sums = np.zeros((num_bodies, 4))
+    np.add.at(sums, owned_body, np.column_stack([x, np.ones(n)]))
+    comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+    centroid = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
+    extent = np.zeros(num_bodies)
+    np.maximum.at(extent, owned_body, np.linalg.norm(x - centroid[owned_body], axis=1))
+    comm.Allreduce(MPI.IN_PLACE, extent, op=MPI.MAX)
+    extent = np.maximum(extent, np.finfo(float).tiny)
+    blocks, comps = dirichlet // 3, dirichlet % 3
+    blocks, comps = blocks[blocks < n], comps[blocks < n]
+    b = owned_body[blocks]
+    rows = _modes_at((x[blocks] - centroid[b]) / extent[b, None])[np.arange(blocks.size), comps]  # (k, 6)
+    gram = np.zeros((num_bodies, 6, 6))
+    np.add.at(gram, b, np.einsum("ka,kb->kab", rows, rows))
+    comm.Allreduce(MPI.IN_PLACE, gram, op=MPI.SUM)
+    smallest = np.array([np.linalg.eigvalsh(g)[0] for g in gram])
+    bad = np.flatnonzero(smallest <= 1e-10 * np.maximum(np.trace(gram, axis1=1, axis2=2), 1.0))
+    where = ""
+    if bad.size:
+        where = f" (centroid {np.array2string(centroid[bad[0]], precision=4, separator=', ')})"
+    check_all(comm, bad.size == 0, f"body {int(bad[0]) if bad.size else 0}{where} of the {num_bodies} bodies has no "
+              "boundary conditions that remove its rigid motions: prescribe or clamp enough of its boundary "
+              "(contact alone does not hold it)")
+
+
+def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
+                    master_blocks: npt.NDArray[np.int64], weights: Array, prefix: str) -> PETSc.Mat:
+    """M = I + Φ as a PETSc AIJ matrix (collective; owned rows of V's DOF layout).
+
+    Args:
+        V: The displacement space (block size 3).
+        blocks: Local owned block index of each slave contact node, shape (m,).
+        master_blocks: Global block indices of the master facet's nodes, shape (m, k) (−1: none).
+        weights: φ_sj, shape (m, k).
+        prefix: Options prefix of the problem; the matrix gets ``<prefix>coupling_``.
+    """
+    comm = V.mesh.comm
+    imap = V.dofmap.index_map
+    n = imap.size_local
+    r0 = imap.local_range[0]
+    size = (3 * n, 3 * imap.size_global)
+    present = master_blocks >= 0
+    # the diagonal, and φ_sj on (3 s + c, 3 j + c) for c = 0, 1, 2 (rows local, columns global)
+    diag = np.arange(3 * r0, 3 * (r0 + n), dtype=np.int64)
+    slave_rows = 3 * (blocks.astype(np.int64) + r0)
+    k = master_blocks.shape[1]
+    rows = np.broadcast_to(slave_rows[:, None, None] + np.arange(3)[None, None, :], (blocks.size, k, 3))
+    cols = 3 * master_blocks[:, :, None] + np.arange(3)[None, None, :]
+    vals = np.broadcast_to(weights[:, :, None], cols.shape)
+    keep = np.broadcast_to(present[:, :, None], cols.shape)
+    local = sp.csr_matrix((np.concatenate([np.ones(diag.size), vals[keep]]),
+                           (np.concatenate([diag, rows[keep]]) - 3 * r0, np.concatenate([diag, cols[keep]]))),
+                          shape=(3 * n, size[1]))
+    local.sum_duplicates()
+    local.sort_indices()
+    M = PETSc.Mat().createAIJ((size, size), bsize=3, csr=(local.indptr.astype(PETSc.IntType),
+                                                          local.indices.astype(PETSc.IntType),
+                                                          local.data.astype(PETSc.ScalarType)), comm=comm)
+    M.setOptionsPrefix(f"{prefix}coupling_")
+    M.assemble()
+    return M
+
+
+def body_rigid_modes(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
+                     M: PETSc.Mat) -> PETSc.NullSpace:
+    """The near-nullspace of Ã for GAMG: (I − Φ) r_b = 2 r_b − M r_b for the six rigid modes r_b of each body
+    (zero on the other bodies), orthonormalized (collective)."""
+    imap = V.dofmap.index_map
+    n = imap.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    modes = _modes_at(x)
+    owned_body = body[:n]
+    vectors: list[PETSc.Vec] = []
+    y = M.createVecRight()
+    for b in range(num_bodies):
+        inside = owned_body == b
+        for k in range(6):
+            v = M.createVecRight()
+            values = np.zeros((n, 3))
+            values[inside] = modes[inside, :, k]
+            v.array[:] = values.ravel()
+            M.mult(v, y)
+            v.scale(2.0)
+            v.axpy(-1.0, y)
+            vectors.append(v)
+    y.destroy()
+    # modified Gram–Schmidt, twice (the modes of a body are far from orthogonal in raw coordinates)
+    basis: list[PETSc.Vec] = []
+    for v in vectors:
+        norm0 = v.norm()
+        for _ in range(2):
+            for q in basis:
+                v.axpy(-v.dot(q), q)
+        norm = v.norm()
+        if norm > 1e-10 * max(norm0, np.finfo(float).tiny):
+            v.scale(1.0 / norm)
+            basis.append(v)
+        else:
+            v.destroy()
+    return PETSc.NullSpace().create(vectors=basis, comm=V.mesh.comm)
