@@ -50,7 +50,7 @@ from hemisphere_on_block import BODIES, TAGS, build  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
-from fenics_coulomb.io.fields import contact_areas, pair_forces
+from fenics_coulomb.model.forces import contact_areas, pair_forces
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
 from fenics_coulomb.scd.resolvent import OPEN  # noqa: E402
 

@@ -52,7 +52,7 @@ from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
-from fenics_coulomb.io.fields import contact_areas, pair_forces
+from fenics_coulomb.model.forces import contact_areas, pair_forces
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
 
 #: (E in GPa, ν) of the lower and the upper block.

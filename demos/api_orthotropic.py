@@ -42,10 +42,7 @@ import gmsh
 import numpy as np
 import ufl
 
-from fenics_coulomb import ContactProblem
-from fenics_coulomb.model.checks import physics_residuals
-from fenics_coulomb.io.summary import summary, write_summary
-from fenics_coulomb.io.xdmf import write_xdmf
+from fenics_coulomb import ContactProblem, write_results
 
 R, LENGTH, LIFT = 0.5, 0.5, 0.005
 TOP_Z = LIFT + R
@@ -159,8 +156,6 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     out = Path(args.out)
-    if comm.rank == 0:
-        out.mkdir(parents=True, exist_ok=True)
 
     msh, tags = half_roller(comm, args.h)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
@@ -173,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
                         settings={"rtol": 1e-10}, petsc_options_prefix="roller_",
                         petsc_options={"ksp_max_it": 1000}) as problem:
         uh, result = problem.solve()
-        checks = physics_residuals(problem.model, uh.x.petsc_vec.array)
+        checks = problem.checks(result)
 
         # %% [markdown]
         # ## Output for ParaView
@@ -184,9 +179,7 @@ def main(argv: list[str] | None = None) -> int:
         # physics checks.
 
         # %%
-        write_xdmf(out / "solution.xdmf", problem.model, result)
-        data = summary(problem.model, result, {"demo": "api_orthotropic", "checks": checks})
-        write_summary(out / "summary.json", data, comm)
+        write_results(out, problem, result, extra={"demo": "api_orthotropic", "checks": checks})
     counts = result.counts
     if comm.rank == 0:
         print(f"{'converged' if result.converged else 'NOT converged'} in {result.iterations} Newton iterations: "

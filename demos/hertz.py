@@ -65,12 +65,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb import ContactProblem, Sphere
-from fenics_coulomb.model.checks import boundary_reactions, physics_residuals
-from fenics_coulomb.scenes.scene import read_gmsh
-from fenics_coulomb.io.fields import contact_areas
-from fenics_coulomb.scenes.partition import create_partitioner
-from fenics_coulomb.scd.resolvent import OPEN
+from fenics_coulomb import ContactProblem, Sphere, create_partitioner, read_gmsh
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Mean of √(1 − r²/a²) over the disc r < a/2.
@@ -272,27 +267,18 @@ class Measured:
 def measure(case: str, level: int, friction: float, h: float, problem: ContactProblem, result, approach: float,
             radius: float, sign: float, reaction_blocks: npt.NDArray[np.int32], wall: float) -> Measured:
     """P, a, p₀ of the solution against Hertz for the approach (collective; same on all ranks)."""
-    model = problem.model
-    comm = model.comm
-    cmap = model.contact
-    areas = contact_areas(model)
-    pressure = np.divide(result.normal_force, areas, out=np.zeros_like(areas), where=areas > 0)
-    r = np.hypot(cmap.coordinates[:, 0], cmap.coordinates[:, 1])
-    closed = result.states != OPEN
-    gathered = comm.allgather((r, closed))
-    r_all = np.concatenate([g[0] for g in gathered])
-    closed_all = np.concatenate([g[1] for g in gathered])
-    a = contact_radius(r_all, closed_all)
-    total = np.asarray(comm.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM))
-    force = sign * float(total[2])
-    pmax = comm.allreduce(float(np.max(pressure, initial=0.0)), op=MPI.MAX)
+    report = problem.report(result, reactions={"support": reaction_blocks})  # the same on every rank
+    nodes = report.nodes
+    r = np.hypot(nodes.coordinates[:, 0], nodes.coordinates[:, 1])
+    a = contact_radius(r, nodes.closed)
+    force = sign * float(report.total_force[2])
+    pmax = float(np.max(nodes.pressure, initial=0.0))
     ref_p = hertz_from_force(radius, force)
     central = r < 0.5 * ref_p["radius"]
-    sums = comm.allreduce(np.array([result.normal_force[central].sum(), areas[central].sum()]), op=MPI.SUM)
-    p0 = float(sums[0] / sums[1]) / KAPPA
-    pmin = comm.allreduce(float(np.min(pressure, initial=0.0)), op=MPI.MIN)
-    checks = physics_residuals(model, result.displacement)
-    reaction = boundary_reactions(model, result.displacement, {"support": reaction_blocks})["support"]
+    p0 = float(nodes.normal_force[central].sum() / nodes.area[central].sum()) / KAPPA
+    pmin = float(np.min(nodes.pressure, initial=0.0))
+    checks = problem.checks(result)
+    reaction = report.reactions["support"]
     ref = hertz(radius, approach)
     worst = max(v for k, v in checks.items() if k not in ("contact_resultant", "reaction_balance"))
     return Measured(

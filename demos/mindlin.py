@@ -46,11 +46,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb import ContactProblem, Sphere
-from fenics_coulomb.model.checks import physics_residuals
-from fenics_coulomb.errors import SolverError
-from fenics_coulomb.scenes.partition import box_partitioner
-from fenics_coulomb.scd.resolvent import OPEN, STICK
+from fenics_coulomb import ContactProblem, ContactState, SolverError, Sphere, box_partitioner
 
 logger = logging.getLogger("mindlin")
 
@@ -326,10 +322,10 @@ def measure(problem: ContactProblem, result, step: int, branch: str, delta_t: fl
     gathered = comm.allgather((r, result.states))
     r_all = np.concatenate([g[0] for g in gathered])
     states = np.concatenate([g[1] for g in gathered])
-    closed = states != OPEN
+    closed = states != ContactState.OPEN
     a = separating_radius(r_all, closed)
-    c = separating_radius(r_all[closed], states[closed] == STICK)
-    checks = physics_residuals(problem.model, result.displacement)
+    c = separating_radius(r_all[closed], states[closed] == ContactState.STICK)
+    checks = problem.checks(result)
     worst = max(checks[key] for key in PHYSICS)
     return Step(step=step, branch=branch, delta_t=delta_t, force_t=float(total[0]), force_n=-float(total[2]),
                 contact_radius=a, stick_radius=c, counts=dict(result.counts), physics_residual=worst,

@@ -71,11 +71,7 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
-from fenics_coulomb import ContactPair, ContactProblem
-from fenics_coulomb.model.checks import physics_residuals
-from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions, pair_forces
-from fenics_coulomb.io.xdmf import XDMFTimeSeries
-from fenics_coulomb.io.summary import summary, write_summary
+from fenics_coulomb import CONTACT_STATES, ContactPair, ContactProblem, XDMFTimeSeries, contact_functions
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
 from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
@@ -179,8 +175,8 @@ def run(out: Path, n_lower: Sequence[int] = (8, 8, 4), n_upper: Sequence[int] = 
             for k, shear in enumerate([0.0, *shears]):
                 top.value[:] = (shear, 0.0, -press)
                 _, result = problem.solve()
-                checks = physics_residuals(model, result.relative_displacement)
-                forces = pair_forces(model, result, [pair])
+                checks = problem.checks(result)
+                forces = problem.report(result).pair_forces
                 xdmf.write(float(k + 1), [*contact_functions(model, result), body],
                            dtypes={"contact_state": np.int32, "body": np.int32},
                            information={"step": str(k + 1), "converged": str(result.converged).lower(),
@@ -196,9 +192,11 @@ def run(out: Path, n_lower: Sequence[int] = (8, 8, 4), n_upper: Sequence[int] = 
                           f"({f_s[0]:+.5f}, {f_s[1]:+.5f}, {f_s[2]:+.5f}), on the large block "
                           f"({f_m[0]:+.5f}, {f_m[1]:+.5f}, {f_m[2]:+.5f}), |sum|/|force| "
                           f"{forces[0]['balance']:.1e}", flush=True)
-        data = summary(model, result, {"demo": "two_bodies", "materials": MATERIALS, "friction": friction,
-                                       "steps": steps})
-        write_summary(out / "summary.json", data, comm)
+        data = {**result.summary(comm), "demo": "two_bodies", "materials": MATERIALS, "friction": friction,
+                "steps": steps}
+        if comm.rank == 0:
+            (out / "summary.json").write_text(json.dumps(data, indent=2) + "\n")
+        comm.barrier()
     return steps
 
 

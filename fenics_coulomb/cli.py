@@ -31,16 +31,13 @@ import dolfinx.fem
 import numpy as np
 
 from fenics_coulomb.scenes.builder import build_problem, cuboid_gap
-from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.io.display import virtual_display
 from fenics_coulomb.errors import InputError, Interrupted, OutputError, SolverError, check_all
-from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.scd.preconditioner import OPTION_RANGES, check_option_value
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
-from fenics_coulomb.io.xdmf import write_xdmf
-from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.io.writer import write_result_set
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, LOAD_CASES, expected_sizes
 from fenics_coulomb.settings import PRECONDITIONERS
 
@@ -48,7 +45,7 @@ __all__ = ["EXIT_INPUT", "EXIT_DIVERGED", "EXIT_OUTPUT", "EXIT_INTERRUPTED", "EX
            "BYTES_PER_RANK", "MAX_XDMF_BYTES", "START_CHECK_ROWS", "ArgumentParser", "NESTED_COARSE_RTOL",
            "NESTED_LEVEL_STEP", "NESTED_AUTO_MIN_LEV", "build_parser", "configure_logging", "scene_from_args",
            "prepare_output", "nested_levels", "CoarseStart", "coarse_level_options", "solve_coarse_levels",
-           "start_from_coarse", "resolve_nested", "run", "check_path_arguments", "run_load_path", "write_results",
+           "start_from_coarse", "resolve_nested", "run", "check_path_arguments", "run_load_path",
            "friction_text", "start_function", "check_memory", "available_memory", "check_start_file", "main",
            "exit_status", "QUIET_EXIT_DELAY", "run_command", "set_petsc_options", "check_petsc_options",
            "check_option_values"]
@@ -342,22 +339,15 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         t_write = time.perf_counter()
         out.failed = status != 0
         with out.writing() as tmp:
-            files = write_results(tmp, model, result, scene.label, plots=not args.no_plots)
-            data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
-                                           "body": built.body.description})
-            data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-            data["timings_s"]["nested"] = comm.allreduce(t_nested, op=MPI.MAX)
-            data["nested"] = {"levels": nested_levels(scene.body.lev, nested) if coarse else [],
-                              "newton_iterations": [r.iterations for r in coarse.results] if coarse else [],
-                              "krylov_iterations": [r.krylov_iterations for r in coarse.results] if coarse else []}
-            data["reactions"] = boundary_reactions(model, result.displacement, built.dirichlet_groups or {})
-            data["contact_force"] = total_contact_force(model, result.contact_force)
-            data["applied_load"] = [float(c) for c in model.total_load()]
-            data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
-            data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
-            data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - t_write, op=MPI.MAX)
-            data["files"] = [*files, "summary.json"]
-            write_summary(tmp / "summary.json", data, comm)
+            data = write_result_set(
+                tmp, problem, result, label=scene.label, plots=not args.no_plots, reactions=built.dirichlet_groups,
+                extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
+                       "nested": {"levels": nested_levels(scene.body.lev, nested) if coarse else [],
+                                  "newton_iterations": [r.iterations for r in coarse.results] if coarse else [],
+                                  "krylov_iterations": [r.krylov_iterations for r in coarse.results] if coarse
+                                  else []}},
+                timings={"model": t_model, "nested": t_nested, "mesh": built.mesh_time,
+                         "assembly": problem.model_time}, started=t_write)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
@@ -515,23 +505,6 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
         print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
               + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
     return status
-
-
-def write_results(directory: Path, model: ContactModel, result: SolveResult, label: str, plots: bool = True
-                  ) -> list[str]:
-    """Write the fields, the convergence history and (optionally) the figures into ``directory`` (collective).
-
-    Returns:
-        The names of the files written (figures that failed are left out; see figures.write_figures).
-    """
-    write_xdmf(directory / "solution.xdmf", model, result)
-    write_convergence_csv(directory / "convergence.csv", result, model.V.mesh.comm)
-    files = ["solution.xdmf", "solution.h5", "convergence.csv"]
-    if plots:
-        from fenics_coulomb.io.figures import write_figures
-
-        files += write_figures(directory, model, result, label)
-    return files
 
 
 def _shown(out: ResultDirectory) -> str:

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from mpi4py import MPI
@@ -45,6 +45,7 @@ from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.model.obstacles import Obstacle
 from fenics_coulomb.model.pairing import ContactPair
 from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.settings import SolverSettings
 
 __all__ = ["INTERPOLATION_PADDING", "interpolate_displacement", "ContactProblem"]
@@ -183,9 +184,38 @@ class ContactProblem:
         return self._solver
 
     @property
+    def ksp(self) -> PETSc.KSP:
+        """The KSP of the Newton systems (options prefix ``petsc_options_prefix``; replaced by
+        :meth:`set_solver` and by pc auto's escalation)."""
+        return self.solver.ksp
+
+    @property
     def V(self) -> dolfinx.fem.FunctionSpace:
         """The displacement space."""
         return self.model.V
+
+    def checks(self, result: SolveResult) -> dict[str, float]:
+        """The physics residuals of ``result`` with the global balance (collective): equilibrium, penetration,
+        negative pressure, complementarity, the Coulomb cone, the slip direction and the balance of reactions,
+        contact forces and loads, each relative (:func:`fenics_coulomb.model.checks.physics_residuals`). The
+        solve itself checks all but the balance (``result.checks``) and does not converge when one fails."""
+        unknown = result.relative_displacement if result.relative_displacement is not None else result.displacement
+        return physics_residuals(self.model, unknown)
+
+    def report(self, result: SolveResult, reactions: Mapping[str, Any] | None = None) -> ContactReport:
+        """Forces and contact nodes of ``result``, the same on every rank (collective).
+
+        Args:
+            result: A result of this problem's :meth:`solve`.
+            reactions: Named supports whose reaction forces to sum: name → a ``DirichletBC`` of ``bcs`` (on V or
+                on a sub-space) or an array of local node blocks.
+
+        Returns:
+            A :class:`~fenics_coulomb.report.ContactReport`: the total contact force, the force of each obstacle
+            and each contact pair, the reactions, the applied load, and every contact node (coordinates,
+            normal, area, force, pressure, gap, state) gathered in global node order.
+        """
+        return make_report(self.model, result, self._obstacles, reactions)
 
     @property
     def A(self) -> PETSc.Mat:

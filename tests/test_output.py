@@ -183,7 +183,9 @@ def test_failure_while_writing_keeps_previous_results(mpi_tmp_path, monkeypatch)
     def broken(*args, **kwargs):
         raise RuntimeError("disk full (simulated)")
 
-    monkeypatch.setattr(cli, "write_convergence_csv", broken)
+    import fenics_coulomb.io.writer as writer
+
+    monkeypatch.setattr(writer, "write_convergence_csv", broken)  # the one result writer of the CLI and the API
     with pytest.raises(RuntimeError, match="simulated"):
         cli.run(run_args(["--lev", "1", "--friction", "0.1", "--out", str(out), "--quiet", "--no-plots"]), comm)
     comm.barrier()

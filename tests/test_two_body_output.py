@@ -24,7 +24,8 @@ from test_two_body import MASTER, SLAVE, TIGHT, pressed_blocks
 
 from fenics_coulomb import ContactProblem
 from fenics_coulomb.model.checks import unconstrained_residual
-from fenics_coulomb.io.fields import contact_functions, pair_forces
+from fenics_coulomb.io.fields import contact_functions
+from fenics_coulomb.model.forces import pair_forces
 from fenics_coulomb.io.summary import summary, write_summary
 from fenics_coulomb.io.xdmf import write_xdmf
 from fenics_coulomb.model.pairing import ContactPair

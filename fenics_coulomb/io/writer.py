@@ -1,0 +1,86 @@
+"""The one writer of a solve's result set: fields, convergence history, summary.json and (optionally) figures.
+
+The command line and the Python API write the same files the same way::
+
+    from fenics_coulomb import write_results
+    data = write_results("out/press", problem, result, reactions={"bottom": clamp})
+
+Files: ``solution.xdmf`` + ``solution.h5`` (the displacement and every contact field, :mod:`.xdmf`),
+``convergence.csv`` (one row per Newton iteration), ``summary.json`` (the result's summary, the total contact
+force, the applied load, the reactions of the named supports, per-pair forces, software versions) and, with
+``plots=True``, the PNG figures. The directory is written whole or not at all (:class:`.results.ResultDirectory`);
+a result that did not converge goes to ``PATH.not-converged`` when PATH holds a converged set.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from mpi4py import MPI
+
+from fenics_coulomb.io.results import ResultDirectory
+from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
+from fenics_coulomb.io.xdmf import write_xdmf
+from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
+from fenics_coulomb.report import reaction_groups
+from fenics_coulomb.scd.records import SolveResult
+
+if TYPE_CHECKING:
+    from fenics_coulomb.problem import ContactProblem
+
+__all__ = ["write_result_set", "write_results"]
+
+
+def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
+                     plots: bool = False, reactions: Mapping[str, Any] | None = None,
+                     extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
+                     started: float | None = None) -> dict[str, Any]:
+    """Write the result set of ``result`` into the (temporary) ``directory`` (collective); return summary.json's
+    data.
+
+    Args:
+        directory: Where the files go (a :class:`~fenics_coulomb.io.results.ResultDirectory`'s temporary set).
+        problem: The solved problem.
+        result: Its result.
+        label: The figures' title.
+        plots: Write the PNG figures too.
+        reactions: Named supports whose reactions summary.json reports: name → DirichletBC or local node blocks.
+        extra: More summary.json entries.
+        timings: More phases for ``timings_s`` (this rank's seconds; the maximum over the ranks is written).
+        started: ``time.perf_counter()`` when writing began: ``timings_s["output"]`` is measured from it.
+    """
+    model = problem.model
+    comm = model.comm
+    write_xdmf(directory / "solution.xdmf", model, result)
+    write_convergence_csv(directory / "convergence.csv", result, comm)
+    files = ["solution.xdmf", "solution.h5", "convergence.csv"]
+    if plots:
+        from fenics_coulomb.io.figures import write_figures
+
+        files += write_figures(directory, model, result, label)
+    data = summary(model, result, dict(extra or {}))
+    data["reactions"] = boundary_reactions(model, result.displacement, reaction_groups(model.V, reactions or {}))
+    data["contact_force"] = total_contact_force(model, result.contact_force)
+    data["applied_load"] = [float(c) for c in model.total_load()]
+    for key, value in (timings or {}).items():
+        data["timings_s"][key] = comm.allreduce(float(value), op=MPI.MAX)
+    if started is not None:
+        data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - started, op=MPI.MAX)
+    data["files"] = [*files, "summary.json"]
+    write_summary(directory / "summary.json", data, comm)
+    return data
+
+
+def write_results(path: str | Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
+                  plots: bool = False, reactions: Mapping[str, Any] | None = None,
+                  extra: Mapping[str, Any] | None = None, comm: MPI.Comm | None = None) -> dict[str, Any]:
+    """Write the result set of a solve to ``path`` as the command line does (collective); return summary.json's
+    data. See the module docstring; the arguments are those of :func:`write_result_set`."""
+    out = ResultDirectory(comm or problem.model.comm, path)
+    out.failed = not result.converged
+    with out.writing() as tmp:
+        data = write_result_set(tmp, problem, result, label=label, plots=plots, reactions=reactions, extra=extra)
+    return data

@@ -1,0 +1,200 @@
+"""What a contact user reads off a solve: forces per obstacle and pair, reactions, the contact nodes.
+
+:meth:`fenics_coulomb.ContactProblem.report` turns a :class:`~fenics_coulomb.scd.records.SolveResult` (whose
+arrays are each rank's owned entries) into a :class:`ContactReport` that is the same on every rank: the
+contact nodes are gathered and ordered by their reference coordinates (lexicographically in x₁, x₂, x₃ to 1e-9 of the contact
+surface's extent: an
+order that does not depend on the partition) and the totals are summed in that order, so a script reads the
+same numbers on 1, 2 or 3 ranks (to the solver's round-off across rank counts)::
+
+    with ContactProblem(a, L, bcs=[clamp], contact=(tags, [top]), obstacles=[ball],
+                        petsc_options_prefix="press_") as problem:
+        _, result = problem.solve()
+        report = problem.report(result, reactions={"bottom": clamp})
+        report.total_force, report.reactions["bottom"], report.contact_radius(center=(0.5, 0.5, 0.5))
+
+Definitions (the same as summary.json's and the XDMF fields'):
+
+* the contact force on the body at a node is the solver's −Rᵢ zⁱ (Cartesian); ``normal_force`` its normal
+  part λ ≥ 0, ``pressure`` = λ / area with ``area`` = ∫ φᵢ ds over the contact boundary (the lumped facet area);
+* ``obstacle_forces[name]`` = Σ of the contact forces on the nodes that touch that obstacle (the force the
+  obstacle exerts on the body); ``pair_forces`` = the force on each body per contact pair from the residuals
+  (:func:`fenics_coulomb.model.forces.pair_forces`);
+* ``reactions[name]`` = Σ over the boundary's nodes of K ũ − l̃⁰ assembled without boundary conditions: the
+  force the support exerts on the body (:func:`fenics_coulomb.model.checks.boundary_reactions`);
+* equilibrium: Σ reactions + Σ obstacle forces + applied load = 0 up to the stopping tolerance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.checks import boundary_reactions
+from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.model.forces import contact_areas, pair_forces
+from fenics_coulomb.model.obstacles import Obstacle
+from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.scd.resolvent import OPEN, ContactState
+
+__all__ = ["ContactNodes", "ContactReport", "make_report", "reaction_groups"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class ContactNodes:
+    """Every contact node of the problem (all ranks), ordered by reference coordinates (x₁, then x₂, then x₃).
+
+    Attributes:
+        coordinates: Reference coordinates, shape (p, 3).
+        normal: The outward unit normal of the node's obstacle (or master surface), shape (p, 3).
+        area: The node's share of the contact surface ∫ φᵢ ds, shape (p,).
+        force: Contact force on the body (Cartesian), shape (p, 3).
+        normal_force: Its normal part λ ≥ 0, shape (p,).
+        pressure: λ / area (0 where the area is 0), shape (p,).
+        gap: The gap at the solution (≥ 0), shape (p,).
+        state: :class:`~fenics_coulomb.scd.resolvent.ContactState` codes (0 open, 1 stick, 2 slip), shape (p,).
+        obstacle: Index of the node's obstacle in the problem's list, −1 for a contact-pair (slave) node.
+    """
+
+    coordinates: Array
+    normal: Array
+    area: Array
+    force: Array
+    normal_force: Array
+    pressure: Array
+    gap: Array
+    state: npt.NDArray[np.int8]
+    obstacle: npt.NDArray[np.int64]
+
+    @property
+    def closed(self) -> npt.NDArray[np.bool_]:
+        """The nodes in contact (stick or slip)."""
+        return self.state != OPEN
+
+    def states(self) -> list[ContactState]:
+        """The states as :class:`~fenics_coulomb.scd.resolvent.ContactState` members."""
+        return [ContactState(int(s)) for s in self.state]
+
+
+@dataclass(frozen=True)
+class ContactReport:
+    """Forces and contact nodes of one solve, the same on every rank (see the module docstring).
+
+    Attributes:
+        total_force: Σ of the contact forces on the body over all contact nodes (obstacles and pair slaves).
+        obstacle_forces: Per obstacle (its ``name``, or "KIND N" by its position in the list), the force it
+            exerts on the body.
+        pair_forces: Per contact pair, the forces on its slave and master bodies (empty for one body).
+        reactions: Per named Dirichlet boundary, the force the support exerts on the body.
+        applied_load: Σ of the nodal applied loads (tractions and body forces).
+        nodes: The contact nodes.
+    """
+
+    total_force: Array
+    obstacle_forces: dict[str, Array]
+    pair_forces: list[dict[str, Any]]
+    reactions: dict[str, Array]
+    applied_load: Array
+    nodes: ContactNodes
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def contact_radius(self, center: npt.ArrayLike, normal: npt.ArrayLike | None = None) -> float:
+        """The largest distance of a node in contact from the line through ``center`` along ``normal``.
+
+        Args:
+            center: A point of the contact's axis (e.g. the initial contact point).
+            normal: The axis direction; default the mean normal of the nodes in contact.
+
+        Returns:
+            The radius (0 when no node is in contact). On a mesh it is a node position: it resolves the true
+            radius to about one element.
+        """
+        closed = self.nodes.closed
+        if not np.any(closed):
+            return 0.0
+        n = np.asarray(normal, dtype=np.float64) if normal is not None else self.nodes.normal[closed].mean(axis=0)
+        length = float(np.linalg.norm(n))
+        if not np.isfinite(length) or length == 0.0:
+            raise InputError(f"contact_radius: normal {normal!r} is not a non-zero finite vector")
+        n = n / length
+        d = self.nodes.coordinates[closed] - np.asarray(center, dtype=np.float64)
+        radial = d - np.outer(d @ n, n)
+        return float(np.max(np.linalg.norm(radial, axis=1)))
+
+
+def reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, npt.NDArray[np.int32]]:
+    """Local DOF blocks (owned and ghost) of named Dirichlet conditions on V or on a sub-space of V.
+
+    Args:
+        V: The problem's vector space.
+        bcs: name → ``dolfinx.fem.DirichletBC`` (on V, on ``V.sub(i)``) or an array of local node blocks.
+    """
+    bs = V.dofmap.index_map_bs
+    groups: dict[str, npt.NDArray[np.int32]] = {}
+    for name, bc in bcs.items():
+        if isinstance(bc, dolfinx.fem.DirichletBC):
+            dofs = np.asarray(bc.dof_indices()[0])  # unrolled DOF indices of V, for V and for V.sub(i) alike
+            groups[str(name)] = np.unique(dofs // bs).astype(np.int32)
+        else:
+            groups[str(name)] = np.unique(np.asarray(bc, dtype=np.int32))
+    return groups
+
+
+def _gather(comm: MPI.Comm, local: np.ndarray, order: np.ndarray) -> np.ndarray:
+    return np.concatenate(comm.allgather(np.ascontiguousarray(local)), axis=0)[order]
+
+
+def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Obstacle],
+                reactions: Mapping[str, Any] | None = None) -> ContactReport:
+    """The :class:`ContactReport` of ``result`` (collective). ``reactions``: name → DirichletBC or node blocks."""
+    comm = model.comm
+    cmap = model.contact
+    x = np.concatenate(comm.allgather(np.ascontiguousarray(cmap.coordinates)), axis=0).reshape(-1, 3)
+    # coordinates rounded to 1e-9 of the contact surface's extent: a mesh generator's round-off (which differs
+    # with the partition: -9e-18 or 4e-18 for 0) must not change the order
+    scale = float(np.max(np.ptp(x, axis=0))) if x.size else 1.0
+    key = np.round(x / (scale or 1.0), 9)
+    order = np.lexsort((key[:, 2], key[:, 1], key[:, 0]))
+    force = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)
+    area = contact_areas(model)
+    normal_force = np.asarray(result.normal_force, dtype=np.float64)
+    pressure = np.divide(normal_force, area, out=np.zeros_like(normal_force), where=area > 0)
+    paired = getattr(model, "paired", None)
+    which = np.asarray(cmap.obstacle_index, dtype=np.int64).copy()
+    if paired is not None and np.size(paired):
+        which[np.asarray(paired, dtype=bool)] = -1
+    nodes = ContactNodes(
+        coordinates=_gather(comm, cmap.coordinates, order),
+        normal=_gather(comm, cmap.normals, order),
+        area=_gather(comm, area, order),
+        force=_gather(comm, force, order),
+        normal_force=_gather(comm, normal_force, order),
+        pressure=_gather(comm, pressure, order),
+        gap=_gather(comm, np.asarray(result.gap, dtype=np.float64), order),
+        state=_gather(comm, np.asarray(result.states, dtype=np.int8), order),
+        obstacle=_gather(comm, which, order),
+    )
+    per_obstacle: dict[str, Array] = {}
+    for i, obstacle in enumerate(obstacles):
+        name = getattr(obstacle, "name", None) or f"{obstacle.kind} {i + 1}"
+        per_obstacle[name] = nodes.force[nodes.obstacle == i].sum(axis=0)
+    groups = reaction_groups(model.V, reactions or {})
+    support = boundary_reactions(model, result.displacement, groups) if groups else {}
+    return ContactReport(
+        total_force=nodes.force.sum(axis=0),
+        obstacle_forces=per_obstacle,
+        pair_forces=pair_forces(model, result) if model.coupling is not None else [],
+        reactions={name: np.asarray(v) for name, v in support.items()},
+        applied_load=np.asarray(model.total_load(), dtype=np.float64),
+        nodes=nodes,
+    )
