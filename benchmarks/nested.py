@@ -1,6 +1,6 @@
 """Nested iteration of the command line: where it pays, and how accurately the coarse level must be solved.
 
-For every level, case, ``--nested`` K and coarse reduction (``cli.NESTED_COARSE_RTOL``), the command line's
+For every level, case, ``--nested`` K and coarse reduction (``policy.NESTED_COARSE_RTOL``), the command line's
 solve runs in this process (``cli.main``, the user's default settings otherwise) and its wall time (max over
 ranks, from the parsing of the arguments to the written results: the build of the coarse and fine levels, both
 solves, the interpolation and the output) is recorded with the fine and coarse Newton / Krylov counts from its
@@ -24,6 +24,7 @@ from mpi4py import MPI
 from common import write_table
 
 import fenics_coulomb.cli as cli
+import fenics_coulomb.scenes.nested as policy
 
 
 def main() -> int:
@@ -31,12 +32,12 @@ def main() -> int:
     parser.add_argument("--levels", type=int, nargs="+", default=[7, 8, 9, 10])
     parser.add_argument("--cases", nargs="+", default=["d3/L2"], help="gap/load pairs, e.g. d3/L2 d1/L1")
     parser.add_argument("--nested", type=int, nargs="+", default=[0, 1], help="values of --nested K")
-    parser.add_argument("--coarse-rtol", type=float, nargs="+", default=[cli.NESTED_COARSE_RTOL],
+    parser.add_argument("--coarse-rtol", type=float, nargs="+", default=[policy.NESTED_COARSE_RTOL],
                         help="coarse reductions to compare (runs with K = 0 are made once)")
     parser.add_argument("--out", default="docs/nested")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
-    default_rtol = cli.NESTED_COARSE_RTOL
+    default_rtol = policy.NESTED_COARSE_RTOL
     rows = []
     with tempfile.TemporaryDirectory() as scratch:
         work = Path(comm.bcast(scratch if comm.rank == 0 else None))
@@ -45,7 +46,7 @@ def main() -> int:
             for lev in args.levels:
                 for nested in args.nested:
                     for rtol in (args.coarse_rtol if nested else [float("nan")]):
-                        cli.NESTED_COARSE_RTOL = rtol if nested else default_rtol
+                        policy.NESTED_COARSE_RTOL = rtol if nested else default_rtol
                         out = work / f"{gap}{load}-{lev}-{nested}-{rtol:g}"
                         argv = ["--lev", str(lev), "--gap", gap, "--load", load, "--nested", str(nested),
                                 "--no-plots", "--quiet", "--out", str(out)]
@@ -64,7 +65,7 @@ def main() -> int:
                         })
                         if comm.rank == 0:
                             print(rows[-1], flush=True)
-        cli.NESTED_COARSE_RTOL = default_rtol
+        policy.NESTED_COARSE_RTOL = default_rtol
     write_table(Path(args.out), "nested", f"Nested iteration of the command line, {comm.size} ranks "
                 f"(nested_s: the coarse levels and the interpolation; wall_s from argument parsing to results)",
                 rows, comm)

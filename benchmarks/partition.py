@@ -21,7 +21,7 @@ import numpy as np
 from common import write_table
 from dolfinx import cpp as _cpp
 
-from fenics_coulomb.scenes.scene import read_gmsh
+from fenics_coulomb.scenes.meshes import read_gmsh
 from fenics_coulomb.scenes.partition import recursive_bisection
 from fenics_coulomb.scenes.cuboid import HEIGHT, LENGTH, WIDTH, cells_per_direction
 

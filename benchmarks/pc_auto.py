@@ -242,7 +242,7 @@ def report(rows: list[dict[str, Any]], out: Path) -> None:
               f"Per body, size, ν and rank count: robust = exit 0 and every linear solve within one GMRES restart "
               f"cycle ({SolverSettings.gmres_restart} iterations; beyond it GMRES may stagnate into the KSP "
               "limit); `auto` = "
-              "`choose_preconditioner(n, ranks, cell type)` of fenics_coulomb/newton.py; `auto ok` = the "
+              "`choose_preconditioner(n, ranks, cell type)` of fenics_coulomb/scd/preconditioner.py; `auto ok` = the "
               "auto choice was robust in this measurement (None: ended by the timeout without a KSP at its limit, "
               "inconclusive).", "",
               "| body | size | n | ν | ranks | ilu robust | gamg robust | ilu Krylov (max/step) | "

@@ -17,7 +17,7 @@ from fenics_coulomb.scd.records import IterationRecord, SolveResult
 from fenics_coulomb.report import ContactNodes, ContactReport
 from fenics_coulomb.scd.resolvent import ContactState
 from fenics_coulomb.scenes.partition import box_partitioner, create_partitioner
-from fenics_coulomb.scenes.scene import read_gmsh
+from fenics_coulomb.scenes.meshes import read_gmsh
 from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions
 from fenics_coulomb.io.xdmf import XDMFTimeSeries
 from fenics_coulomb.settings import SolverSettings

@@ -7,7 +7,8 @@ from typing import Any
 
 from mpi4py import MPI
 
-__all__ = ["InputError", "OutputError", "Interrupted", "SolverError", "check_all"]
+__all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_OUTPUT", "EXIT_STATUSES", "InputError", "OutputError",
+           "Interrupted", "SolverError", "check_all"]
 
 
 class InputError(ValueError):
@@ -58,3 +59,21 @@ def check_all(comm: MPI.Comm, ok: bool, message: str, error: type[Exception] = I
     for msg in failures:
         if msg is not None:
             raise error(msg)
+
+
+#: The exit statuses of the command line (fenics_coulomb.cli).
+EXIT_INPUT = 2
+EXIT_DIVERGED = 3
+EXIT_OUTPUT = 4
+EXIT_INTERRUPTED = 128  # + the signal number (130 SIGINT, 143 SIGTERM), as a shell reports it
+#: What each exit status guarantees (the --help epilog and the README's table).
+EXIT_STATUSES = {
+    0: "solved: converged and the physics checks passed (summary.json physics_checks)",
+    2: "bad input: one line naming the value; nothing was solved or written",
+    3: "not converged, or the physics checks failed: the last iterate and the history are written (beside an "
+       "earlier converged set in OUT, into OUT.not-converged)",
+    4: "the results could not be written (disk full, a size limit): one line; the earlier results are kept",
+    130: "interrupted (128 + the signal: 143 SIGTERM, 129 SIGHUP): every rank ended; the earlier results are "
+         "kept, no partial set is left",
+    1: "an unexpected error (a bug; it prints a traceback): please report it",
+}

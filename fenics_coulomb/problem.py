@@ -38,14 +38,14 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.errors import InputError, SolverError
+from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
-from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.model.obstacles import Obstacle
 from fenics_coulomb.model.pairing import ContactPair
-from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.report import ContactReport, make_report
+from fenics_coulomb.scd.newton import SCDNewtonSolver
+from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.settings import SolverSettings
 
 __all__ = ["INTERPOLATION_PADDING", "interpolate_displacement", "ContactProblem"]
@@ -374,7 +374,7 @@ class ContactProblem:
         result.timings["model"] = self.model_time
         if commit:
             self._commit(result)  # the history is kept in the model's unknown (z for contact pairs)
-        if self.model.coupling is not None:
+        if self.model.coupling.paired:
             result.relative_displacement = result.displacement
             result.displacement = self.model.physical(result.displacement)
             result.master_force = self.model.master_forces(result.contact_force)

@@ -193,7 +193,7 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     return ContactReport(
         total_force=nodes.force.sum(axis=0),
         obstacle_forces=per_obstacle,
-        pair_forces=pair_forces(model, result) if model.coupling is not None else [],
+        pair_forces=pair_forces(model, result) if model.coupling.paired else [],
         reactions={name: np.asarray(v) for name, v in support.items()},
         applied_load=np.asarray(model.total_load(), dtype=np.float64),
         nodes=nodes,

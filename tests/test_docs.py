@@ -9,18 +9,21 @@ from pathlib import Path
 
 from mpi4py import MPI
 
+import numpy as np
+
+from fenics_coulomb.cli import main
 from fenics_coulomb.model.checks import physics_residuals
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def readme_example() -> str:
-    """The first ``python`` code block of the README's "Python API" section."""
+def readme_example(index: int = 0) -> str:
+    """The ``index``-th ``python`` code block of the README's "Python API" section."""
     text = (ROOT / "README.md").read_text()
-    section = text.split("## Python API", 1)[1].split("\n## ", 1)[0]
+    section = text.split("## The Python API", 1)[1].split("\n## ", 1)[0]
     blocks = re.findall(r"```python\n(.*?)```", section, flags=re.S)
     assert blocks, "the README's Python API section has no python block"
-    return blocks[0]
+    return blocks[index]
 
 
 def test_readme_example(mpi_tmp_path, monkeypatch):
@@ -40,6 +43,31 @@ def test_readme_example(mpi_tmp_path, monkeypatch):
         checks = physics_residuals(problem.model, uh.x.petsc_vec.array)
     for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "reaction_balance"):
         assert checks[key] < 1e-8, (key, checks[key])
+
+
+def test_readme_press_a_sphere(mpi_tmp_path, monkeypatch, capsys):
+    """The second example (top-level names only): the sphere's force balances the support's reaction, the
+    contact radius is Hertz's √(Rδ) within a cell, the result set is written."""
+    monkeypatch.chdir(mpi_tmp_path)
+    namespace: dict = {}
+    exec(compile(readme_example(1), "README.md", "exec"), namespace)
+    force, reaction, radius = namespace["force"], namespace["reaction"], namespace["radius"]
+    assert force[2] < 0 and np.linalg.norm(force + reaction) <= 1e-6 * np.linalg.norm(reaction)
+    assert abs(radius - np.sqrt(0.5 * 0.01)) <= 1 / 24
+    assert (mpi_tmp_path / "press" / "summary.json").exists()
+    out = capsys.readouterr().out
+    assert MPI.COMM_WORLD.rank != 0 or out.startswith("force -")
+
+
+def test_readme_first_scene(mpi_tmp_path):
+    """The README's first scene, written to a file and run with the command it shows, exits 0."""
+    text = (ROOT / "README.md").read_text().split("## A first scene", 1)[1].split("\n## ", 1)[0]
+    (toml,) = re.findall(r"```toml\n(.*?)```", text, flags=re.S)
+    scene = mpi_tmp_path / "sphere.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        scene.write_text(toml)
+    MPI.COMM_WORLD.barrier()
+    assert main(["--scene", str(scene), "--out", str(mpi_tmp_path / "sphere"), "--quiet", "--no-plots"]) == 0
 
 
 def test_api_orthotropic_demo(mpi_tmp_path, capsys):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from conftest import global_norm
 
-from fenics_coulomb.cli import (
+from fenics_coulomb.scenes.nested import (
     NESTED_AUTO_MIN_LEV,
     coarse_level_options,
     nested_levels,

@@ -126,7 +126,7 @@ def test_shipped_obstacle_scenes_physics(name):
     the nodes' frames; the cylinder drags the plate along its motion."""
     from pathlib import Path
 
-    from fenics_coulomb.cli import start_function
+    from fenics_coulomb.io.start import start_function
 
     scene = Scene.from_toml(Path(__file__).parents[1] / "demos" / "scenes" / f"{name}.toml").override(lev=2)
     with build_problem(scene, MPI.COMM_WORLD).problem as problem:

@@ -10,7 +10,7 @@ import dolfinx.mesh
 import numpy as np
 import pytest
 
-from fenics_coulomb.scenes.scene import read_gmsh
+from fenics_coulomb.scenes.meshes import read_gmsh
 from fenics_coulomb.scenes.partition import recursive_bisection
 from fenics_coulomb.scenes.cuboid import create_cuboid
 

@@ -1,4 +1,4 @@
-"""The stopping rule (fenics_coulomb/stopping.py): a target relative to ‖ŷ(ũ = 0)‖ whatever the start, and the
+"""The stopping rule (fenics_coulomb/scd/stopping.py): a target relative to ‖ŷ(ũ = 0)‖ whatever the start, and the
 round-off floor; the same solution from the paper's start and from the undeformed one."""
 
 from __future__ import annotations

@@ -54,7 +54,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         point_field(S, "gap", scalar_dofs, result.gap),
         point_field(V, "contact_normal", vector_dofs, cmap.normals),
     )
-    if model.coupling is None:
+    if not model.coupling.paired:
         return fields
     reaction = dolfinx.fem.Function(V, name="master_reaction")
     if result.master_force is not None:

@@ -34,7 +34,7 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
     ``extra``."""
     comm = model.V.mesh.comm
     data = result.summary(comm)
-    if model.coupling is not None:
+    if model.coupling.paired:
         data["contact_pairs"] = pair_forces(model, result)
     data["versions"] = software_versions()
     if extra:

@@ -129,7 +129,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
         return out
     # Global balance with the clamped reactions from an assembly without boundary conditions.
     clamped_blocks = np.unique(model.dirichlet_rows // 3)
-    if model.coupling is None:
+    if not model.coupling.paired:
         full = unconstrained_residual(model, displacement)
         local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
     else:  # contact pairs, u = M z: the contact forces are internal (Σ_j φ_sj = 1), so the residual summed over

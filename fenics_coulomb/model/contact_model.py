@@ -47,14 +47,14 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.model.contact_map import ContactMap
-from fenics_coulomb.model.mesh_checks import BodyLocator, check_mesh
-from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
-from fenics_coulomb.model.nullspace import rigid_body_modes
-from fenics_coulomb.model.two_body import body_rigid_modes, check_rigid_support, connected_bodies, coupling_matrix
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, closest_obstacle, core_path
+from fenics_coulomb.model.contact_map import ContactMap
+from fenics_coulomb.model.coupling import Coupling, IdentityCoupling, PairCoupling
 from fenics_coulomb.model.frames import local_shift, to_global
+from fenics_coulomb.model.mesh_checks import BodyLocator, check_mesh
+from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, closest_obstacle, core_path
+from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
+from fenics_coulomb.model.two_body import check_rigid_support, connected_bodies, coupling_matrix
 
 __all__ = ["validate_friction", "validate_arguments", "function_space", "ContactModel"]
 
@@ -184,10 +184,10 @@ class ContactModel:
         pairs = list(contact_pairs or [])
         #: The contact pairs (two bodies), in the order given.
         self.pairs = pairs
-        #: Two bodies: the pairing, M = I + Φ and the stiffness without Dirichlet rows (None for one body).
+        #: Two bodies: the pairing (None for one body).
         self.pairing: Pairing | None = None
-        self.coupling: PETSc.Mat | None = None
-        self.A_free: PETSc.Mat | None = None
+        #: u = M z: the identity for one body, :class:`~fenics_coulomb.model.coupling.PairCoupling` for two.
+        self.coupling: Coupling = IdentityCoupling()
         self._free_coupling: PETSc.Mat | None = None
         self._prefix = prefix
         obstacle_contact = None
@@ -247,9 +247,7 @@ class ContactModel:
             self._create_two_body(pairs, dirichlet, prefix, obstacle_contact, friction)
         else:
             # Stiffness with the Dirichlet rows/columns replaced by a scaled identity.
-            self.A = dolfinx.fem.petsc.assemble_matrix(self.a, bcs=self.bcs)
-            self.A.assemble()
-            self.A.setOptionsPrefix(f"{prefix}A_")
+            self.A = self.coupling.stiffness(self, prefix)
             self.dirichlet_diagonal = self._scale_dirichlet_rows(owned)
             # Load vector l̃ (see the module docstring) and the contact nodes (no node with a constrained
             # component)
@@ -303,14 +301,9 @@ class ContactModel:
             keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
             obstacle_map = obstacle_map.subset(keep, comm)
         self.pairing = pairing
-        self.coupling = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix)
-        self.A_free = dolfinx.fem.petsc.assemble_matrix(self.a)
-        self.A_free.assemble()
-        self.A_free.setOptionsPrefix(f"{prefix}A_free_")
-        self.A = self.A_free.ptap(self.coupling)
-        self.A.setOptionsPrefix(f"{prefix}A_")
+        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix)
+        self.A = self.coupling.stiffness(self, prefix)
         r0 = V.dofmap.index_map.local_range[0]
-        self.A.zeroRowsColumns((self.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
         self.dirichlet_diagonal = self._scale_dirichlet_rows(self.dirichlet_rows)
         self.load = self.A.createVecRight()
         self.load.setOptionsPrefix(f"{prefix}load_")
@@ -345,21 +338,16 @@ class ContactModel:
 
     def near_nullspace(self) -> PETSc.NullSpace:
         """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""
-        if self.coupling is None:
-            return rigid_body_modes(self.V)
-        return body_rigid_modes(self.V, self.body_of_block, self.num_bodies, self.coupling)
+        return self.coupling.near_nullspace(self.V)
+
+    @property
+    def A_free(self) -> PETSc.Mat | None:
+        """Two bodies: the stiffness without boundary conditions (None for one body)."""
+        return getattr(self.coupling, "A_free", None)
 
     def physical(self, z: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """u = M z on the owned DOFs (the identity for one body; collective for two)."""
-        if self.coupling is None:
-            return np.array(z, dtype=np.float64)
-        x, y = self.coupling.createVecs()
-        x.array[:] = z
-        self.coupling.mult(x, y)
-        u = y.getArray(readonly=True).copy()
-        x.destroy()
-        y.destroy()
-        return u
+        return self.coupling.physical(z)
 
     def free_slave_penetrations(self, u: npt.NDArray[np.float64], tol: float = 1e-8) -> int:
         """The number of free slave nodes (over a master surface, but not contact nodes: beyond the search
@@ -382,9 +370,7 @@ class ContactModel:
 
     def relative(self, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """z = M⁻¹ u = (I − Φ) u = 2u − M u on the owned DOFs (the identity for one body; collective for two)."""
-        if self.coupling is None:
-            return np.array(u, dtype=np.float64)
-        return 2.0 * np.asarray(u, dtype=np.float64) - self.physical(u)
+        return self.coupling.relative(u)
 
     def master_forces(self, contact_force: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """The reaction on the master nodes, f_j = −Σ_s φ_sj f_s, on the owned DOFs (collective; two bodies).
@@ -392,16 +378,9 @@ class ContactModel:
         Args:
             contact_force: Cartesian force on each owned slave contact node, shape (m, 3).
         """
-        assert self.coupling is not None, "master forces exist for contact pairs only"
-        x, y = self.coupling.createVecs()
-        x.set(0.0)
-        x.array[self.contact.local_dofs] = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3)
-        self.coupling.multTranspose(x, y)  # Mᵀ f = f + Φᵀ f
-        y.axpy(-1.0, x)
-        out = -y.getArray(readonly=True).copy()
-        x.destroy()
-        y.destroy()
-        return out
+        forces = self.coupling.master_forces(contact_force, self.contact.local_dofs)
+        assert forces is not None, "master forces exist for contact pairs only"
+        return forces
 
     def assemble_load(self) -> None:
         """(Re-)assemble l̃ from the current values of L's coefficients and of the Dirichlet values (collective).
@@ -411,15 +390,7 @@ class ContactModel:
         :meth:`place` afterwards to update l = l̃ + A d.
         """
         self.dirichlet_values = self._prescribed_values()
-        if self.coupling is not None:
-            self._assemble_two_body_load()
-            return
-        b = dolfinx.fem.petsc.assemble_vector(self.L)
-        dolfinx.fem.petsc.apply_lifting(b, [self.a], bcs=[self.bcs])
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        dolfinx.fem.petsc.set_bc(b, self.bcs, alpha=self.dirichlet_diagonal)
-        b.copy(self.load)
-        b.destroy()
+        self.coupling.assemble_load(self)
 
     def _prescribed_values(self) -> npt.NDArray[np.float64]:
         """The Dirichlet values g of the owned Dirichlet rows, as the boundary conditions set them (bit for bit)."""
@@ -428,24 +399,6 @@ class ContactModel:
         for bc in self.bcs:
             bc.set(g.x.array)
         return np.array(g.x.array[self.dirichlet_rows], dtype=np.float64)
-
-    def _assemble_two_body_load(self) -> None:
-        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.model.two_body`)."""
-        assert self.coupling is not None and self.A_free is not None
-        l = dolfinx.fem.petsc.assemble_vector(self.L)
-        l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        x_d = self.A.createVecRight()  # M x_D: the Dirichlet values g on D, 0 elsewhere
-        x_d.set(0.0)
-        x_d.array[self.dirichlet_rows] = self.dirichlet_values
-        t, y = self.A_free.createVecs()
-        self.coupling.mult(x_d, t)
-        self.A_free.mult(t, y)
-        y.scale(-1.0)
-        y.axpy(1.0, l)  # y = l − A_free M x_D
-        self.coupling.multTranspose(y, self.load)
-        self.load.array[self.dirichlet_rows] = self.dirichlet_diagonal * x_d.array[self.dirichlet_rows]
-        for vec in (l, x_d, t, y):
-            vec.destroy()
 
     def place(
         self,
@@ -602,6 +555,7 @@ class ContactModel:
 
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
-        for obj in (self.A, self.load, self.shift, self.rhs, self.coupling, self.A_free, self._free_coupling):
+        for obj in (self.A, self.load, self.shift, self.rhs, self._free_coupling):
             if obj is not None:
                 obj.destroy()
+        self.coupling.destroy()

@@ -24,7 +24,8 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
-from fenics_coulomb.scenes.scene import Scene, read_gmsh_tags
+from fenics_coulomb.scenes.meshes import read_gmsh_tags
+from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.model.materials import Material, epsilon, sigma
 from fenics_coulomb.model.pairing import ContactPair

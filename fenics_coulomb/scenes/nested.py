@@ -12,19 +12,31 @@ saves Newton steps instead of asking for a smaller residual.
 from __future__ import annotations
 
 import logging
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from mpi4py import MPI
+from mpi4py import MPI
+from petsc4py import PETSc
 
 import dolfinx.fem
+import dolfinx.fem
+import numpy as np
 import numpy as np
 
+from fenics_coulomb.errors import SolverError
+from fenics_coulomb.io.start import start_function
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.scenes.builder import build_problem, cuboid_gap
 from fenics_coulomb.scenes.cuboid import HEIGHT, LENGTH, WIDTH, GapFunction, box_coordinates, cells_per_direction
+from fenics_coulomb.scenes.scene import Scene
 
-__all__ = ["NestedResult", "solve_nested", "GRID_TOLERANCE", "interpolate_cuboid"]
+__all__ = ["GRID_TOLERANCE", "NESTED_AUTO_MIN_LEV", "NESTED_COARSE_RTOL", "NESTED_LEVEL_STEP", "CoarseStart",
+           "NestedResult", "coarse_level_options", "interpolate_cuboid", "nested_levels", "resolve_nested",
+           "solve_coarse_levels", "solve_nested", "start_from_coarse"]
 
 logger = logging.getLogger(__name__)
 
@@ -137,3 +149,92 @@ def interpolate_cuboid(u_coarse: dolfinx.fem.Function, lev_coarse: int, V: dolfi
     result.x.array[: 3 * owned] = u.ravel()
     result.x.scatter_forward()
     return result
+
+
+#: Residual reduction of the coarse levels of --nested. They only provide the start of the next level, but the
+#: fine level needs fewer steps from an accurate one (2 ranks, d3/L2, lev 10 from lev 8, with the reduction then
+#: relative to the paper's start: 1e-2 9 Newton / 126 Krylov, 66.0 s; 1e-4 8 / 96, 52.3 s; 1e-6 7 / 68, 45.9 s;
+#: no gain below; benchmarks/nested.py, docs/nested). The stopping rule is now relative to ‖ŷ(ũ = 0)‖, which is
+#: 53× smaller at lev 8 (25× at lev 6): 3e-5 asks for what 1e-6 asked then.
+NESTED_COARSE_RTOL = 3e-5
+
+
+#: --nested K solves the levels lev − NESTED_LEVEL_STEP·k, k = K, ..., 1 (h doubles from level to level).
+NESTED_LEVEL_STEP = 2
+
+
+#: Without --nested, the cuboid from this level on is solved with one coarser level (lev − 2) first: on 2 ranks
+#: with the coarse reduction 1e-6 it saves 18-34 % of the time at lev 7-10 (d3/L2: lev 7 2.50 s against 3.25 s,
+#: lev 10 46.8 s against 70.9 s; d1/L1 and d2/L2 at lev 8 alike; benchmarks/nested.py, docs/nested); lev 2-6 keep
+#: the direct solve (the paper's Section 7 runs).
+NESTED_AUTO_MIN_LEV = 7
+
+
+def nested_levels(lev: int, levels: int) -> list[int]:
+    """The coarser cuboid levels of ``--nested K``, coarse to fine: lev − 2K, ..., lev − 2 (each halves the mesh
+    size h, as the levels of full multigrid do; two levels are a factor 2 in h)."""
+    return [lev - NESTED_LEVEL_STEP * k for k in range(levels, 0, -1)]
+
+
+@dataclass
+class CoarseStart:
+    """The last coarse level's solution of nested iteration, its level and every coarse level's result."""
+
+    u: dolfinx.fem.Function
+    lev: int
+    results: list
+
+
+def coarse_level_options(lev: int) -> dict[str, str]:
+    """The user's ``-coulomb_*`` PETSc options for the coarse level ``lev`` of nested iteration (prefix
+    ``coulomb_nested<lev>_``), without the prefix: every option given for the solve, except those the user gave
+    for this level itself (``-coulomb_nested<lev>_*``, read from the database under its own prefix, win) and those
+    for other coarse levels."""
+    opts = PETSc.Options()
+    given = {name[len("coulomb_"):]: value for name, value in opts.getAll().items()
+             if name.startswith("coulomb_") and not name.startswith("coulomb_nested")}
+    return {key: value for key, value in given.items() if not opts.hasName(f"coulomb_nested{lev}_{key}")}
+
+
+def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStart | None:
+    """Solve the cuboid scene on its ``levels`` coarser levels (:func:`nested_levels`, coarse to fine, each from
+    the previous solution, to NESTED_COARSE_RTOL) before the fine level is built, so that their memory is free
+    again when it is; None (logged) when a coarse level does not converge: the fine level then starts as without
+    nesting (collective). The user's ``-coulomb_*`` options apply to the coarse levels too
+    (:func:`coarse_level_options`)."""
+    from fenics_coulomb.scenes.nested import solve_nested
+
+    coarse_levels = nested_levels(scene.body.lev, levels)
+    coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL), comm,
+                            petsc_options_prefix=f"coulomb_nested{lev}_",
+                            petsc_options=coarse_level_options(lev)).problem
+              for lev in coarse_levels]
+    try:
+        uh, _, nested = solve_nested(coarse, start_function(scene.start, coarse[0].V))
+    except SolverError as err:
+        logger.warning("nested iteration: a coarse level did not converge (%s); lev %d starts without it", err,
+                       scene.body.lev)
+        return None
+    finally:
+        for problem in coarse:
+            problem.destroy()
+    u = dolfinx.fem.Function(uh.function_space)  # the problem's own Function went with it
+    u.x.array[:] = uh.x.array
+    logger.info("nested iteration: lev %s, %d Newton / %d Krylov iterations", ", ".join(map(str, coarse_levels)),
+                sum(r.iterations for r in nested.levels), sum(r.krylov_iterations for r in nested.levels))
+    return CoarseStart(u, coarse_levels[-1], nested.levels)
+
+
+def start_from_coarse(start: CoarseStart, scene: Scene, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function:
+    """The coarse solution on V: through the box grid (:func:`~fenics_coulomb.scenes.nested.interpolate_cuboid`), or,
+    should the coarse mesh not be its level's grid, by DOLFINx's non-matching interpolation in ``solve``."""
+    u = interpolate_cuboid(start.u, start.lev, V, cuboid_gap(scene))
+    return u if u is not None else start.u
+
+
+def resolve_nested(nested: int | None, scene: Scene) -> int:
+    """``--nested`` as given, or by default 1 for a cuboid of level NESTED_AUTO_MIN_LEV or finer started from the
+    paper's start, 0 otherwise (docs/scale: nested iteration pays from lev 7 on)."""
+    if nested is not None:
+        return nested
+    return int(scene.body.shape == "cuboid" and scene.body.lev >= NESTED_AUTO_MIN_LEV and scene.start == "zero")

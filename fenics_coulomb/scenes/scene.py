@@ -64,23 +64,18 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from mpi4py import MPI
-
-import dolfinx.io.gmshio
-import dolfinx.mesh
 import numpy as np
 
-from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.scenes.expression import parse_gap_expression, parse_point_expression
-from fenics_coulomb.model.materials import Material
+from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.contact_model import validate_friction
+from fenics_coulomb.model.materials import Material
 from fenics_coulomb.model.obstacles import Obstacle, obstacles_from_list
-from fenics_coulomb.scenes.partition import create_partitioner
 from fenics_coulomb.scenes.cuboid import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
+from fenics_coulomb.scenes.expression import parse_gap_expression, parse_point_expression
 from fenics_coulomb.settings import SolverSettings
 
 __all__ = ["KINDS", "MAX_SCENE_BYTES", "YOUNG_RANGE", "GAMMA_SCALE_RANGE", "MAX_LOAD", "MAX_LEV", "check_kind",
-           "OPTIONAL", "check_kinds", "read_scene_text", "check_gap_values", "read_gmsh", "read_gmsh_tags",
+           "OPTIONAL", "check_kinds", "read_scene_text", "check_gap_values",
            "BodySection", "MaterialSection", "FrictionSection", "LoadSection", "MAX_PATH_SOLVES", "PathStep",
            "check_table", "path_steps_from_toml", "PairSection", "pairs_from_toml", "FLAGS", "SECTIONS", "Scene"]
 
@@ -223,41 +218,6 @@ def check_gap_values(text: str, gap: GapFunction) -> None:
     if np.any(bad):
         raise InputError(f"gap expression {text!r} takes the value {values[bad][0]!r} outside [0, 1) "
                          "on the cuboid's bottom (the body would invert)")
-
-
-def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
-    """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, facet tags)."""
-    msh, _, facet_tags = read_gmsh_tags(path, comm)
-    return msh, facet_tags
-
-
-def read_gmsh_tags(path: str, comm: MPI.Comm
-                   ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
-    """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, cell tags, facet tags)."""
-    import gmsh
-
-    message = ""
-    if comm.rank == 0:
-        gmsh.initialize()
-        gmsh.option.setNumber("General.Terminal", 0)
-        try:
-            gmsh.merge(path)
-            if not gmsh.model.getEntities(3):
-                message = f"mesh file {path!r} holds no volume (3D) entities"
-        except Exception as err:  # gmsh raises plain Exceptions
-            message = f"mesh file {path!r} cannot be read by gmsh: {err}"
-        if message:
-            gmsh.finalize()
-    message = comm.bcast(message, root=0)
-    check_all(comm, not message, message)
-    # The deterministic partitioner, from the coordinates gmsh holds on rank 0 (the rows model_to_mesh gives
-    # create_mesh): the same file on the same ranks gives the same partition in every run.
-    x = dolfinx.io.gmshio.extract_geometry(gmsh.model) if comm.rank == 0 else np.zeros((0, 3))
-    msh, cell_tags, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0,
-                                                                 gdim=3, partitioner=create_partitioner(comm, x))
-    if comm.rank == 0:
-        gmsh.finalize()
-    return msh, cell_tags, facet_tags
 
 
 @dataclass

@@ -1,0 +1,331 @@
+"""Run a scene as the command line does: one solve, or a load path, into a result directory.
+
+:func:`run` validates the scene's values before any collective call (memory, start file, path arguments,
+nested levels), builds the problem (:func:`~fenics_coulomb.scenes.builder.build_problem`), solves (from the
+coarse levels of nested iteration when they apply) and writes the result set with
+:func:`~fenics_coulomb.io.writer.write_result_set`; :func:`run_load_path` solves the steps of a path, one grid
+per solve in ``solution.xdmf``. Each returns the exit status."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+from mpi4py import MPI
+
+import dolfinx.fem
+
+from fenics_coulomb.errors import InputError, SolverError, check_all
+from fenics_coulomb.errors import EXIT_DIVERGED
+from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
+from fenics_coulomb.io.start import check_start_file, start_function
+from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
+from fenics_coulomb.io.writer import write_result_set
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.scenes.cuboid import expected_sizes
+from fenics_coulomb.scenes.nested import NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels, start_from_coarse
+from fenics_coulomb.scenes.scene import Scene
+
+__all__ = ["BYTES_PER_UNKNOWN", "BYTES_PER_RANK", "scene_from_args", "prepare_output", "run",
+           "check_path_arguments", "run_load_path", "friction_text", "check_memory", "available_memory"]
+
+logger = logging.getLogger("fenics_coulomb")
+
+
+#: Peak memory (summed over ranks) of a cuboid solve: a base per rank plus bytes per unknown. With the
+#: matrix-free Newton operator the measured peak RSS (docs/scale/idle-2026-11-23-2ranks-default-ptap, d3/L2,
+#: GAMG, 2 ranks) is 1042 MiB at 209 088 and 6228 MiB at 1 622 400 unknowns: 3.84 kB per unknown above
+#: ~150 MiB per rank; 4.2 kB leaves 10 % (the explicit Newton matrix of ILU/LU needs more: 5.1 kB, docs/table2).
+BYTES_PER_UNKNOWN = 4.2e3
+
+
+BYTES_PER_RANK = 150 * 2**20
+
+
+def scene_from_args(args: argparse.Namespace) -> Scene:
+    """Defaults < scene file < flags; raises InputError naming any bad value (no communication)."""
+    if args.scene is not None and not args.scene.strip():
+        raise InputError(f"--scene {args.scene!r}: give a scene file (TOML), or leave --scene out for the defaults")
+    scene = Scene.from_toml(args.scene) if args.scene else Scene()
+    return scene.override(
+        lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
+        poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
+        max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
+        accuracy=args.accuracy, adaptive_tol=args.adaptive_tol, matrix_free=args.matrix_free,
+        galerkin_coarse=args.galerkin_coarse,
+    )
+
+
+def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
+    """Check that the result set can go to ``out``; raise InputError on every rank if it cannot."""
+    return ResultDirectory(comm, out)
+
+
+def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
+    """Solve the scene described by ``args``; return the exit status."""
+    t0 = time.perf_counter()
+    scene = scene_from_args(args)
+    if not args.out.strip():
+        raise InputError(f"--out {args.out!r}: give an output directory (an empty name would write into the "
+                         "current directory)")
+    check_memory(comm, scene)
+    if scene.start not in ("zero", "undeformed"):
+        check_start_file(comm, scene.start)
+    nested = args.nested
+    check_all(comm, nested is None or (not isinstance(nested, bool) and isinstance(nested, int) and nested >= 0),
+              f"--nested {nested!r}: must be an integer >= 0")
+    solves = check_path_arguments(comm, scene, args)
+    if solves is not None:
+        return run_load_path(args, comm, scene, solves, t0)
+    nested = resolve_nested(nested, scene)
+    if nested:
+        check_all(comm, scene.body.shape == "cuboid", "--nested: nested iteration needs the cuboid body (lev)")
+        check_all(comm, NESTED_LEVEL_STEP * nested <= scene.body.lev, f"--nested {nested}: the coarsest level "
+                  f"would be lev {scene.body.lev - NESTED_LEVEL_STEP * nested} (lev = {scene.body.lev}, "
+                  f"every nested level {NESTED_LEVEL_STEP} levels coarser)")
+    out = prepare_output(comm, args.out)
+
+    t_nested = time.perf_counter()
+    coarse = solve_coarse_levels(scene, nested, comm) if nested else None
+    t_nested = time.perf_counter() - t_nested
+    built = build_problem(scene, comm)
+    with built.problem as problem:
+        model = problem.model
+        t_model = time.perf_counter() - t0 - t_nested
+        logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s)", built.body.description,
+                    problem.n, problem.p, friction_text(scene), comm.size)
+        status = 0
+        try:
+            t_start = time.perf_counter()
+            u0 = start_from_coarse(coarse, scene, problem.V) if coarse else start_function(scene.start, problem.V)
+            t_nested += time.perf_counter() - t_start
+            _, result = problem.solve(u0)
+        except SolverError as err:
+            result = err.result
+            status = EXIT_DIVERGED
+            logger.error("fenics-coulomb: the solve did not converge: %s", err)
+        if status == 0 and not result.converged:  # e.g. the linear solve of a body without contact nodes
+            status = EXIT_DIVERGED
+            logger.error("fenics-coulomb: the solve did not converge: %s", result.reason)
+        t_write = time.perf_counter()
+        out.failed = status != 0
+        with out.writing() as tmp:
+            data = write_result_set(
+                tmp, problem, result, label=scene.label, plots=not args.no_plots, reactions=built.dirichlet_groups,
+                extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
+                       "nested": {"levels": nested_levels(scene.body.lev, nested) if coarse else [],
+                                  "newton_iterations": [r.iterations for r in coarse.results] if coarse else [],
+                                  "krylov_iterations": [r.krylov_iterations for r in coarse.results] if coarse
+                                  else []}},
+                timings={"model": t_model, "nested": t_nested, "mesh": built.mesh_time,
+                         "assembly": problem.model_time}, started=t_write)
+    counts = data["state_counts"]
+    if comm.rank == 0:
+        print(
+            f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
+            f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
+            f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
+            f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
+            flush=True,
+        )
+        print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
+              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+    return status
+
+
+def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace) -> list | None:
+    """Validate ``--steps``, ``--start-step`` and the scene's path (InputError on every rank); return the
+    path's solves (:func:`fenics_coulomb.scenes.path.plan`) or None for a static run (collective)."""
+    from fenics_coulomb.scenes.scene import MAX_PATH_SOLVES
+    from fenics_coulomb.scenes.path import plan
+
+    steps, start_step = getattr(args, "steps", None), getattr(args, "start_step", None)
+    if steps is not None:
+        check_all(comm, not isinstance(steps, bool) and 1 <= steps <= MAX_PATH_SOLVES,
+                  f"--steps {steps!r}: must be an integer in [1, {MAX_PATH_SOLVES}]")
+        check_all(comm, not scene.path, f"--steps {steps}: the scene defines its own load path "
+                  f"({len(scene.path)} [[path.step]] tables); give either --steps or [[path.step]], not both")
+    if steps is None and not scene.path:
+        check_all(comm, start_step is None, f"--start-step {start_step}: only for a load path (--steps N or "
+                  "[[path.step]] tables in the scene)")
+        return None
+    check_all(comm, not args.nested, "--nested: nested iteration is not available for a load path")
+    solves = plan(scene, steps)
+    if start_step is not None:
+        last = solves[-1].step
+        check_all(comm, scene.start not in ("zero", "undeformed"), f"--start-step {start_step}: give the earlier "
+                  "path's solution.xdmf with --start FILE")
+        check_all(comm, not isinstance(start_step, bool) and 1 <= start_step < last,
+                  f"--start-step {start_step}: must lie in [1, {last - 1}] (the path has {last} steps; the last "
+                  "one is solved after it)")
+        message = ""
+        if comm.rank == 0:
+            from fenics_coulomb.io.xdmf import solution_datasets
+
+            try:
+                info = solution_datasets(Path(scene.start), float(start_step))
+                if not info["converged"]:
+                    message = f"its step {start_step} did not converge"
+            except (OSError, ValueError, KeyError, ET.ParseError) as err:
+                message = f"no step {start_step} in it ({err})"
+            if message:
+                message = f"--start {scene.start!r} --start-step {start_step}: {message}"
+        message = comm.bcast(message, root=0)
+        check_all(comm, not message, message)
+    return solves
+
+
+def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves: list, t0: float) -> int:
+    """Solve a quasi-static load path (``--steps N`` or the scene's ``[[path.step]]``) and write its result set:
+    solution.xdmf with one grid per solve (time = the step number), path.csv, summary.json with "steps",
+    convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
+    stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
+    from fenics_coulomb.io.figures import write_path_figure
+    from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_result_grid
+    from fenics_coulomb.io.summary import write_path_csv
+    from fenics_coulomb.scenes.path import obstacle_labels, run_path
+
+    out = prepare_output(comm, args.out)
+    built = build_problem(scene, comm)
+    start_step = getattr(args, "start_step", None)
+    problem_logger = logging.getLogger("fenics_coulomb.problem")
+    level = problem_logger.level
+    if not args.verbose:  # each step's Newton lines, without the problem's remarks per step (those under -v)
+        problem_logger.setLevel(logging.WARNING)
+    try:
+        with built.problem as problem:
+            model = problem.model
+            labels = obstacle_labels(scene)
+            t_model = time.perf_counter() - t0
+            logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s); load path of %d step(s), "
+                        "%d solve(s)", built.body.description, problem.n, problem.p, friction_text(scene),
+                        comm.size, solves[-1].step, len(solves))
+            u0 = None
+            if start_step is not None:
+                done = [s for s in solves if s.step <= start_step]
+                previous = dolfinx.fem.Function(problem.V)
+                previous.x.petsc_vec.array[:] = read_displacement(Path(scene.start), problem.V,
+                                                                  time=float(start_step))
+                previous.x.scatter_forward()
+                deltas = done[-1].obstacle_displacements or [(0.0, 0.0, 0.0)] * len(problem.obstacles)
+                problem.reset(previous, step=len(done), obstacle_displacements=deltas)
+                todo = solves[len(done):]
+                logger.info("resuming after step %d of %s: solving steps %d..%d", start_step, scene.start,
+                            start_step + 1, solves[-1].step)
+            else:
+                u0 = start_function(scene.start, problem.V)
+                todo = solves
+            t_write = 0.0
+            with out.writing() as tmp:
+                xdmf = XDMFTimeSeries(tmp / "solution.xdmf", model.V.mesh)
+
+                def write_grid(solve, record, result) -> None:  # noqa: ANN001
+                    nonlocal t_write
+                    t = time.perf_counter()
+                    step = (f"step {solve.step}" if solve.substeps == 1
+                            else f"step {solve.step} ({solve.substep}/{solve.substeps})")
+                    write_result_grid(xdmf, model, result, solve.time, step)
+                    t_write += time.perf_counter() - t
+
+                records, result, failure = run_path(problem, built.loads, todo, labels,
+                                                    built.dirichlet_groups or {}, u0, write_grid,
+                                                    last_step=solves[-1].step)
+                out.failed = bool(failure)
+                t = time.perf_counter()
+                steps = [r.as_dict() for r in records]
+                write_convergence_csv(tmp / "convergence.csv", result, comm)
+                write_path_csv(tmp / "path.csv", steps, comm)
+                files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv"]
+                if not args.no_plots:
+                    from fenics_coulomb.io.figures import write_figures
+
+                    files += write_figures(tmp, model, result, scene.label)
+                    files += write_path_figure(tmp, steps, scene.label, comm)
+                data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
+                                               "body": built.body.description})
+                data["converged"] = not failure
+                data["reason"] = failure or "converged"
+                data["path"] = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
+                                "start_step": start_step, "start": scene.start if start_step is not None else None,
+                                "ramp_steps": getattr(args, "steps", None)}
+                data["steps"] = steps
+                data["reactions"] = records[-1].reactions
+                data["contact_force"] = records[-1].contact_force
+                data["newton_iterations_total"] = sum(r.newton_iterations for r in records)
+                data["krylov_iterations_total"] = sum(r.krylov_iterations for r in records)
+                data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
+                data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
+                data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
+                data["timings_s"]["output"] = comm.allreduce(t_write + time.perf_counter() - t, op=MPI.MAX)
+                data["wall_time_s"] = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+                data["files"] = [*files, "summary.json"]
+                write_summary(tmp / "summary.json", data, comm)
+    finally:
+        problem_logger.setLevel(level)
+    status = 0
+    if failure:
+        status = EXIT_DIVERGED
+        logger.error("fenics-coulomb: step %g of the load path did not converge: %s; the path stops (%d of %d "
+                     "solves written, the last one NOT converged)", records[-1].time, failure, len(records),
+                     len(todo))
+    if comm.rank == 0:
+        print(f"{'load path completed' if not failure else 'load path STOPPED at step ' + format(records[-1].time, 'g')}: "
+              f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
+              f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
+              f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
+        print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
+              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+    return status
+
+
+def _shown(out: ResultDirectory) -> str:
+    """Where the results went, as the user named it (or the not-converged sibling of an earlier solution)."""
+    return out.given if out.committed == out.path else f"{out.given}{FAILED_SUFFIX} (the earlier solution in " \
+        f"{out.given} is kept)"
+
+
+def friction_text(scene: Scene) -> str:
+    """The Coulomb coefficients a run uses: F of the obstacles' contact boundary, and each contact pair's own."""
+    default = float(scene.friction.coefficient)
+    parts = [] if scene.contact_pairs and not scene.obstacles else [f"F = {default:g}"]
+    for i, pair in enumerate(scene.contact_pairs):
+        name = f"{pair.name!r}" if pair.name else str(i + 1)
+        parts.append(f"pair {name} F = {default if pair.friction is None else float(pair.friction):g}")
+    return ", ".join(parts)
+
+
+def _vector_text(v: list[float]) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in v) + ")"
+
+
+def check_memory(comm: MPI.Comm, scene: Scene) -> None:
+    """Refuse (InputError on every rank) a cuboid level whose estimated memory exceeds what the machine(s) of
+    the ranks have available, before anything is allocated (collective: every rank must call it)."""
+    if scene.body.shape != "cuboid":
+        return
+    n = expected_sizes(scene.body.lev)[1]
+    need = comm.size * BYTES_PER_RANK + n * BYTES_PER_UNKNOWN
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    local = available_memory() if node.rank == 0 else 0
+    node.Free()
+    available = comm.allreduce(local, op=MPI.SUM)
+    if available > 0 and need > available:
+        raise InputError(
+            f"lev = {scene.body.lev}: {n:,} unknowns need about {need / 2**30:,.1f} GiB, but only "
+            f"{available / 2**30:,.1f} GiB of memory are available (lower --lev)")
+
+
+def available_memory() -> int:
+    """MemAvailable of this machine in bytes (0 when unknown)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 0
+
