@@ -14,7 +14,7 @@ output directory that already holds an earlier result set, and asserts what a us
 
     container/run python3 benchmarks/fuzz.py --cases 240 --seed 1 --out docs/fuzz
 
-The cases are reproducible from the seed; tests/test_fuzz.py runs a fixed subset of them.
+The cases are reproducible from the seed; tests/cli/test_fuzz.py runs a fixed subset of them.
 """
 
 from __future__ import annotations

@@ -61,7 +61,7 @@ DEFAULT_LEVELS = [6, 7, 8, 9, 10]
 MiB = 1024.0
 
 
-# -- pure helpers (imported by tests/test_benchmark_scale.py) ---------------------------------------------
+# -- pure helpers (imported by tests/cli/test_benchmark_scale.py) ---------------------------------------------
 
 @dataclass
 class Plan:

@@ -189,7 +189,7 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
         name = getattr(obstacle, "name", None) or f"{obstacle.kind} {i + 1}"
         per_obstacle[name] = nodes.force[nodes.obstacle == i].sum(axis=0)
     groups = reaction_groups(model.V, reactions or {})
-    support = boundary_reactions(model, result.displacement, groups) if groups else {}
+    support = boundary_reactions(model, result.displacement, groups, result.master_force) if groups else {}
     return ContactReport(
         total_force=nodes.force.sum(axis=0),
         obstacle_forces=per_obstacle,

@@ -214,3 +214,9 @@ def solve_contact(
                                    residual=float(norm))
     raise AssertionError(f"the Alart-Curnier Newton method did not converge in {max_iterations} iterations "
                          f"(|Phi| = {norm:.3e})")
+
+
+def scipy_matrix(A):
+    """A serial PETSc AIJ matrix as scipy CSR."""
+    indptr, indices, values = A.getValuesCSR()
+    return sp.csr_matrix((values, indices, indptr), shape=A.getSize())

@@ -1,4 +1,4 @@
-"""Run by pvpython/pvbatch (tests/test_paraview.py): open an XDMF file as a ParaView user does and report what
+"""Run by pvpython/pvbatch (tests/io/test_paraview.py): open an XDMF file as a ParaView user does and report what
 ParaView shows, as one JSON line on stdout.
 
 Usage: ``pvpython --force-offscreen-rendering paraview_probe.py FILE.xdmf READER [SCREENSHOT.png]`` where READER

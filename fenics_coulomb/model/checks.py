@@ -177,14 +177,22 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
 
 
 def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64],
-                       groups: dict[str, npt.NDArray[np.int32]]) -> dict[str, list[float]]:
+                       groups: dict[str, npt.NDArray[np.int32]],
+                       master_force: npt.NDArray[np.float64] | None = None) -> dict[str, list[float]]:
     """The reaction force the support exerts on the body per Dirichlet boundary (collective, same on all ranks).
 
-    The reaction at a node is (K ũ − l̃⁰) with the stiffness and load assembled WITHOUT boundary conditions;
-    ``groups`` maps a boundary name to its local DOF blocks (owned and ghost; only owned ones are summed).
+    At a node, K ũ − l̃⁰ (the stiffness and load assembled WITHOUT boundary conditions) is the sum of the
+    external forces not in l̃⁰: the support's reaction and the contact force the node receives. Contact nodes
+    never carry a Dirichlet component, but with two bodies a prescribed MASTER node receives the contact force
+    f_j = −Σ_s φ_sj f_s of the slave nodes paired with it; the support carries it: its reaction is
+    K ũ − l̃⁰ − f_j (a driven master body moved rigidly has K ũ − l̃⁰ = 0 and its support the whole contact
+    force). ``groups`` maps a boundary name to its local DOF blocks (owned and ghost; only owned ones are
+    summed); ``master_force`` is the result's master reaction (owned DOFs; None for one body).
     """
     comm = model.V.mesh.comm
     full = unconstrained_residual(model, displacement)
+    if master_force is not None:
+        full -= np.asarray(master_force, dtype=np.float64).reshape(-1, 3)[: full.shape[0]]
     size_local = model.V.dofmap.index_map.size_local
     out: dict[str, list[float]] = {}
     for name, blocks in groups.items():

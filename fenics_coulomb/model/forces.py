@@ -62,9 +62,10 @@ def pair_forces(model: ContactModel, result: SolveResult,
     (:func:`fenics_coulomb.model.checks.unconstrained_residual`), is the force the other body and the supports exert
     on each node. Summed over the pair's slave contact nodes it is the force on the slave body; summed over
     the master nodes of the facets the pair's contact nodes use (the stencils φ_sj) it is the force on the
-    master body. Equilibrium (Σ_j φ_sj = 1) makes them equal and opposite; a supported (Dirichlet) node among
-    either set adds its support reaction (counted in ``prescribed_nodes``), and a master node shared by
-    several pairs' stencils counts for each of them.
+    master body. Equilibrium (Σ_j φ_sj = 1) makes them equal and opposite; on a supported (Dirichlet) master
+    node the residual also holds the support's reaction, so the contact force f_j = −Σ_s φ_sj f_s it receives is
+    taken there instead (counted in ``prescribed_nodes``); a master node shared by several pairs' stencils
+    counts for each of them.
 
     Args:
         model: The model of a solve with contact pairs.
@@ -92,6 +93,12 @@ def pair_forces(model: ContactModel, result: SolveResult,
     prescribed = np.zeros(n, dtype=bool)
     prescribed[model.dirichlet_rows // 3] = True
     force = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)
+    # what each master node receives from the contact: the residual on a free node; on a prescribed one the
+    # residual also holds the support's reaction, so there the contact force f_j = −Σ_s φ_sj f_s itself
+    received = full.copy()
+    if getattr(result, "master_force", None) is not None:
+        master_force = np.asarray(result.master_force, dtype=np.float64).reshape(-1, 3)[:n]
+        received[prescribed] = master_force[prescribed]
     out: list[dict[str, Any]] = []
     for k in range(count):
         mine = pairing.pair_index == k
@@ -100,7 +107,7 @@ def pair_forces(model: ContactModel, result: SolveResult,
         used = np.unique(stencil[stencil >= 0])
         used = np.unique(np.concatenate(comm.allgather(used))).astype(np.int64)
         master = (used[(used >= r0) & (used < r0 + n)] - r0).astype(np.int32)
-        local = np.concatenate([full[slave].sum(axis=0), full[master].sum(axis=0), force[mine].sum(axis=0),
+        local = np.concatenate([full[slave].sum(axis=0), received[master].sum(axis=0), force[mine].sum(axis=0),
                                 [slave.size, master.size, prescribed[slave].sum() + prescribed[master].sum()]])
         total = np.asarray(comm.allreduce(local, op=MPI.SUM))
         on_slave, on_master = total[0:3], total[3:6]

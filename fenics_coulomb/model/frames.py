@@ -88,7 +88,7 @@ axes (a cylinder's t₁ = a = e₂), on which ILU(0) breaks down.
 Outputs: the contact force on the body is −Rᵢ zⁱ (Cartesian), its normal part λ = −z₃ ≥ 0, the tangential
 force −Rᵢ (z₁, z₂, 0) (a true 3-vector), the gap v₃ = g + n·ũ ≥ 0, the slip v₁₂.
 
-``tests/test_obstacles.py`` checks this numerically: the Cartesian formulas above against the paper's
+``tests/model/test_obstacles.py`` checks this numerically: the Cartesian formulas above against the paper's
 iteration on the explicitly rotated problem (Â, l̂) for random frames and shifts (the Newton directions of
 4a and 4b), the rotated S*Q/SQ blocks against finite differences of the Cartesian resolvent, and the whole
 iteration against an independent Alart–Curnier solver (``tests/brute_force.py``).

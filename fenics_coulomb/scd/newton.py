@@ -38,7 +38,7 @@ scaled problem with the scalar γ' = 1. Its approximation step maps back to d̂ 
 (Γ + Q)⁻¹(Γ u − r) (v' = (I + Q')⁻¹(w') ⇔ D w' ∈ Γ D⁻¹v' + Q(D⁻¹v')), i.e. the closed-form resolvent with γᵢ on
 node i and e = r/γ elsewhere; ŷ = (Γ e, e). Its Newton step (5.4) is the step of :mod:`fenics_coulomb.scd.steps`
 with every node's blocks and rows taken with its own γᵢ and ŷ₁ = Γ e (checked against the paper's step on the
-scaled problem in tests/test_node_gamma.py). Under exact solves the direction depends on γᵢ only through the
+scaled problem in tests/scd/test_node_gamma.py). Under exact solves the direction depends on γᵢ only through the
 approximation step and ŷ₁ (in (5.4) a sliding row's γ·b/a = t/s and a sticking row's γ cancel); the rows' γᵢ
 set the scale of the contact rows against A's, which is what the preconditioner built on A sees. ‖ŷ‖ is
 ‖(Γe, e)‖ = (Σ_j (1 + γ_j²) e_j²)^{1/2}, the paper's √(1 + γ²)‖e‖ when all γᵢ = γ; the local convergence does

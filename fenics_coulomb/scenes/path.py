@@ -364,7 +364,7 @@ def run_path(
             newton_iterations=int(result.iterations), krylov_iterations=int(result.krylov_iterations),
             counts=dict(counts), contact_force=total_contact_force(model, result.contact_force),
             applied_load=[float(c) for c in model.total_load()],
-            reactions=boundary_reactions(model, result.displacement, groups),
+            reactions=boundary_reactions(model, result.displacement, groups, result.master_force),
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
             wall_time_s=wall, residual_history=[float(r) for r in result.residual_history])
         records.append(record)

@@ -159,7 +159,7 @@ def test_path_agrees_with_brute_force(friction):
     changes; the independent Alart–Curnier solver on the problem's matrices with the increments' shifts
     o = ũ_{k−1} + δ_k − δ_{k−1} (computed here from its own previous step) agrees at every step (1e-7)."""
     from brute_force import solve_contact
-    from test_brute_force import scipy_matrix
+    from brute_force import scipy_matrix
 
     from fenics_coulomb.model.obstacles import closest_obstacle
     from fenics_coulomb.model.frames import local_shift

@@ -22,7 +22,7 @@ from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
 from fenics_coulomb.scenes.scene import Scene
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "meshes"))
 import hemisphere_on_block  # noqa: E402
 
@@ -161,7 +161,7 @@ def test_bad_pair_input_exits_2_with_one_line(mesh_file, extra, message, capsys)
     MPI.COMM_WORLD.barrier()
     err = capsys.readouterr().err.strip().splitlines()
     assert status == EXIT_INPUT
-    if MPI.COMM_WORLD.rank == 0:  # rank 0 prints the one line, the others nothing (tests/test_errors.py)
+    if MPI.COMM_WORLD.rank == 0:  # rank 0 prints the one line, the others nothing (tests/cli/test_errors.py)
         assert len(err) == 1 and message in err[0], err
     else:
         assert err == [], err

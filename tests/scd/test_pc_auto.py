@@ -19,7 +19,7 @@ from fenics_coulomb.cli import main
 from fenics_coulomb.scd.preconditioner import choose_preconditioner
 from fenics_coulomb.settings import SolverSettings
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 TABLE = ROOT / "docs" / "pc-auto" / "pc-auto.csv"
 
 # The scenes the measurement in docs/pc-auto ran (benchmarks/pc_auto.py), so the test checks the same bodies.

@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 from two_body_patch import run  # noqa: E402
 
 

@@ -27,7 +27,7 @@ from fenics_coulomb.scenes.scene import KINDS, Scene
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.scenes.expression import FUNCTIONS, parse_gap_expression
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PROG = "python3 -m fenics_coulomb: error:"
 
 

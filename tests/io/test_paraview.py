@@ -23,7 +23,7 @@ from fenics_coulomb.io.display import virtual_display
 
 pytestmark = pytest.mark.serial
 
-PROBE = Path(__file__).with_name("paraview_probe.py")
+PROBE = Path(__file__).resolve().parents[1] / "paraview_probe.py"
 FIELDS = {"displacement": 3, "contact_state": 1, "contact_pressure": 1, "tangential_force": 3, "contact_traction": 3,
           "gap": 1, "contact_normal": 3}
 ARGS = ["--lev", "2", "--gap", "d3", "--load", "L2"]
@@ -43,7 +43,7 @@ def two_rank_run(tmp_path_factory) -> Path:
     cmd = [mpirun, "-n", "2", sys.executable, "-m", "fenics_coulomb", *ARGS, "--out", str(out), "--quiet",
            "--no-plots"]
     done = subprocess.run(cmd, env=clean_env(), capture_output=True, text=True, timeout=300,
-                          cwd=Path(__file__).parents[1])
+                          cwd=Path(__file__).parents[2])
     assert done.returncode == 0, done.stderr
     return out
 

@@ -15,7 +15,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-DEMO = runpy.run_path(str(Path(__file__).resolve().parents[1] / "demos" / "hertz.py"), run_name="hertz_demo")
+DEMO = runpy.run_path(str(Path(__file__).resolve().parents[2] / "demos" / "hertz.py"), run_name="hertz_demo")
 
 
 @pytest.mark.serial

@@ -18,7 +18,7 @@ import pytest
 from fenics_coulomb.cli import main as cli_main
 from fenics_coulomb.scenes.cuboid import expected_sizes
 
-BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 sys.path.insert(0, str(BENCHMARKS))
 import elastic  # noqa: E402
 import peak_rss  # noqa: E402

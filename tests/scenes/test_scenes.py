@@ -19,7 +19,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.scenes.expression import parse_gap_expression
 from fenics_coulomb.scenes.cuboid import gap_d3
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SCENES = sorted((ROOT / "demos" / "scenes").glob("*.toml"))
 
 

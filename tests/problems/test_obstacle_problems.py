@@ -128,7 +128,7 @@ def test_shipped_obstacle_scenes_physics(name):
 
     from fenics_coulomb.io.start import start_function
 
-    scene = Scene.from_toml(Path(__file__).parents[1] / "demos" / "scenes" / f"{name}.toml").override(lev=2)
+    scene = Scene.from_toml(Path(__file__).parents[2] / "demos" / "scenes" / f"{name}.toml").override(lev=2)
     with build_problem(scene, MPI.COMM_WORLD).problem as problem:
         _, result = problem.solve(start_function(scene.start, problem.V))
         assert result.converged

@@ -26,7 +26,7 @@ from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.scenes.path import obstacle_labels, plan, run_path
 from fenics_coulomb.scenes.cuboid import expected_sizes
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "demos" / "scenes" / "d3_L2_path.toml"
 PROG = "python3 -m fenics_coulomb"
 FIELDS = {"displacement", "contact_state", "contact_pressure", "tangential_force", "contact_traction", "gap",

@@ -1,6 +1,6 @@
 """Output of a two-body solve (issue 18): the XDMF fields on slave and master nodes and the per-pair forces.
 
-The pressed and sheared blocks of tests/test_two_body.py (friction 0.3) are solved and written with
+The pressed and sheared blocks of tests/model/test_two_body.py (friction 0.3) are solved and written with
 ``write_xdmf``; the HDF5 data is read back with h5py (no ParaView) and compared, node by node (matched by
 coordinates), with quantities recomputed here from the written physical displacement and the pairing: the gap
 g + n·(u_s − Σ φ_sj u_j), the master reaction against the lower body's own residual, the traction integrating

@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 from conftest import global_norm
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 demo = runpy.run_path(str(ROOT / "demos" / "mindlin.py"), run_name="mindlin_demo")
 
 

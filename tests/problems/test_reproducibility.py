@@ -21,7 +21,7 @@ import h5py
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 RTOL = "1e-12"
 
 pytestmark = pytest.mark.serial  # starts its own mpirun jobs

@@ -17,7 +17,7 @@ from fenics_coulomb.scenes.scene import PathStep, Scene
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.scenes.path import StepLoads, plan, scene_state, step_state, zero_state
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 SCENE = """
 [body]

@@ -22,7 +22,7 @@ from scipy.spatial import cKDTree
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.pairing import ContactPair, pair_surfaces
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
 from two_blocks import TAGS, boxes_mesh, two_blocks
 
 CELLS = ["hexahedron", "tetrahedron"]

@@ -16,7 +16,7 @@ from mpi4py import MPI
 import h5py
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 FIELDS = {"displacement", "contact_state", "contact_pressure", "tangential_force", "contact_traction", "gap",
           "contact_normal", "master_reaction", "body"}
 

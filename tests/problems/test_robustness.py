@@ -16,7 +16,7 @@ from mpi4py import MPI
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 import robustness  # noqa: E402
 
 from fenics_coulomb.cli import main  # noqa: E402

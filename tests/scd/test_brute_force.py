@@ -10,7 +10,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from brute_force import solve_contact
+from brute_force import scipy_matrix, solve_contact
 from conftest import assembled, make_problem
 from frame_scd import solve_in_frames
 
@@ -24,12 +24,6 @@ pytestmark = pytest.mark.serial
 
 #: The SCD solver run to round-off: LU, forcing 1e-13, reduction 1e-12.
 EXACT = {"rtol": 1e-12, "pc": "lu", "tol": 1e-13}
-
-
-def scipy_matrix(A):
-    """A serial PETSc AIJ matrix as scipy CSR."""
-    indptr, indices, values = A.getValuesCSR()
-    return sp.csr_matrix((values, indices, indptr), shape=A.getSize())
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ import numpy as np
 from fenics_coulomb.cli import main
 from fenics_coulomb.model.checks import physics_residuals
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def readme_example(index: int = 0) -> str:

@@ -27,7 +27,7 @@ from fenics_coulomb.model.checks import physics_residuals, unconstrained_residua
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.pairing import ContactPair
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
 from two_blocks import TAGS  # noqa: E402
 from two_blocks import two_blocks as two_block_mesh  # noqa: E402
 

@@ -1,6 +1,6 @@
 """Never a wrong answer with exit 0, never a hang, one line for every bad input (issue 24), class by class.
 
-Each test failed on the code before issue 24 (the interrupts of class 1 are in tests/test_interrupts.py). The
+Each test failed on the code before issue 24 (the interrupts of class 1 are in tests/cli/test_interrupts.py). The
 in-process tests run on 1 rank (pytest) and 2 ranks (mpirun -n 2 ... pytest); the subprocess tests start the
 real command.
 """
@@ -32,7 +32,7 @@ from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, EXIT_OUTPUT, main
 from fenics_coulomb.errors import OutputError
 from fenics_coulomb.io.results import ResultDirectory, _owner
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 PROG = "python3 -m fenics_coulomb: error:"
 
 

@@ -25,7 +25,7 @@ import pytest
 
 pytestmark = pytest.mark.serial
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def _env() -> dict[str, str]:

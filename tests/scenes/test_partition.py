@@ -14,7 +14,7 @@ from fenics_coulomb.scenes.meshes import read_gmsh
 from fenics_coulomb.scenes.partition import recursive_bisection
 from fenics_coulomb.scenes.cuboid import create_cuboid
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.mark.serial
