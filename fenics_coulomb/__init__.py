@@ -11,6 +11,7 @@ the same bits on a rerun). The module map and the flow of one solve are in docs/
 
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.obstacles import Cylinder, Plane, Sphere
+from fenics_coulomb.model.surface import Surface
 from fenics_coulomb.model.pairing import ContactPair
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scd.records import IterationRecord, SolveResult
@@ -26,6 +27,6 @@ from fenics_coulomb.io.writer import write_results
 __version__ = "0.1.0"
 
 __all__ = ["CONTACT_STATES", "ContactNodes", "ContactPair", "ContactProblem", "ContactReport", "ContactState", "Cylinder",
-           "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError", "SolverSettings", "Sphere",
+           "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError", "SolverSettings", "Sphere", "Surface",
            "XDMFTimeSeries", "__version__", "box_partitioner", "contact_functions", "create_partitioner", "read_gmsh",
            "write_results"]

@@ -184,7 +184,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
     from fenics_coulomb.io.figures import write_path_figure
-    from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_result_grid
+    from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
+    from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_initial_grid, write_result_grid
     from fenics_coulomb.io.summary import write_path_csv
     from fenics_coulomb.scenes.path import obstacle_labels, run_path
 
@@ -221,6 +222,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
             t_write = 0.0
             with out.writing() as tmp:
                 xdmf = XDMFTimeSeries(tmp / "solution.xdmf", model.V.mesh)
+                if start_step is None:  # the unloaded body as t = 0 (a resumed path has it in its first part)
+                    write_initial_grid(xdmf, model)
 
                 def write_grid(solve, record, result) -> None:  # noqa: ANN001
                     nonlocal t_write
@@ -238,7 +241,9 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 steps = [r.as_dict() for r in records]
                 write_convergence_csv(tmp / "convergence.csv", result, comm)
                 write_path_csv(tmp / "path.csv", steps, comm)
-                files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv"]
+                write_view_script(tmp / "view.py", warp_scale(model, [result.displacement] if result else []),
+                                  largest_force_normal(model, result.contact_force) if result else None, comm)
+                files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
                 if not args.no_plots:
                     from fenics_coulomb.io.figures import write_figures
 

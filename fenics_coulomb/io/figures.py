@@ -24,7 +24,7 @@ import numpy.typing as npt
 from fenics_coulomb.io.display import virtual_display
 from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK
 
-__all__ = ["STATE_COLOURS", "plot_convergence", "gather_contact", "plot_contact_states", "gather_deformed",
+__all__ = ["STATE_COLOURS", "contact_view", "plot_convergence", "gather_contact", "plot_contact_states", "gather_deformed",
            "render_deformed", "write_figures", "plot_path", "write_path_figure"]
 
 logger = logging.getLogger(__name__)
@@ -125,9 +125,28 @@ def gather_deformed(
     return parts, contact
 
 
+def contact_view(normal: npt.ArrayLike | None) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The camera of deformed.png: (view vector from the focal point to the camera, view-up).
+
+    The camera looks at the contact side of the body: along the contact normal n of the node with the largest
+    contact force, from the obstacle's side (n points from the obstacle into the body, so the camera sits
+    at −n), tilted by about 30° so that the body's depth shows. Without contact: from below and in front."""
+    n = np.asarray(normal, dtype=np.float64) if normal is not None else np.array([0.0, 0.0, 1.0])
+    length = float(np.linalg.norm(n))
+    n = n / length if np.isfinite(length) and length > 0 else np.array([0.0, 0.0, 1.0])
+    tilt = np.array([0.55, -1.0, 0.0])
+    tilt = tilt - (tilt @ n) * n
+    if np.linalg.norm(tilt) < 1e-6:
+        tilt = np.array([1.0, 0.0, 0.0]) - n[0] * n
+    view = -n + 0.6 * tilt / np.linalg.norm(tilt)
+    up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    return view / np.linalg.norm(view), up
+
+
 def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]], path: Path,
-                    title: str = "") -> None:
-    """Render the pieces gathered by :func:`gather_deformed` to ``path`` (one process)."""
+                    title: str = "", normal: npt.ArrayLike | None = None) -> None:
+    """Render the pieces gathered by :func:`gather_deformed` to ``path`` (one process), seen from the contact
+    side: :func:`contact_view` of ``normal`` (the contact normal of the node with the largest force)."""
     import pyvista
 
     pyvista.OFF_SCREEN = True
@@ -159,8 +178,8 @@ def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDA
             if title:
                 # VTK renders $...$ as math text: escape user text so it is shown literally
                 plotter.add_title(f"{title} (displacement x{factor:.3g})".replace("$", "\\$"), font_size=10)
-            # from below and in front, so that the contact boundary is seen
-            plotter.view_vector((0.55, -1.0, -0.75), viewup=(0.0, 0.0, 1.0))
+            view, up = contact_view(normal)
+            plotter.view_vector(tuple(view), viewup=tuple(up))
             plotter.screenshot(str(path))
         finally:
             plotter.close()
@@ -192,6 +211,10 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
     axes = ("$x_1$", "$x_2$") if np.allclose(frame[0], np.eye(3)) else ("$t_1$", "$t_2$")
     projected = to_local(np.broadcast_to(frame, (contact.size, 3, 3)), contact.coordinates)
     states = gather_contact(comm, projected, result.states)  # type: ignore[attr-defined]
+    # the camera's normal: that of the node with the largest contact force (on every rank, then rank 0 draws)
+    from fenics_coulomb.io.view import largest_force_normal
+
+    view_normal = largest_force_normal(model, result.contact_force)  # type: ignore[arg-type, attr-defined]
     written: list[str] = []
     if comm.rank == 0:
         assert deformed is not None and states is not None
@@ -199,7 +222,7 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
             ("convergence.png", lambda p: plot_convergence({label: result.residual_history}, p,  # type: ignore
                                                            f"Convergence, {label}")),
             ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}", axes)),
-            ("deformed.png", lambda p: render_deformed(*deformed, p, f"Deformed body, {label}")),
+            ("deformed.png", lambda p: render_deformed(*deformed, p, f"Deformed body, {label}", view_normal)),
         ]
         for name, draw in jobs:
             try:

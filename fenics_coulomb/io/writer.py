@@ -5,7 +5,8 @@ The command line and the Python API write the same files the same way::
     from fenics_coulomb import write_results
     data = write_results("out/press", problem, result, reactions={"bottom": clamp})
 
-Files: ``solution.xdmf`` + ``solution.h5`` (the displacement and every contact field, :mod:`.xdmf`),
+Files: ``solution.xdmf`` + ``solution.h5`` (the displacement and every contact field, :mod:`.xdmf`), ``view.py``
+(``pvpython view.py``: the body warped and coloured by contact state, :mod:`.view`),
 ``convergence.csv`` (one row per Newton iteration), ``summary.json`` (the result's summary, the total contact
 force, the applied load, the reactions of the named supports, per-pair forces, software versions) and, with
 ``plots=True``, the PNG figures. The directory is written whole or not at all (:class:`.results.ResultDirectory`);
@@ -23,6 +24,7 @@ from mpi4py import MPI
 
 from fenics_coulomb.io.results import ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
+from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
 from fenics_coulomb.io.xdmf import write_xdmf
 from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.report import reaction_groups
@@ -56,7 +58,9 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     comm = model.comm
     write_xdmf(directory / "solution.xdmf", model, result)
     write_convergence_csv(directory / "convergence.csv", result, comm)
-    files = ["solution.xdmf", "solution.h5", "convergence.csv"]
+    write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
+                      largest_force_normal(model, result.contact_force), comm)
+    files = ["solution.xdmf", "solution.h5", "convergence.csv", "view.py"]
     if plots:
         from fenics_coulomb.io.figures import write_figures
 

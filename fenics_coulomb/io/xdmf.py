@@ -66,8 +66,9 @@ from fenics_coulomb.io.results import _io_reason, rank0_file
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.problem import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.scd.resolvent import OPEN
 
-__all__ = ["MESH_GEOMETRY", "MESH_TOPOLOGY", "XDMFTimeSeries", "write_xdmf", "write_result_grid",
+__all__ = ["MESH_GEOMETRY", "MESH_TOPOLOGY", "XDMFTimeSeries", "write_initial_grid", "write_xdmf", "write_result_grid",
            "solution_datasets", "read_displacement", "displacement_function", "XDMF_CELLS"]
 
 
@@ -249,6 +250,19 @@ def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveRe
     xdmf.write(t, functions, dtypes={"contact_state": np.int32}, name=name,
                information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
                             "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items())})
+
+
+def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0) -> None:
+    """The unloaded reference state as the grid of time ``t`` (a load path's t = 0; collective): ũ = 0, every
+    contact node open at its initial gap, no contact force."""
+    m = model.contact.size
+    zeros = np.zeros(model.A.getLocalSize()[0])
+    result = SolveResult(
+        u=zeros, displacement=zeros, converged=True, reason="initial state", iterations=0, krylov_iterations=0,
+        residual_history=[], records=[], sets=np.zeros(m, dtype=np.int8), states=np.full(m, OPEN, dtype=np.int8),
+        normal_force=np.zeros(m), tangential_force=np.zeros((m, 2)), gap=np.array(model.contact.gap, dtype=float),
+        gamma=0.0, contact_force=np.zeros((m, 3)), master_force=zeros.copy() if model.coupling.paired else None)
+    write_result_grid(xdmf, model, result, t, "initial state")
 
 
 def solution_datasets(path: Path, time: float | None = None) -> dict[str, Any]:

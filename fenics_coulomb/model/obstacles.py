@@ -373,9 +373,9 @@ def _mpi_max() -> Any:
 def obstacle_from_dict(table: Mapping[str, Any], index: int | None = None) -> Obstacle:
     """An obstacle from a scene's ``[[obstacle]]`` table (TOML), every key type-checked.
 
-    Keys: ``type`` (plane | sphere | cylinder), ``name`` (optional), ``displacement`` (optional, default
-    [0, 0, 0]) and the type's own: plane ``point``, ``normal``; sphere ``center``, ``radius``; cylinder
-    ``point``, ``axis``, ``radius``.
+    Keys: ``type`` (plane | sphere | cylinder | surface), ``name`` (optional), ``displacement`` (optional,
+    default [0, 0, 0]) and the type's own: plane ``point``, ``normal``; sphere ``center``, ``radius``; cylinder
+    ``point``, ``axis``, ``radius``; surface ``file`` and ``side`` (:mod:`fenics_coulomb.model.surface`).
 
     Args:
         table: The parsed table.
@@ -402,10 +402,11 @@ def obstacle_from_dict(table: Mapping[str, Any], index: int | None = None) -> Ob
     for key in table:
         if key not in allowed:
             raise InputError(f"{where}: unknown key {key!r} for a {kind} (allowed: {', '.join(allowed)})")
+    optional = getattr(cls, "optional", ())
     for key in cls.keys:
-        if key not in table:
+        if key not in table and key not in optional:
             raise InputError(f"{where}: a {kind} needs {key}")
-    args = {key: _CHECKS[key](table[key], where) for key in cls.keys}
+    args = {key: _CHECKS[key](table[key], where) for key in cls.keys if key in table}
     displacement = _CHECKS["displacement"](table.get("displacement", [0.0, 0.0, 0.0]), where)
     return cls(**args, displacement=displacement, name=name)
 

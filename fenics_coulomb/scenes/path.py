@@ -340,6 +340,7 @@ def run_path(
     last_step = last_step or (solves[-1].step if solves else 0)
     records: list[StepRecord] = []
     result: SolveResult | None = None
+    elapsed = 0.0  # the solves' wall time so far: the expected remaining time is the mean per solve × those left
     for i, solve in enumerate(solves):
         t0 = time.perf_counter()
         loads.apply(solve.start, solve.end, solve.weight)
@@ -373,10 +374,14 @@ def run_path(
         else:
             where = (f"step {solve.step}/{last_step}, substep {solve.substep}/{solve.substeps} "
                      f"(t = {solve.time:.4g}, weight {solve.weight:.4g})")
-        logger.info("%s: %s, %d Newton / %d Krylov iterations, open/stick/slip %d/%d/%d, contact force (%s), "
-                    "%.2f s", where, "converged" if not failure else f"NOT converged ({failure})",
+        elapsed += wall
+        left = len(solves) - i - 1
+        eta = f", about {elapsed / (i + 1) * left:.1f} s left" if left and not failure else ""
+        logger.info("solve %d/%d, %s: %s, %d Newton / %d Krylov iterations, open/stick/slip %d/%d/%d, contact "
+                    "force (%s), %.2f s%s", i + 1, len(solves), where,
+                    "converged" if not failure else f"NOT converged ({failure})",
                     record.newton_iterations, record.krylov_iterations, counts["open"], counts["stick"],
-                    counts["slip"], ", ".join(f"{c:.6g}" for c in record.contact_force), wall)
+                    counts["slip"], ", ".join(f"{c:.6g}" for c in record.contact_force), wall, eta)
         if on_solve is not None:
             on_solve(solve, record, result)
         if failure:

@@ -69,6 +69,7 @@ import numpy as np
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.contact_model import validate_friction
 from fenics_coulomb.model.materials import Material
+from fenics_coulomb.model import surface as _surface  # noqa: F401  (registers [[obstacle]] type = "surface")
 from fenics_coulomb.model.obstacles import Obstacle, obstacles_from_list
 from fenics_coulomb.scenes.cuboid import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.scenes.expression import parse_gap_expression, parse_point_expression
@@ -106,7 +107,7 @@ KINDS: dict[str, dict[str, str]] = {
     "prescribed": {"*": "vector"},
     "roller": {"*": "components"},
     "obstacle": {"name": "str", "type": "str", "point": "vector", "normal": "vector", "center": "vector",
-                 "axis": "vector", "radius": "number", "displacement": "vector"},
+                 "axis": "vector", "radius": "number", "displacement": "vector", "file": "str", "side": "str"},
     "solver": {"variant": "str", "tol": "number", "rtol": "number", "accuracy": "number", "max_it": "int",
                "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
                "gamma_node_scale": "number", "poisson_ratio": "number",
@@ -338,6 +339,15 @@ class PathStep:
     substeps: int = 1
 
 
+def _surface_file_beside(table: Any, path: Path) -> Any:
+    """A surface obstacle's relative ``file`` is relative to the scene file (as the body's mesh)."""
+    if isinstance(table, dict) and table.get("type") == "surface" and isinstance(table.get("file"), str) \
+            and table["file"] and not Path(table["file"]).is_absolute():
+        candidate = path.parent / table["file"]
+        return {**table, "file": str(candidate if candidate.exists() else Path(table["file"]))}
+    return table
+
+
 def check_table(where: str, section: str, number: int, table: dict[str, Any]) -> None:
     """Raise InputError for an unknown key or a value of the wrong kind in the ``number``-th ``[[section]]``."""
     kinds = KINDS[section]
@@ -456,6 +466,7 @@ class Scene:
             if section not in SECTIONS:
                 raise InputError(f"{where}: unknown section [{section}] (allowed: {', '.join(SECTIONS)})")
             if section == "obstacle":
+                value = [_surface_file_beside(table, path) for table in value] if isinstance(value, list) else value
                 kinds = KINDS[section]
                 for i, table in enumerate(value if isinstance(value, list) else []):
                     for key, item in (table.items() if isinstance(table, dict) else ()):

@@ -78,12 +78,18 @@ def test_demo_path(mpi_tmp_path):
     assert summary["converged"] is True and summary["path"]["solves"] == len(steps) == 7
     assert [s["time"] for s in steps] == pytest.approx(DEMO_TIMES, abs=1e-15)
     assert [s["step"] for s in steps] == [1, 1, 1, 2, 2, 3, 3]
-    # the XDMF: one grid per solve, time = the step number, every field in every grid
+    # the XDMF: the unloaded body at t = 0, then one grid per solve, time = the step number, every field in
+    # every grid
     times = [float(g.find("Time").get("Value")) for g in grids(out)]
-    assert times == pytest.approx(DEMO_TIMES, abs=1e-15)
+    assert times == pytest.approx([0.0, *DEMO_TIMES], abs=1e-15)
+    assert grids(out)[0].get("Name") == "initial state"
+    assert not np.any(displacement(out, 0)[1])
     with h5py.File(out / "solution.h5", "r") as h5:
         for field in FIELDS:
-            assert sorted(h5[f"Function/{field}"], key=int) == [str(i) for i in range(7)], field
+            assert sorted(h5[f"Function/{field}"], key=int) == [str(i) for i in range(8)], field
+        first = sorted(h5["Function/contact_state"], key=int)[0]
+        assert set(np.unique(h5[f"Function/contact_state/{first}"][:])) <= {-1, 0}  # nothing touches yet
+        assert not np.any(h5[f"Function/contact_pressure/{first}"][:])
     for g in grids(out):
         assert {a.get("Name") for a in g.findall("Attribute")} == FIELDS
     # path.csv = summary steps
@@ -116,7 +122,7 @@ def test_demo_path(mpi_tmp_path):
                "--out", str(static)) == 0
     assert relative(displacement(out)[1], displacement(static)[1]) > 1e-3
     # ... but the path's first step end (the same load from 0 in 3 increments) is close to it
-    assert relative(displacement(out, 2)[1], displacement(static)[1]) < 1e-1
+    assert relative(displacement(out, 3)[1], displacement(static)[1]) < 1e-1  # grid 0 is t = 0
 
 
 def test_steps_one_is_the_static_solve(mpi_tmp_path):
@@ -127,7 +133,7 @@ def test_steps_one_is_the_static_solve(mpi_tmp_path):
     x1, u1 = displacement(one)
     x0, u0 = displacement(static)
     assert np.array_equal(x1, x0) and relative(u1, u0) <= 1e-10
-    assert [float(g.find("Time").get("Value")) for g in grids(one)] == [1.0]
+    assert [float(g.find("Time").get("Value")) for g in grids(one)] == [0.0, 1.0]
 
 
 def test_each_step_shows_its_newton_progress(mpi_tmp_path, capsys):
@@ -176,8 +182,9 @@ def test_failed_step_exits_3_keeping_the_completed_steps(mpi_tmp_path, capsys):
     assert [s["converged"] for s in summary["steps"]] == [True, False]
     assert summary["path"]["completed"] == 1
     names = [g.get("Name") for g in grids(out)]
-    assert names[0] == "step 1" and names[1].startswith("step 2: last iterate (NOT converged")
-    info = {i.get("Name"): i.get("Value") for i in grids(out)[1].findall("Information")}
+    assert names[0] == "initial state" and names[1] == "step 1"
+    assert names[2].startswith("step 2: last iterate (NOT converged")
+    info = {i.get("Name"): i.get("Value") for i in grids(out)[2].findall("Information")}
     assert info["converged"] == "false"
     assert len((out / "path.csv").read_text().strip().splitlines()) == 3
     _, u = displacement(out, 1)
@@ -196,7 +203,7 @@ def test_resume_reproduces_the_path(mpi_tmp_path):
     times = [float(g.find("Time").get("Value")) for g in grids(resumed)]
     assert times == pytest.approx(DEMO_TIMES[3:], abs=1e-15)
     for k in range(4):
-        assert relative(displacement(resumed, k)[1], displacement(full, 3 + k)[1]) <= 1e-8
+        assert relative(displacement(resumed, k)[1], displacement(full, 4 + k)[1]) <= 1e-8  # full: t = 0 first
     summary = json.loads((resumed / "summary.json").read_text())
     assert summary["path"]["start_step"] == 1 and [s["index"] for s in summary["steps"]] == [4, 5, 6, 7]
 

@@ -22,6 +22,8 @@ from fenics_coulomb.io import figures
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
 from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement
 
+ROOT = Path(__file__).resolve().parents[2]
+
 A = np.array([[0.3, -0.2, 0.1], [0.05, 0.4, -0.3], [-0.1, 0.2, 0.25]])
 
 
@@ -149,7 +151,7 @@ def test_solution_file(mpi_tmp_path):
     assert not fields["contact_traction"][~pressed, 2].any()
     counts = {name: int(np.sum(state == code)) for code, name in enumerate(("open", "stick", "slip"))}
     assert counts == summary["state_counts"] and np.sum(state == -1) == state.size - summary["p"]
-    assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "summary.json"]
+    assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "view.py", "summary.json"]
 
 
 def test_not_converged_is_marked(mpi_tmp_path):
@@ -264,3 +266,21 @@ def test_refuses_a_foreign_directory(mpi_tmp_path, capsys):
     if comm.rank == 0:
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "not a fenics-coulomb result set" in err[0]
+
+
+def test_the_deformed_figure_looks_at_the_contact_side(mpi_tmp_path, monkeypatch):
+    """deformed.png's camera sits on the obstacle's side of the contact with the largest force (issue 26): below
+    the paper's cuboid on its plane, above a block a sphere presses from above."""
+    from fenics_coulomb.io.figures import contact_view
+
+    below, _ = contact_view((0.0, 0.0, 1.0))  # the plane's normal points up into the body
+    above, _ = contact_view((0.0, 0.0, -1.0))  # the sphere's normal points down into the block
+    assert below[2] < -0.7 and above[2] > 0.7
+    seen = []
+    monkeypatch.setattr(figures, "render_deformed", lambda parts, contact, path, title="", normal=None:
+                        seen.append(normal))
+    scene = ROOT / "demos" / "scenes" / "sphere_indentation.toml"
+    assert main(["--scene", str(scene), "--lev", "1", "--out", str(mpi_tmp_path / "s"), "--quiet"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        (normal,) = seen
+        assert contact_view(normal)[0][2] > 0  # the camera is above the indented top, looking down

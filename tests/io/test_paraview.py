@@ -150,3 +150,30 @@ def test_one_rank_equals_two_ranks(two_rank_run, tmp_path):
     for name in ("displacement", "contact_pressure", "tangential_force"):
         scale = np.abs(fa[name]).max()
         assert np.abs(fa[name] - fb[name]).max() <= 1e-6 * scale, name
+
+
+def test_view_script_of_a_load_path_in_pvpython(tmp_path):
+    """Each result set carries view.py (issue 26): `pvpython view.py` in the real ParaView opens the load path's
+    solution.xdmf warped by the displacement, coloured by contact_state as categories labelled open/stick/slip,
+    with the time slider over t = 0 and every solve, the camera on the contact side (the cylinder presses
+    from above: it looks down)."""
+    out = tmp_path / "path"
+    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "cylinder_drag_path.toml"
+    assert main(["--scene", str(scene), "--lev", "1", "--out", str(out), "--quiet", "--no-plots"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert "view.py" in summary["files"]
+    shot = tmp_path / "view.png"
+    with virtual_display():
+        done = subprocess.run(["pvpython", "--force-offscreen-rendering", "view.py", "--screenshot", str(shot)],
+                              cwd=out, env=clean_env(), capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
+    (line,) = [line for line in done.stdout.splitlines() if line.startswith("VIEW ")]
+    report = json.loads(line[len("VIEW "):])
+    assert set(FIELDS) <= set(report["arrays"]) and report["colored_by"] == ["POINTS", "contact_state"]
+    assert report["categorical"] == 1
+    assert dict(zip(report["annotations"][::2], report["annotations"][1::2])) == {
+        "-1": "not a contact node", "0": "open", "1": "stick", "2": "slip"}
+    times = [s["time"] for s in summary["steps"]]
+    assert report["times"] == pytest.approx([0.0, *times])
+    assert report["view"][2] > 0  # above the plate: the cylinder's side
+    assert shot.stat().st_size > 10_000

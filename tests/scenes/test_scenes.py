@@ -219,3 +219,27 @@ def test_unreadable_start_file_is_input_error(mpi_tmp_path, capsys):
     assert main(["--lev", "1", "--start", str(start), "--out", str(mpi_tmp_path / "o"), "--no-plots"]) == EXIT_INPUT
     if MPI.COMM_WORLD.rank == 0:
         assert "--start" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name", ["sphere_indentation", "surface_ball", "two_bodies"])
+def test_shipped_demo_scenes_solve(name, mpi_tmp_path):
+    """The sphere indentation, the surface obstacle and the two-body scene of demos/scenes/ run with the real
+    command (issue 26):
+    exit 0, contact, and the forces balance the supports' reactions."""
+    import json
+
+    from fenics_coulomb.cli import main
+
+    out = mpi_tmp_path / name
+    assert main(["--scene", str(ROOT / "demos" / "scenes" / f"{name}.toml"), "--out", str(out), "--quiet",
+                 "--no-plots"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["state_counts"]["stick"] + summary["state_counts"]["slip"] > 0
+    reactions = np.sum([v for v in summary["reactions"].values()], axis=0)
+    pairs = summary.get("contact_pairs", [])
+    obstacles = np.array(summary["contact_force"]) - np.sum([p["contact_force"] for p in pairs] or [np.zeros(3)], 0)
+    total = reactions + obstacles + np.array(summary["applied_load"])
+    scale = max(np.linalg.norm(v) for v in [*summary["reactions"].values(), obstacles])
+    assert scale > 0 and np.linalg.norm(total) <= 1e-6 * scale, total
+    for pair in pairs:
+        assert pair["balance"] < 1e-6
