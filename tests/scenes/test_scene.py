@@ -86,3 +86,23 @@ def test_total_load(problem_factory):
 def test_bad_scene(lev, gap, match):
     with pytest.raises(InputError, match=match):
         create_cuboid(MPI.COMM_WORLD, lev, gap)
+
+
+def test_nearly_incompressible_bodies_get_their_defaults(mpi_tmp_path):
+    """ν >= 0.48 without a start or rtol given: the undeformed start and rtol 1e-8 (issue 27, docs/robustness);
+    what the user gives (in the scene or as a flag) is kept; ν = 0.3 keeps the paper's start and rtol."""
+    import json
+
+    from fenics_coulomb.cli import main
+    from fenics_coulomb.scenes.scene import NEARLY_INCOMPRESSIBLE_RTOL, Scene
+
+    soft = Scene().override(poisson=0.49).with_material_defaults()
+    assert soft.start == "undeformed" and soft.solver.rtol == NEARLY_INCOMPRESSIBLE_RTOL
+    given = Scene().override(poisson=0.49, rtol=1e-6, start="zero").with_material_defaults()
+    assert given.start == "zero" and given.solver.rtol == 1e-6
+    plain = Scene().override(poisson=0.3).with_material_defaults()
+    assert plain.start == "zero" and plain.solver.rtol == Scene().solver.rtol
+    out = mpi_tmp_path / "soft"
+    assert main(["--lev", "1", "--poisson", "0.49", "--out", str(out), "--quiet", "--no-plots"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["rtol"] == NEARLY_INCOMPRESSIBLE_RTOL and summary["scene"]["start"] == "undeformed"
