@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["PRECONDITIONERS", "VARIANTS", "ERROR_PER_RTOL", "INTEGER_BOUNDS", "INTEGER_REASONS",
+__all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "ERROR_PER_RTOL", "INTEGER_BOUNDS", "INTEGER_REASONS",
            "rtol_for_accuracy", "SolverSettings"]
 
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
@@ -45,6 +45,11 @@ def _number(name: str, value: object) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise InputError(f"{name} = {value!r}: must be a finite number")
     return float(value)
+
+
+#: The options prefix of the command line's solver: every ``-coulomb_*`` PETSc option on the command line and the
+#: default ``petsc_options_prefix`` of the scenes' problems (the Python API requires its own).
+COMMAND_PREFIX = "coulomb_"
 
 
 @dataclass

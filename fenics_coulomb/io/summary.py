@@ -20,9 +20,9 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
-from fenics_coulomb.model.forces import pair_forces
 from fenics_coulomb.io.results import rank0_file
 from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.model.forces import pair_forces
 from fenics_coulomb.scd.records import SolveResult
 
 __all__ = ["summary", "write_summary", "write_convergence_csv", "write_path_csv", "software_versions"]

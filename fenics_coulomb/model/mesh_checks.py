@@ -16,12 +16,12 @@ their sum) is <= DEGENERATE·h³ after normalization.
 
 from __future__ import annotations
 
-import numpy as np
-import numpy.typing as npt
+from mpi4py import MPI
 
 import dolfinx.geometry
 import dolfinx.mesh
-from mpi4py import MPI
+import numpy as np
+import numpy.typing as npt
 
 from fenics_coulomb.errors import check_all
 

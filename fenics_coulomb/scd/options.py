@@ -10,6 +10,7 @@ from petsc4py import PETSc
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.scd.preconditioner import OPTION_RANGES, check_option_value
+from fenics_coulomb.settings import COMMAND_PREFIX
 
 __all__ = ["set_petsc_options", "check_petsc_options", "check_option_values"]
 
@@ -30,14 +31,14 @@ def set_petsc_options(tokens: list[str]) -> list[str]:
     opts = PETSc.Options()
     pairs = _petsc_pairs(tokens)
     for key, _ in pairs:
-        if not key.startswith("coulomb_"):
+        if not key.startswith(COMMAND_PREFIX):
             raise InputError(f"unrecognized argument -{key} (PETSc options must carry the prefix -coulomb_)")
-        if key == "coulomb_":
+        if key == COMMAND_PREFIX:
             raise InputError("PETSc option -coulomb_ has no name after the prefix (e.g. -coulomb_ksp_monitor)")
     for key, value in pairs:
         opts[key] = value
     try:
-        check_petsc_options("coulomb_")
+        check_petsc_options(COMMAND_PREFIX)
     except InputError:
         for key, _ in pairs:
             opts.delValue(key)

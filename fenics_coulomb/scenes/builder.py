@@ -10,7 +10,6 @@ between solves.
 from __future__ import annotations
 
 import dataclasses
-
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,14 +23,15 @@ import dolfinx.fem
 import numpy as np
 import ufl
 
-from fenics_coulomb.scenes.meshes import read_gmsh_tags
-from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.model.materials import Material, epsilon, sigma
 from fenics_coulomb.model.pairing import ContactPair
-from fenics_coulomb.scenes.path import StepLoads, scene_state, step_state
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, Body, GapFunction, create_cuboid
+from fenics_coulomb.scenes.meshes import read_gmsh_tags
+from fenics_coulomb.scenes.path import StepLoads, scene_state, step_state
+from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.settings import COMMAND_PREFIX
 
 __all__ = ["QUADRATURE_DEGREE", "cuboid_gap", "build_body", "lame_fields", "isotropic_forms", "boundary_nodes",
            "clamp", "dirichlet_conditions", "Built", "build_problem"]
@@ -196,7 +196,7 @@ class Built:
     loads: StepLoads | None = None
 
 
-def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_prefix: str = "coulomb_",
+def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_prefix: str = COMMAND_PREFIX,
                   petsc_options: dict[str, Any] | None = None) -> Built:
     """Turn a scene into its body, forms, boundary conditions and ContactProblem (collective)."""
     scene.validate()

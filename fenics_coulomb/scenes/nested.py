@@ -33,6 +33,7 @@ from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scenes.builder import build_problem, cuboid_gap
 from fenics_coulomb.scenes.cuboid import HEIGHT, LENGTH, WIDTH, GapFunction, box_coordinates, cells_per_direction
 from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.settings import COMMAND_PREFIX
 
 __all__ = ["GRID_TOLERANCE", "NESTED_AUTO_MIN_LEV", "NESTED_COARSE_RTOL", "NESTED_LEVEL_STEP", "CoarseStart",
            "NestedResult", "coarse_level_options", "interpolate_cuboid", "nested_levels", "resolve_nested",
@@ -191,9 +192,9 @@ def coarse_level_options(lev: int) -> dict[str, str]:
     for this level itself (``-coulomb_nested<lev>_*``, read from the database under its own prefix, win) and those
     for other coarse levels."""
     opts = PETSc.Options()
-    given = {name[len("coulomb_"):]: value for name, value in opts.getAll().items()
-             if name.startswith("coulomb_") and not name.startswith("coulomb_nested")}
-    return {key: value for key, value in given.items() if not opts.hasName(f"coulomb_nested{lev}_{key}")}
+    given = {name[len(COMMAND_PREFIX):]: value for name, value in opts.getAll().items()
+             if name.startswith(COMMAND_PREFIX) and not name.startswith(f"{COMMAND_PREFIX}nested")}
+    return {key: value for key, value in given.items() if not opts.hasName(f"{COMMAND_PREFIX}nested{lev}_{key}")}
 
 
 def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStart | None:
@@ -206,7 +207,7 @@ def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStar
 
     coarse_levels = nested_levels(scene.body.lev, levels)
     coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL), comm,
-                            petsc_options_prefix=f"coulomb_nested{lev}_",
+                            petsc_options_prefix=f"{COMMAND_PREFIX}nested{lev}_",
                             petsc_options=coarse_level_options(lev)).problem
               for lev in coarse_levels]
     try:

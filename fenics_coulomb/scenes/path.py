@@ -37,9 +37,9 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.scenes.scene import MAX_LOAD, PathStep, Scene
 from fenics_coulomb.errors import SolverError, check_all
 from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.scenes.scene import MAX_LOAD, PathStep, Scene
 
 __all__ = ["ZERO", "LoadState", "scene_state", "zero_state", "step_state", "blend_vector", "PathSolve", "plan",
            "obstacle_labels", "StepLoads", "StepRecord", "run_path"]
