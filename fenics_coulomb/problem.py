@@ -169,6 +169,8 @@ class ContactProblem:
         self._step = 0
         self._previous: npt.NDArray[np.float64] | None = None
         self._previous_delta: npt.NDArray[np.float64] | None = None
+        #: The obstacles as placed at the previous step (their rotations; None before the first step).
+        self._previous_obstacles: list[Obstacle] | None = None
 
     # -- access ------------------------------------------------------------------------------------
     @property
@@ -242,11 +244,17 @@ class ContactProblem:
         """The obstacles as they will be placed in the next solve."""
         return list(self._obstacles)
 
-    def move(self, obstacle: int | str, displacement: npt.ArrayLike) -> None:
-        """Set the total displacement δ of an obstacle (its index or name) for the next solve.
+    def move(self, obstacle: int | str, displacement: npt.ArrayLike, rotation: Any = "keep") -> None:
+        """Set the total displacement δ of an obstacle (its index or name) for the next solve, and optionally its
+        total rotation [angle_deg, [ax, ay, az], [cx, cy, cz]] about the centre (at its scene position; None: no
+        rotation; default: keep the current one). The obstacle is then y ↦ R(y − centre) + centre + δ.
+
+        A node's slip in the step is its tangential motion relative to the obstacle's material point it was
+        closest to at the previous step, which moves by R_k R_{k−1}ᵀ(p − c_{k−1}) + c_k − p (c the map's
+        translation part); without rotations that is δ_k − δ_{k−1} (:meth:`Obstacle.motion`).
 
         Raises:
-            InputError: for an unknown obstacle or a displacement that is not a finite 3-vector.
+            InputError: for an unknown obstacle, a displacement that is not a finite 3-vector or a bad rotation.
         """
         names = [getattr(o, "name", None) for o in self._obstacles]
         if isinstance(obstacle, str):
@@ -259,7 +267,8 @@ class ContactProblem:
         else:
             raise InputError(f"move: obstacle {obstacle!r} is neither a name nor an index below "
                              f"{len(self._obstacles)}")
-        self._obstacles[index] = self._obstacles[index].moved(displacement)
+        moved = self._obstacles[index].moved(displacement)
+        self._obstacles[index] = moved if isinstance(rotation, str) and rotation == "keep" else moved.rotated(rotation)
 
     def reset(self, u: dolfinx.fem.Function | None = None, *, step: int = 0,
               obstacle_displacements: npt.ArrayLike | None = None) -> None:
@@ -280,6 +289,7 @@ class ContactProblem:
                                  f"shape ({len(self._obstacles)}, 3)")
         self._previous = None if u is None else self.model.relative(interpolate_displacement(u, self.model.V))
         self._previous_delta = delta
+        self._previous_obstacles = None
         self._step = int(step)
 
     def _place(self) -> None:
@@ -287,12 +297,16 @@ class ContactProblem:
         model = self.model
         model.assemble_load()
         previous = None if self._previous is None else self._previous[model.contact.local_dofs]
-        model.place(self._obstacles, previous, self._previous_delta)
+        rotating = any(getattr(o, "rotation", None) is not None
+                       for o in [*self._obstacles, *(self._previous_obstacles or [])])
+        model.place(self._obstacles, previous,
+                    self._previous_obstacles if rotating and self._previous_obstacles else self._previous_delta)
 
     def _commit(self, result: SolveResult) -> None:
         """Make the converged ``result`` the history of the next step."""
         self._previous = np.array(result.displacement, dtype=np.float64)
         self._previous_delta = np.array([o.displacement for o in self._obstacles], dtype=np.float64).reshape(-1, 3)
+        self._previous_obstacles = list(self._obstacles)
         self._step += 1
 
     # -- solving -----------------------------------------------------------------------------------

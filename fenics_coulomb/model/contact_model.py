@@ -145,6 +145,23 @@ def function_space(a: ufl.Form) -> dolfinx.fem.FunctionSpace:
     return V
 
 
+
+def _previous_placements(obstacles: Sequence[Obstacle], previous: npt.ArrayLike | Sequence[Obstacle] | None
+                         ) -> list[Obstacle] | None:
+    """The previous placements of the obstacles when a rotation is involved (now or then), else None (the
+    translation-only offsets δ_k − δ_{k−1} apply, bit for bit): ``previous`` is None (the scene position), the
+    previous δ per obstacle (no rotation then), or the previous obstacles themselves."""
+    if previous is not None and len(previous) and isinstance(previous[0], Obstacle):
+        before = list(previous)  # type: ignore[arg-type]
+    elif previous is None:
+        before = [o.at_scene_position().rotated(None) for o in obstacles]
+    else:
+        deltas = np.asarray(previous, dtype=np.float64).reshape(-1, 3)
+        before = [o.moved(d).rotated(None) for o, d in zip(obstacles, deltas, strict=True)]
+    rotating = any(getattr(o, "rotation", None) is not None for o in [*obstacles, *before])
+    return before if rotating else None
+
+
 class ContactModel:
     """The algebraic contact problem (A, l̃, d, l, Q) of Section 6, with PETSc storage.
 
@@ -430,8 +447,8 @@ class ContactModel:
             self._place_pairs(obstacles, previous_displacement, previous_obstacle_displacements)
             return
         if len(obstacles) != len(self.obstacles) or any(
-                o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
-            raise InputError("obstacles: a placement may only change the obstacles' displacements")
+                o._at_rest() != p._at_rest() for o, p in zip(obstacles, self.obstacles)):
+            raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")
         self.obstacles = obstacles
         cmap = self.contact
         index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates.reshape(-1, 3))
@@ -444,7 +461,15 @@ class ContactModel:
         #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
         self.obstacle_displacement = delta[index]
         offset = self.obstacle_displacement
-        if previous_obstacle_displacements is not None:
+        previous_obstacles = _previous_placements(obstacles, previous_obstacle_displacements)
+        if previous_obstacles is not None:  # a rotation: each node's material point of its obstacle moves apart
+            offset = np.zeros((index.size, 3))
+            x = cmap.coordinates.reshape(-1, 3)
+            for j, (now, before) in enumerate(zip(obstacles, previous_obstacles, strict=True)):
+                mine = index == j
+                if np.any(mine):
+                    offset[mine] = now.motion(before, before.closest_point(x[mine]))
+        elif previous_obstacle_displacements is not None:
             previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
             offset = offset - previous[index]
         if previous_displacement is not None:
@@ -457,7 +482,8 @@ class ContactModel:
         self.A.mult(self.shift, self.rhs)
         self.rhs.axpy(1.0, self.load)
 
-    def check_motion(self, obstacles: Sequence[Obstacle], previous_displacements: npt.ArrayLike | None) -> None:
+    def check_motion(self, obstacles: Sequence[Obstacle],
+                     previous_displacements: npt.ArrayLike | Sequence[Obstacle] | None) -> None:
         """InputError on every rank when an obstacle's core (a sphere's centre, a cylinder's axis) lies inside
         the body at its placement, or passes through the body on its straight way from the previous placement
         (``previous_displacements`` per obstacle, None for the scene position) — a buried obstacle, or one
@@ -466,6 +492,9 @@ class ContactModel:
         if self._locator is None:
             return
         loc = self._locator
+        if previous_displacements is not None and len(previous_displacements) and \
+                isinstance(previous_displacements[0], Obstacle):
+            previous_displacements = [o.displacement for o in previous_displacements]  # type: ignore[union-attr]
         start = np.zeros((len(obstacles), 3)) if previous_displacements is None else \
             np.asarray(previous_displacements, dtype=np.float64).reshape(-1, 3)
         for k, obstacle in enumerate(obstacles):
@@ -487,17 +516,22 @@ class ContactModel:
             raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
 
     def _place_pairs(self, obstacles: list[Obstacle], previous_displacement: npt.NDArray[np.float64] | None,
-                     previous_obstacle_displacements: npt.ArrayLike | None) -> None:
+                     previous_obstacle_displacements: npt.ArrayLike | Sequence[Obstacle] | None) -> None:
         """The shift with contact pairs: the paired nodes' frames and gaps are fixed by the pairing (tangential
         offset w_{k−1}); rigid obstacles' nodes as in :meth:`place` (offset ũ_{k−1} + δ_k − δ_{k−1})."""
+        if _previous_placements(obstacles, previous_obstacle_displacements) is not None:
+            raise InputError("obstacles that rotate together with contact pairs are not supported yet")
+        if previous_obstacle_displacements is not None and len(previous_obstacle_displacements) and \
+                isinstance(previous_obstacle_displacements[0], Obstacle):
+            previous_obstacle_displacements = [o.displacement for o in previous_obstacle_displacements]
         cmap = self.contact
         rigid = np.flatnonzero(~self.paired)
         offset = np.zeros((cmap.size, 3))
         self.obstacle_displacement = np.zeros((cmap.size, 3))
         if rigid.size or self.obstacles:
             if len(obstacles) != len(self.obstacles) or any(
-                    o.at_scene_position() != p.at_scene_position() for o, p in zip(obstacles, self.obstacles)):
-                raise InputError("obstacles: a placement may only change the obstacles' displacements")
+                    o._at_rest() != p._at_rest() for o, p in zip(obstacles, self.obstacles)):
+                raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")
             self.obstacles = obstacles
         if rigid.size:
             index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates[rigid])

@@ -96,6 +96,36 @@ def _points(x: npt.ArrayLike) -> Array:
 
 # -- obstacles ------------------------------------------------------------------------------------------
 #: How each geometry key is checked (and normalized).
+#: A rigid rotation (angle in degrees, unit axis, centre): y ↦ R(y − centre) + centre, before the translation δ.
+Rotation = tuple[float, Vector, Vector]
+
+
+def _rotation(value: Any, owner: str) -> Rotation | None:
+    """[angle_deg, [ax, ay, az], [cx, cy, cz]] (or None) checked: a finite angle, a non-zero axis, a centre."""
+    if value is None:
+        return None
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or isinstance(value[0], (list, tuple, bool)):
+        raise InputError(f"{owner}: rotation = {_show(value)}: give [angle_deg, [ax, ay, az], [cx, cy, cz]]")
+    try:
+        angle = float(value[0])
+    except (TypeError, ValueError):
+        raise InputError(f"{owner}: rotation = {_show(value)}: the angle must be a number") from None
+    if not math.isfinite(angle):
+        raise InputError(f"{owner}: rotation angle {_show(value[0])}: must be finite")
+    return (angle, _unit(value[1], "rotation axis", owner), _vector(value[2], "rotation centre", owner))
+
+
+def rotation_matrix(rotation: Rotation | None) -> Array:
+    """R of a rotation (Rodrigues: the angle in degrees about the unit axis), the identity for None."""
+    if rotation is None:
+        return np.eye(3)
+    angle, axis, _ = rotation
+    a = np.asarray(axis, dtype=np.float64)
+    t = math.radians(angle)
+    K = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + math.sin(t) * K + (1.0 - math.cos(t)) * (K @ K)
+
+
 _CHECKS = {
     "point": lambda value, owner: _vector(value, "point", owner),
     "center": lambda value, owner: _vector(value, "center", owner),
@@ -103,6 +133,7 @@ _CHECKS = {
     "axis": lambda value, owner: _unit(value, "axis", owner),
     "radius": lambda value, owner: _radius(value, owner),
     "displacement": lambda value, owner: _vector(value, "displacement", owner),
+    "rotation": lambda value, owner: _rotation(value, owner),
 }
 
 
@@ -123,8 +154,8 @@ class Obstacle:
         name = getattr(self, "name", None)
         owner = _label(name, self.kind)
         _check_name(name, owner)
-        for key in (*self.keys, "displacement"):
-            object.__setattr__(self, key, _CHECKS[key](getattr(self, key), owner))
+        for key in (*self.keys, "displacement", "rotation"):
+            object.__setattr__(self, key, _CHECKS[key](getattr(self, key, None), owner))
 
     @property
     def label(self) -> str:
@@ -142,6 +173,10 @@ class Obstacle:
         """The same obstacle with δ = 0."""
         return dataclasses.replace(self, displacement=(0.0, 0.0, 0.0))  # type: ignore[call-arg]
 
+    def rotated(self, rotation: Any) -> Obstacle:
+        """The same obstacle with its rotation [angle_deg, axis, centre] replaced (None: no rotation)."""
+        return dataclasses.replace(self, rotation=_rotation(rotation, self.label))  # type: ignore[call-arg]
+
     def moved(self, displacement: npt.ArrayLike) -> Obstacle:
         """The same obstacle with its displacement δ replaced."""
         value = np.asarray(displacement, dtype=np.float64).tolist()
@@ -153,22 +188,66 @@ class Obstacle:
     def _tangent(self, n: Array) -> Array:
         return _perpendicular(n, 0, 1)
 
+    def placement(self) -> tuple[Array, Array]:
+        """(R, c) of the rigid map y ↦ R y + c that places the obstacle: its rotation about its centre, then the
+        translation δ (R = I, c = δ without a rotation)."""
+        delta = np.asarray(self.displacement, dtype=np.float64)
+        rotation = getattr(self, "rotation", None)
+        if rotation is None:
+            return np.eye(3), delta
+        R = rotation_matrix(rotation)
+        centre = np.asarray(rotation[2], dtype=np.float64)
+        return R, centre - R @ centre + delta
+
+    def _at_rest(self) -> Obstacle:
+        """The obstacle at its scene position, neither translated nor rotated."""
+        return dataclasses.replace(self, displacement=(0.0, 0.0, 0.0), rotation=None)  # type: ignore[call-arg]
+
+    def _placed_gap_normal(self, x: Array) -> tuple[Array, Array]:
+        """g, n at x for the placed obstacle: without a rotation the subclass's own formulas (bit for bit); with
+        one, those of the obstacle at rest at y = Rᵀ(x − c), the normal rotated back: n = R n(y) (g is invariant
+        under the rigid map)."""
+        if getattr(self, "rotation", None) is None:
+            return self._gap_normal(x)
+        R, c = self.placement()
+        g, n0 = self._at_rest()._gap_normal((x - c) @ R)
+        return g, n0 @ R.T
+
+    def motion(self, previous: Obstacle, points: npt.ArrayLike) -> Array:
+        """How far the obstacle's material points at ``points`` (placed as ``previous``) move to this placement:
+        T_k(T_{k−1}⁻¹(p)) − p = R_k R_{k−1}ᵀ(p − c_{k−1}) + c_k − p, shape (m, 3). Without rotations it is
+        δ_k − δ_{k−1} for every point."""
+        p = _points(points)
+        if getattr(self, "rotation", None) is None and getattr(previous, "rotation", None) is None:
+            step = np.asarray(self.displacement, dtype=np.float64) - np.asarray(previous.displacement, dtype=np.float64)
+            return np.broadcast_to(step, p.shape).copy()
+        Rk, ck = self.placement()
+        Rp, cp = previous.placement()
+        return (p - cp) @ Rp @ Rk.T + ck - p
+
     def signed_distance(self, x: npt.ArrayLike) -> Array:
         """g of each REFERENCE position x (m, 3), shape (m,): signed distance to the placed surface, > 0 outside."""
-        return self._gap_normal(_points(x))[0]
+        return self._placed_gap_normal(_points(x))[0]
 
     def normals(self, x: npt.ArrayLike) -> Array:
         """n of each position, shape (m, 3): the outward unit normal at the closest surface point."""
-        return self._gap_normal(_points(x))[1]
+        return self._placed_gap_normal(_points(x))[1]
 
     def frames(self, x: npt.ArrayLike) -> Array:
         """The frames R = (t₁, t₂, n) (columns) of each position, shape (m, 3, 3)."""
         return self.evaluate(x)[2]
 
     def evaluate(self, x: npt.ArrayLike) -> tuple[Array, Array, Array]:
-        """(g, n, R) of each position: shapes (m,), (m, 3), (m, 3, 3); R = (t₁, t₂, n) as columns."""
-        g, n = self._gap_normal(_points(x))
-        return g, n, frames_from_normals(n, self._tangent(n))
+        """(g, n, R) of each position: shapes (m,), (m, 3), (m, 3, 3); R = (t₁, t₂, n) as columns. A rotated
+        obstacle's frames are those of the obstacle at rest, rotated with it."""
+        if getattr(self, "rotation", None) is None:
+            g, n = self._gap_normal(_points(x))
+            return g, n, frames_from_normals(n, self._tangent(n))
+        rest = self._at_rest()
+        R, c = self.placement()
+        g, n0 = rest._gap_normal((_points(x) - c) @ R)
+        frames = np.einsum("ij,mjk->mik", R, frames_from_normals(n0, rest._tangent(n0)))
+        return g, n0 @ R.T, frames
 
     def core(self, lo: Array, hi: Array, samples: int) -> Array:
         """Points deep inside the placed obstacle that must never lie inside the body, shape (k, 3): the sphere's
@@ -180,8 +259,17 @@ class Obstacle:
     def closest_point(self, x: npt.ArrayLike) -> Array:
         """The closest point x − g·n on the placed surface, shape (m, 3)."""
         x = _points(x)
-        g, n = self._gap_normal(x)
+        g, n = self._placed_gap_normal(x)
         return x - g[:, None] * n
+
+    def placed_core(self, lo: Array, hi: Array, samples: int) -> Array:
+        """:meth:`core` of the placed obstacle, its rotation included (the box is the body's)."""
+        if getattr(self, "rotation", None) is None:
+            return self.core(lo, hi, samples)
+        R, c = self.placement()
+        corners = np.array([[a, b, d] for a in (lo[0], hi[0]) for b in (lo[1], hi[1]) for d in (lo[2], hi[2])])
+        back = (corners - c) @ R  # the body's box seen from the obstacle at rest
+        return self._at_rest().core(back.min(axis=0), back.max(axis=0), samples) @ R.T + c
 
 
 @dataclass(frozen=True)
@@ -194,6 +282,7 @@ class Plane(Obstacle):
     normal: Vector = (0.0, 0.0, 1.0)
     displacement: Vector = (0.0, 0.0, 0.0)
     name: str | None = None
+    rotation: Rotation | None = None
 
     kind: ClassVar[str] = "plane"
     keys: ClassVar[tuple[str, ...]] = ("point", "normal")
@@ -212,6 +301,7 @@ class Sphere(Obstacle):
     radius: float
     displacement: Vector = (0.0, 0.0, 0.0)
     name: str | None = None
+    rotation: Rotation | None = None
 
     kind: ClassVar[str] = "sphere"
     keys: ClassVar[tuple[str, ...]] = ("center", "radius")
@@ -240,6 +330,7 @@ class Cylinder(Obstacle):
     radius: float
     displacement: Vector = (0.0, 0.0, 0.0)
     name: str | None = None
+    rotation: Rotation | None = None
 
     kind: ClassVar[str] = "cylinder"
     keys: ClassVar[tuple[str, ...]] = ("point", "axis", "radius")
@@ -358,7 +449,7 @@ def core_path(obstacle: Obstacle, start: npt.ArrayLike, end: npt.ArrayLike, lo: 
     start, end = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
     axis_samples = max(2, min(int(np.ceil(np.linalg.norm(hi - lo) / spacing)) + 1, 200))
     steps = max(1, min(int(np.ceil(np.linalg.norm(end - start) / spacing)), max(1, limit // axis_samples)))
-    points = [obstacle.moved(start + t * (end - start)).core(lo, hi, axis_samples)
+    points = [obstacle.moved(start + t * (end - start)).placed_core(lo, hi, axis_samples)
               for t in np.linspace(0.0, 1.0, steps + 1)]
     return np.concatenate(points) if points else np.zeros((0, 3))
 
@@ -398,7 +489,7 @@ def obstacle_from_dict(table: Mapping[str, Any], index: int | None = None) -> Ob
     if not isinstance(kind, str) or kind not in OBSTACLE_TYPES:
         raise InputError(f"{where}: type = {_show(kind)}: choose one of {sorted(OBSTACLE_TYPES)}")
     cls = OBSTACLE_TYPES[kind]
-    allowed = ("type", "name", "displacement", *cls.keys)
+    allowed = ("type", "name", "displacement", "rotation", *cls.keys)
     for key in table:
         if key not in allowed:
             raise InputError(f"{where}: unknown key {key!r} for a {kind} (allowed: {', '.join(allowed)})")
@@ -408,7 +499,8 @@ def obstacle_from_dict(table: Mapping[str, Any], index: int | None = None) -> Ob
             raise InputError(f"{where}: a {kind} needs {key}")
     args = {key: _CHECKS[key](table[key], where) for key in cls.keys if key in table}
     displacement = _CHECKS["displacement"](table.get("displacement", [0.0, 0.0, 0.0]), where)
-    return cls(**args, displacement=displacement, name=name)
+    rotation = _CHECKS["rotation"](table.get("rotation"), where)
+    return cls(**args, displacement=displacement, name=name, rotation=rotation)
 
 
 def obstacles_from_list(tables: Iterable[Mapping[str, Any]]) -> list[Obstacle]:

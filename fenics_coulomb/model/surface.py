@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.obstacles import _CHECKS, OBSTACLE_TYPES, Obstacle
+from fenics_coulomb.model.obstacles import _CHECKS, OBSTACLE_TYPES, Obstacle, Rotation
 from fenics_coulomb.model.pairing import _norm, _pair_nodes, _Surface
 
 __all__ = ["SIDES", "Surface", "read_triangles"]
@@ -171,6 +171,7 @@ class Surface(Obstacle):
     side: str = "outward"
     displacement: tuple[float, float, float] = (0.0, 0.0, 0.0)
     name: str | None = None
+    rotation: Rotation | None = None
 
     kind: ClassVar[str] = "surface"
     keys: ClassVar[tuple[str, ...]] = ("file", "side")

@@ -37,7 +37,8 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.errors import SolverError, check_all
+from fenics_coulomb.errors import InputError, SolverError, check_all
+from fenics_coulomb.model.obstacles import _rotation
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scenes.scene import MAX_LOAD, PathStep, Scene
 
@@ -60,12 +61,14 @@ class LoadState:
         body_force: The body force.
         prescribed: Boundary name → prescribed displacement (every boundary of the scene's ``[prescribed]``).
         obstacles: δ of each scene obstacle, in scene order.
+        rotations: The rotation [angle_deg, axis, centre] of each scene obstacle (None: none), in scene order.
     """
 
     tractions: dict[str, Traction]
     body_force: tuple[float, float, float]
     prescribed: dict[str, tuple[float, float, float]]
     obstacles: tuple[tuple[float, float, float], ...]
+    rotations: tuple[Any, ...] = ()
 
 
 def _vec(value: Sequence[float]) -> tuple[float, float, float]:
@@ -76,13 +79,14 @@ def scene_state(scene: Scene) -> LoadState:
     """The scene's own loads (its static problem)."""
     return LoadState(tractions=dict(scene.traction_table()), body_force=_vec(scene.load.body_force),
                      prescribed={k: _vec(v) for k, v in scene.prescribed.items()},
-                     obstacles=tuple(_vec(o.displacement) for o in scene.obstacles))
+                     obstacles=tuple(_vec(o.displacement) for o in scene.obstacles),
+                     rotations=tuple(getattr(o, "rotation", None) for o in scene.obstacles))
 
 
 def zero_state(scene: Scene) -> LoadState:
     """Step 0 of every path: no load, δ = 0, prescribed displacements 0."""
     return LoadState(tractions={}, body_force=ZERO, prescribed={k: ZERO for k in scene.prescribed},
-                     obstacles=tuple(ZERO for _ in scene.obstacles))
+                     obstacles=tuple(ZERO for _ in scene.obstacles), rotations=tuple(None for _ in scene.obstacles))
 
 
 def step_state(scene: Scene, step: PathStep) -> LoadState:
@@ -93,10 +97,32 @@ def step_state(scene: Scene, step: PathStep) -> LoadState:
     names = [getattr(o, "name", None) for o in scene.obstacles]
     obstacles = tuple(_vec(step.move[name]) if name is not None and name in step.move else delta
                       for name, delta in zip(names, base.obstacles, strict=True))
+    rotations = tuple(_rotation(step.rotate[name], f"[[path.step]] rotate of {name!r}")
+                      if name is not None and name in step.rotate else rotation
+                      for name, rotation in zip(names, base.rotations, strict=True))
     return LoadState(tractions=tractions,
                      body_force=base.body_force if step.body_force is None else _vec(step.body_force),
                      prescribed={k: _vec(step.prescribed.get(k, v)) for k, v in base.prescribed.items()},
-                     obstacles=obstacles)
+                     obstacles=obstacles, rotations=rotations)
+
+
+def blend_rotation(a: Any, b: Any, w: float) -> Any:
+    """The rotation between ``a`` and ``b`` at weight w: the angle blended about b's axis and centre (a None is
+    the angle 0 about them); two rotations about different axes or centres cannot be blended (InputError)."""
+    if b is None and a is None:
+        return None
+    if a is None:
+        a = (0.0, b[1], b[2])
+    if b is None:
+        b = (0.0, a[1], a[2])
+    if w == 1.0:
+        return b
+    if w == 0.0:
+        return a
+    if not (np.allclose(a[1], b[1], rtol=0, atol=1e-12) and np.allclose(a[2], b[2], rtol=0, atol=1e-12)):
+        raise InputError(f"substeps between rotations about different axes or centres ({a} and {b}): give the "
+                         "step one substep, or rotate about one axis and centre")
+    return (_blend(a[0], b[0], w), b[1], b[2])
 
 
 def _blend(a: float, b: float, w: float) -> float:
@@ -141,6 +167,13 @@ class PathSolve:
         return [blend_vector(a, b, self.weight) for a, b in zip(self.start.obstacles, self.end.obstacles,
                                                                   strict=True)]
 
+    @property
+    def obstacle_rotations(self) -> list[Any]:
+        """The rotation of each scene obstacle at this solve (None: none)."""
+        start = self.start.rotations or (None,) * len(self.start.obstacles)
+        end = self.end.rotations or (None,) * len(self.end.obstacles)
+        return [blend_rotation(a, b, self.weight) for a, b in zip(start, end, strict=True)]
+
 
 def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
     """The solves of the scene's path: ``steps`` (``--steps N``: the scene's loads times k/N, k = 1..N) or the
@@ -160,6 +193,8 @@ def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
             solves.append(PathSolve(index=len(solves) + 1, time=t, step=k, substep=j, substeps=m, weight=j / m,
                                     load_factor=j / m, start=previous, end=state))
         previous = state
+    for solve in solves:  # rotations that cannot be blended fail here, before anything is solved
+        solve.obstacle_rotations
     return solves
 
 
@@ -345,8 +380,8 @@ def run_path(
         t0 = time.perf_counter()
         loads.apply(solve.start, solve.end, solve.weight)
         deltas = solve.obstacle_displacements
-        for j, delta in enumerate(deltas):
-            problem.move(j, delta)
+        for j, (delta, rotation) in enumerate(zip(deltas, solve.obstacle_rotations, strict=True)):
+            problem.move(j, delta, rotation=rotation)
         failure = ""
         try:
             _, result = problem.solve(u0 if i == 0 else None)

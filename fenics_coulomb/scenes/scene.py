@@ -73,7 +73,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model import surface as _surface  # noqa: F401  (registers [[obstacle]] type = "surface")
 from fenics_coulomb.model.contact_model import validate_friction
 from fenics_coulomb.model.materials import Material
-from fenics_coulomb.model.obstacles import Obstacle, obstacles_from_list
+from fenics_coulomb.model.obstacles import Obstacle, _rotation, obstacles_from_list
 from fenics_coulomb.scd.preconditioner import NEARLY_INCOMPRESSIBLE_POISSON
 from fenics_coulomb.scenes.cuboid import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.scenes.expression import parse_gap_expression, parse_point_expression
@@ -117,8 +117,8 @@ KINDS: dict[str, dict[str, str]] = {
                "gamma_node_scale": "number", "poisson_ratio": "number",
                "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
                "predictor": "bool", "no_contact_shortcut": "bool", "galerkin_coarse": "bool", "start": "str"},
-    "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "body_force": "vector",
-                  "substeps": "int"},
+    "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "rotate": "table",
+                  "body_force": "vector", "substeps": "int"},
     "bodies": {"*": "int"},
     "contact_pair": {"slave": "surface", "master": "surface", "friction": "number", "search_distance": "number",
                      "name": "str"},
@@ -328,7 +328,8 @@ class PathStep:
 
     Everything a step does not set takes the SCENE's value (not the previous step's): per boundary for
     ``tractions`` (``[tractions]`` or the ``[load]`` case, times the load scale) and ``prescribed``
-    (``[prescribed]``), per obstacle for ``move`` (its ``displacement``), and ``[load] body_force``.
+    (``[prescribed]``), per obstacle for ``move`` (its ``displacement``) and ``rotate`` (its ``rotation``), and
+    ``[load] body_force``.
     """
 
     #: Boundary name → traction (3 numbers or expressions in x1, x2, x3; GPa, times ``[load] scale``).
@@ -337,6 +338,9 @@ class PathStep:
     prescribed: dict[str, list[float]] = field(default_factory=dict)
     #: Obstacle name → its total displacement δ at this step.
     move: dict[str, list[float]] = field(default_factory=dict)
+    #: Obstacle name → its total rotation [angle_deg, [ax, ay, az], [cx, cy, cz]] at this step (about the centre
+    #: at its scene position, then δ); substeps blend the angle about the same axis and centre.
+    rotate: dict[str, list[Any]] = field(default_factory=dict)
     #: The body force at this step (GPa/L); None: the scene's.
     body_force: list[float] | None = None
     #: Reach this step in this many equal increments of every load from the previous step's values.
@@ -696,6 +700,11 @@ class Scene:
                     raise InputError(f"{at} move: no obstacle named {name!r} (named obstacles: "
                                      f"{', '.join(named) or 'none'}; give the [[obstacle]] a name to move it)")
                 check_kind(f"{at} move of {name!r}", value, "vector")
+            for name, value in step.rotate.items():
+                if name not in named:
+                    raise InputError(f"{at} rotate: no obstacle named {name!r} (named obstacles: "
+                                     f"{', '.join(named) or 'none'}; give the [[obstacle]] a name to rotate it)")
+                _rotation(value, f"{at} rotate of {name!r}")
             largest = max([abs(float(c)) for v in step.tractions.values() for c in v if not isinstance(c, str)]
                           + [1.0]) * abs(float(self.load.scale))
             if largest > MAX_LOAD or max(abs(float(c)) for c in (step.body_force or [0.0])) > MAX_LOAD:

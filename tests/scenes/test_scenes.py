@@ -243,3 +243,34 @@ def test_shipped_demo_scenes_solve(name, mpi_tmp_path):
     assert scale > 0 and np.linalg.norm(total) <= 1e-6 * scale, total
     for pair in pairs:
         assert pair["balance"] < 1e-6
+
+
+def test_a_rolling_path_sticks_and_the_same_drag_slides(mpi_tmp_path):
+    """demos/scenes/roller_rolling_path.toml (issue 26): the cylinder translated by R θ and turned by θ about its
+    own axis sticks everywhere in its contact; without the rotation the same translation slides everywhere."""
+    import json
+
+    from fenics_coulomb.cli import main
+
+    scene = ROOT / "demos" / "scenes" / "roller_rolling_path.toml"
+    dragged = write(mpi_tmp_path, "dragged.toml", "\n".join(
+        line for line in scene.read_text().splitlines() if not line.startswith("rotate")) + "\n")
+    counts = {}
+    for name, path in (("rolled", scene), ("dragged", dragged)):
+        out = mpi_tmp_path / name
+        assert main(["--scene", str(path), "--out", str(out), "--quiet", "--no-plots"]) == 0
+        steps = json.loads((out / "summary.json").read_text())["steps"]
+        counts[name] = [s["state_counts"] for s in steps[1:]]
+    assert all(c["slip"] == 0 and c["stick"] > 0 for c in counts["rolled"]), counts
+    assert all(c["stick"] == 0 and c["slip"] > 0 for c in counts["dragged"]), counts
+
+
+def test_rotations_that_cannot_be_blended_are_named(mpi_tmp_path, capsys):
+    from fenics_coulomb.cli import EXIT_INPUT, main
+
+    text = (ROOT / "demos" / "scenes" / "roller_rolling_path.toml").read_text().replace(
+        "[[obstacle]]\nname", '[[obstacle]]\nrotation = [10.0, [1.0, 0.0, 0.0], [0.6, 0.5, 1.5]]\nname')
+    scene = write(mpi_tmp_path, "bad.toml", text)
+    assert main(["--scene", str(scene), "--out", str(mpi_tmp_path / "o"), "--quiet", "--no-plots"]) == EXIT_INPUT
+    err = capsys.readouterr().err
+    assert MPI.COMM_WORLD.rank != 0 or "substeps between rotations about different axes" in err, err

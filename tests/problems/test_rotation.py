@@ -1,0 +1,105 @@
+"""Rigid rotations of obstacles (issue 26): a cylinder rolling on a block sticks where the same cylinder dragged
+without rotation slides; the slip follows the obstacle's material points; 1 = 2 ranks (the MPI pass), reruns
+identical.
+
+Rolling: step k translates the cylinder (radius R, axis along x2) by R θ_k along x1 and turns it by θ_k about
+its own axis (rotation about x2 through its scene axis point, then the translation): the material point of the
+cylinder at the contact moves by R(θ − sin θ) along x1 and R(1 − cos θ) along x3 in a step of θ, O(θ³) and
+O(θ²): the contact's interior does not slip. Dragged: the same translation without the rotation moves that point
+by R θ: it slides wherever |t| reaches F λ."""
+
+from __future__ import annotations
+
+import math
+
+from mpi4py import MPI
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import pytest
+import ufl
+
+from fenics_coulomb import ContactProblem, ContactState, Cylinder, InputError
+
+R, DEPTH, THETA = 0.5, 0.004, 0.01  # radius, indentation, rotation per step (rad)
+AXIS_POINT = (0.6, 0.5, 0.5 + R)
+
+
+def block_problem(comm: MPI.Comm, prefix: str) -> ContactProblem:
+    msh = dolfinx.mesh.create_box(comm, [[0, 0, 0], [2, 1, 0.5]], [40, 8, 10], dolfinx.mesh.CellType.hexahedron)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(top).astype(np.int32), np.full(top.size, 1, np.int32))
+    bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0))
+    clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, bottom), V)
+    mu, lmbda = 70.0 / 2.6, 70.0 * 0.3 / (1.3 * 0.4)
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+
+    def eps(w):
+        return ufl.sym(ufl.grad(w))
+
+    a = ufl.inner(2 * mu * eps(u) + lmbda * ufl.tr(eps(u)) * ufl.Identity(3), eps(v)) * ufl.dx
+    roller = Cylinder(point=AXIS_POINT, axis=(0, 1, 0), radius=R, displacement=(0, 0, -DEPTH), name="roller")
+    return ContactProblem(a, None, bcs=[clamp], contact=(tags, [1]), friction=0.5, obstacles=[roller],
+                          settings={"rtol": 1e-10},
+                          petsc_options_prefix=prefix)
+
+
+def run(comm: MPI.Comm, rolling: bool, steps: int = 3, prefix: str = "roll_") -> list:
+    out = []
+    with block_problem(comm, prefix) as problem:
+        _, result = problem.solve()  # press
+        for k in range(1, steps + 1):
+            rotation = [math.degrees(k * THETA), [0.0, 1.0, 0.0], list(AXIS_POINT)] if rolling else None
+            problem.move("roller", (R * k * THETA, 0.0, -DEPTH), rotation=rotation)
+            _, result = problem.solve()
+            assert result.converged
+            report = problem.report(result)
+            out.append((report, result))
+    return out
+
+
+def interior(report, step: int) -> np.ndarray:
+    """The contact nodes away from the ends of the roller (0.2 < x2 < 0.8): the contact line's interior."""
+    nodes = report.nodes
+    return nodes.closed & (nodes.coordinates[:, 1] > 0.2) & (nodes.coordinates[:, 1] < 0.8)
+
+
+def test_rolling_sticks_where_dragging_slides():
+    comm = MPI.COMM_WORLD
+    rolled, dragged = run(comm, True), run(comm, False, prefix="drag_")
+    for (roll, _), (drag, _) in zip(rolled, dragged, strict=True):
+        inner_roll = interior(roll, 0)
+        inner_drag = interior(drag, 0)
+        assert inner_roll.sum() >= 4 and inner_drag.sum() >= 4
+        assert np.all(roll.nodes.state[inner_roll] == ContactState.STICK)
+        assert np.mean(drag.nodes.state[inner_drag] == ContactState.SLIP) > 0.9
+        # dragged: the obstacle drags the body along +x1 with |t| = F λ on the sliding nodes
+        assert drag.nodes.force[inner_drag, 0].sum() > 0
+    # the rolled contact's total tangential force stays small against the dragged one
+    assert abs(rolled[-1][0].total_force[0]) < 0.2 * abs(dragged[-1][0].total_force[0])
+
+
+def test_rotation_about_the_own_axis_changes_no_geometry_and_reruns_repeat():
+    comm = MPI.COMM_WORLD
+    a = run(comm, True, steps=1, prefix="rep1_")
+    b = run(comm, True, steps=1, prefix="rep2_")
+    assert np.array_equal(a[-1][1].displacement, b[-1][1].displacement)
+    c = Cylinder(point=AXIS_POINT, axis=(0, 1, 0), radius=R)
+    x = np.array([[0.5, 0.3, 0.49], [0.7, 0.6, 0.5]])
+    g0, n0, F0 = c.evaluate(x)
+    g1, n1, F1 = c.rotated([25.0, [0, 1, 0], list(AXIS_POINT)]).evaluate(x)
+    assert np.allclose(g0, g1, atol=1e-15) and np.allclose(n0, n1, atol=1e-15) and np.allclose(F0, F1, atol=1e-15)
+
+
+@pytest.mark.parametrize("rotation, fragment", [
+    ([30.0, [0, 0, 0], [0, 0, 0]], "rotation axis"),
+    (["a", [0, 1, 0], [0, 0, 0]], "angle must be a number"),
+    ([float("nan"), [0, 1, 0], [0, 0, 0]], "must be finite"),
+    ([30.0, [0, 1, 0]], "give [angle_deg"),
+])
+def test_bad_rotations_are_named(rotation, fragment):
+    with pytest.raises(InputError, match=fragment.replace("[", r"\[")):
+        Cylinder(point=AXIS_POINT, axis=(0, 1, 0), radius=R).rotated(rotation)
