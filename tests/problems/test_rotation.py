@@ -21,14 +21,16 @@ import numpy as np
 import pytest
 import ufl
 
-from fenics_coulomb import ContactProblem, ContactState, Cylinder, InputError
+from fenics_coulomb import ContactProblem, ContactState, Cylinder, InputError, box_partitioner
 
 R, DEPTH, THETA = 0.5, 0.004, 0.01  # radius, indentation, rotation per step (rad)
 AXIS_POINT = (0.6, 0.5, 0.5 + R)
 
 
 def block_problem(comm: MPI.Comm, prefix: str) -> ContactProblem:
-    msh = dolfinx.mesh.create_box(comm, [[0, 0, 0], [2, 1, 0.5]], [40, 8, 10], dolfinx.mesh.CellType.hexahedron)
+    corners, n = [[0, 0, 0], [2, 1, 0.5]], [40, 8, 10]  # the deterministic partition: reruns repeat bit for bit
+    msh = dolfinx.mesh.create_box(comm, corners, n, dolfinx.mesh.CellType.hexahedron,
+                                  partitioner=box_partitioner(corners, n, dolfinx.mesh.GhostMode.none))
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
     tags = dolfinx.mesh.meshtags(msh, 2, np.sort(top).astype(np.int32), np.full(top.size, 1, np.int32))
