@@ -67,7 +67,7 @@ def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
 def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     """Solve the scene described by ``args``; return the exit status."""
     t0 = time.perf_counter()
-    scene = scene_from_args(args).with_material_defaults()
+    scene = scene_from_args(args).with_scene_defaults()
     if not args.out.strip():
         raise InputError(f"--out {args.out!r}: give an output directory (an empty name would write into the "
                          "current directory)")

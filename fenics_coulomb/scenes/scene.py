@@ -414,7 +414,7 @@ def pairs_from_toml(where: str, value: Any) -> list[PairSection]:
     return pairs
 
 
-#: The residual reduction of nearly incompressible bodies when none is given (:meth:`Scene.with_material_defaults`).
+#: The residual reduction of nearly incompressible bodies when none is given (:meth:`Scene.with_scene_defaults`).
 NEARLY_INCOMPRESSIBLE_RTOL = 1e-8
 
 #: Command-line names of the scene's settings → (section, key); section None is the scene itself.
@@ -445,7 +445,7 @@ class Scene:
     solver: SolverSettings = field(default_factory=SolverSettings)
     start: str = "zero"
     #: The solver settings (and ``start``) the user gave, in the scene file or as flags: the material's
-    #: defaults (:meth:`with_material_defaults`) never override them.
+    #: defaults (:meth:`with_scene_defaults`) never override them.
     given: frozenset[str] = frozenset()
     #: The rigid obstacles (``[[obstacle]]``); empty: the paper's plane x3 = 0.
     obstacles: list[Obstacle] = field(default_factory=list)
@@ -746,23 +746,29 @@ class Scene:
             return self.name
         return f"{self.body.gap}/{self.load.case or 'tractions'}, lev {self.body.lev}"
 
-    def with_material_defaults(self) -> Scene:
-        """The scene with the defaults its material calls for (a copy; what the user gave is kept).
+    def with_scene_defaults(self) -> Scene:
+        """The scene with the defaults its obstacles and material call for (a copy; what the user gave is kept).
 
-        Nearly incompressible bodies (the largest ν of the scene ≥
-        :data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`): ``start = "undeformed"`` and
-        ``rtol`` = :data:`NEARLY_INCOMPRESSIBLE_RTOL` unless given. From the paper's start the residual of such a
-        body falls only about 2.3× per Newton step for the first ten steps, and at rtol 1e-7 its force balance
-        stays at 2–4e-6 (docs/robustness: ν = 0.49 / 0.499, 26 / 25 Newton steps, 4.3–5.2 linear solves);
-        from the undeformed start with rtol 1e-8: 14 / 12 steps, 2.2–2.4 linear solves, balance 5e-8.
+        * Obstacles of its own (``[[obstacle]]`` tables; not the paper's plane): ``start = "undeformed"`` unless
+          given. The paper's start ũ = −d puts EVERY contact node onto its obstacle — right for the paper's
+          cuboid over its plane (gaps of a few hundredths), far off for a sphere or a cylinder indenting a small
+          part of a large contact boundary, whose other nodes it moves by up to the largest gap
+          (docs/robustness: from the undeformed start 7–12 Newton steps where the paper's start took 15–22).
+        * Nearly incompressible bodies (the largest ν of the scene ≥
+          :data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`): ``start = "undeformed"`` and
+          ``rtol`` = :data:`NEARLY_INCOMPRESSIBLE_RTOL` unless given. From the paper's start the residual of such
+          a body falls only about 2.3× per Newton step for the first ten steps, and at rtol 1e-7 its force
+          balance stays at 2–4e-6 (docs/robustness: ν = 0.49 / 0.499, 26 / 25 Newton steps, 4.3–5.2 linear
+          solves); from the undeformed start with rtol 1e-8: 14 / 12 steps, 2.2–2.4 linear solves, balance 5e-8.
         """
         poisson = max([float(self.material.poisson)] + [float(m.poisson) for m in self.materials.values()])
-        if poisson < NEARLY_INCOMPRESSIBLE_POISSON:
+        soft = poisson >= NEARLY_INCOMPRESSIBLE_POISSON
+        if not soft and not self.obstacles:
             return self
         scene = dataclasses.replace(self, solver=dataclasses.replace(self.solver))
         if "start" not in self.given:
             scene.start = "undeformed"
-        if not {"rtol", "accuracy"} & self.given:
+        if soft and not {"rtol", "accuracy"} & self.given:
             scene.solver.rtol = min(scene.solver.rtol, NEARLY_INCOMPRESSIBLE_RTOL)
         return scene
 

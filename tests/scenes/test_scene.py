@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from mpi4py import MPI
 
 import numpy as np
@@ -96,13 +98,28 @@ def test_nearly_incompressible_bodies_get_their_defaults(mpi_tmp_path):
     from fenics_coulomb.cli import main
     from fenics_coulomb.scenes.scene import NEARLY_INCOMPRESSIBLE_RTOL, Scene
 
-    soft = Scene().override(poisson=0.49).with_material_defaults()
+    soft = Scene().override(poisson=0.49).with_scene_defaults()
     assert soft.start == "undeformed" and soft.solver.rtol == NEARLY_INCOMPRESSIBLE_RTOL
-    given = Scene().override(poisson=0.49, rtol=1e-6, start="zero").with_material_defaults()
+    given = Scene().override(poisson=0.49, rtol=1e-6, start="zero").with_scene_defaults()
     assert given.start == "zero" and given.solver.rtol == 1e-6
-    plain = Scene().override(poisson=0.3).with_material_defaults()
+    plain = Scene().override(poisson=0.3).with_scene_defaults()
     assert plain.start == "zero" and plain.solver.rtol == Scene().solver.rtol
     out = mpi_tmp_path / "soft"
     assert main(["--lev", "1", "--poisson", "0.49", "--out", str(out), "--quiet", "--no-plots"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["rtol"] == NEARLY_INCOMPRESSIBLE_RTOL and summary["scene"]["start"] == "undeformed"
+
+
+def test_scenes_with_their_own_obstacles_start_undeformed():
+    """A sphere, cylinder or surface scene starts from the undeformed body unless it names a start (issue 27: the
+    paper's start puts every contact node onto its obstacle); the paper's cuboid over its plane keeps the paper's
+    start (Section 7 unchanged)."""
+    from fenics_coulomb.scenes.scene import Scene
+
+    ROOT = Path(__file__).resolve().parents[2]
+    sphere = Scene.from_toml(ROOT / "demos" / "scenes" / "sphere_indentation.toml")
+    assert sphere.with_scene_defaults().start == "undeformed"
+    assert sphere.override(start="zero").with_scene_defaults().start == "zero"
+    assert sphere.with_scene_defaults().solver.rtol == sphere.solver.rtol
+    paper = Scene.from_toml(ROOT / "demos" / "scenes" / "d3_L2.toml")
+    assert paper.with_scene_defaults().start == "zero"
