@@ -154,3 +154,14 @@ def test_bad_surface_files_exit_2_naming_file_and_triangle(case, mpi_tmp_path, c
     err = capsys.readouterr().err.strip()
     if MPI.COMM_WORLD.rank == 0:
         assert len(err.splitlines()) == 1 and fragment in err and str(stl) in err, err
+
+
+def test_bad_surface_keys_are_named(tmp_path):
+    path = write_stl(tmp_path / "ok.stl", rectangle((0.0, 0.0), (1.0, 1.0)))
+    with pytest.raises(InputError, match="side = 'up': choose one of outward, inward"):
+        Surface(file=str(path), side="up")
+    with pytest.raises(InputError, match="no such file"):
+        Surface(file=str(tmp_path / "missing.stl"))
+    (tmp_path / "ok.obj").write_text("v 0 0 0\n")
+    with pytest.raises(InputError, match="give an .stl"):
+        Surface(file=str(tmp_path / "ok.obj"))

@@ -105,3 +105,39 @@ def test_rotation_about_the_own_axis_changes_no_geometry_and_reruns_repeat():
 def test_bad_rotations_are_named(rotation, fragment):
     with pytest.raises(InputError, match=fragment.replace("[", r"\[")):
         Cylinder(point=AXIS_POINT, axis=(0, 1, 0), radius=R).rotated(rotation)
+
+
+def test_the_material_motion_against_the_explicit_rigid_map():
+    """Obstacle.motion (the slip's obstacle part) against an independent construction: a point at angle φ on the
+    cylinder's circle (x1, x3 about the axis point) goes to angle φ + θ: (R sin(φ + θ), −R cos(φ + θ)) with
+    trigonometry instead of Rodrigues, composed from step k−1 (θ₁, δ₁) to step k (θ₂, δ₂); and a sphere turned
+    about an outside point has the gaps of the sphere whose centre was turned (frames: rotated normals)."""
+    c = np.array(AXIS_POINT)
+    base = Cylinder(point=AXIS_POINT, axis=(0, 1, 0), radius=R)
+    t1, t2, d1, d2 = 0.3, 0.75, np.array([0.1, 0.0, -0.01]), np.array([0.25, 0.0, -0.02])
+    before = base.moved(d1).rotated([math.degrees(t1), [0, 1, 0], list(c)])
+    after = base.moved(d2).rotated([math.degrees(t2), [0, 1, 0], list(c)])
+    phi = np.linspace(-1.0, 1.0, 7)
+
+    def on_circle(angle, delta):  # rotation about +x2 turns (x1, x3) = (sin, −cos) forward: x1' = x1 cos + x3 sin
+        return np.column_stack([c[0] + R * np.sin(angle), np.full(angle.size, c[1]), c[2] - R * np.cos(angle)]) + delta
+
+    # a right-handed rotation by θ about +x2 maps (sin φ, −cos φ) to (sin φ cos θ − cos φ sin θ, ...) = angle φ − θ
+    p = on_circle(phi - t1, d1)
+    expected = on_circle(phi - t2, d2) - p
+    assert np.allclose(after.motion(before, p), expected, rtol=0, atol=1e-14)
+    # without rotations: the translation difference, exactly
+    assert np.array_equal(base.moved(d2).motion(base.moved(d1), p), np.broadcast_to(d2 - d1, p.shape))
+    # a sphere turned about an outside point = the sphere moved to the turned centre
+    from fenics_coulomb import Sphere
+
+    sc, pivot, angle = np.array([0.2, 0.4, 1.1]), np.array([1.0, -0.3, 0.5]), 40.0
+    turned = Sphere(center=tuple(sc), radius=0.3).rotated([angle, [0, 0, 1], list(pivot)])
+    a = math.radians(angle)
+    Rz = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1]])
+    moved = Sphere(center=tuple(Rz @ (sc - pivot) + pivot), radius=0.3)
+    x = np.random.default_rng(5).uniform(-1, 2, size=(20, 3))
+    g1, n1, F1 = turned.evaluate(x)
+    g2, n2, _ = moved.evaluate(x)
+    assert np.allclose(g1, g2, atol=1e-13) and np.allclose(n1, n2, atol=1e-13)
+    assert np.allclose(F1[:, :, 2], n1) and np.allclose(np.linalg.det(F1), 1.0)
