@@ -104,8 +104,47 @@ def elasticity(V: dolfinx.fem.FunctionSpace, cell_tags: dolfinx.mesh.MeshTags) -
     return forms[0] + forms[1]
 
 
-def run(comm: MPI.Comm, h: float, delta: float) -> dict[str, Any]:
+#: The variants measured: the two methods, and a DIAGNOSTIC of the mortar definitions (not a library option):
+#: mortar with the master's normal e₃ as every slave node's frame normal instead of the slave nodal normal.
+VARIANTS = ("mortar", "node-to-surface", "mortar, master normal (diagnostic)")
+
+
+class _Timed:
+    """Wraps the pairing function the model calls, to time it."""
+
+    def __init__(self, function):
+        self.function, self.seconds = function, 0.0
+
+    def __call__(self, *args, **kwargs):
+        t = time.perf_counter()
+        try:
+            return self.function(*args, **kwargs)
+        finally:
+            self.seconds += time.perf_counter() - t
+
+
+def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar") -> dict[str, Any]:
     """Solve one refinement; return its numbers and (on rank 0) the nodal profile."""
+    import fenics_coulomb.model.contact_model as contact_model
+    import fenics_coulomb.model.mortar as mortar
+
+    method = "node-to-surface" if variant == "node-to-surface" else "mortar"
+    original_pairing, original_normals = contact_model.pair_surfaces, mortar.nodal_normals
+    timed = _Timed(original_pairing)
+    contact_model.pair_surfaces = timed
+    if variant.startswith("mortar, master normal"):
+        def vertical(X, blocks, sign):
+            vertices, normals = original_normals(X, blocks, sign)
+            normals[:] = (0.0, 0.0, 1.0)
+            return vertices, normals
+        mortar.nodal_normals = vertical
+    try:
+        return _run(comm, h, delta, method, variant, timed)
+    finally:
+        contact_model.pair_surfaces, mortar.nodal_normals = original_pairing, original_normals
+
+
+def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, timed: _Timed) -> dict[str, Any]:
     t0 = time.perf_counter()
     msh, cell_tags, facet_tags = mesh(comm, h)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
@@ -114,14 +153,19 @@ def run(comm: MPI.Comm, h: float, delta: float) -> dict[str, Any]:
     flat = dolfinx.fem.locate_dofs_topological(V, fdim, facet_tags.find(TAGS["flat"]))
     bcs = [dolfinx.fem.dirichletbc(np.zeros(3), bottom, V), dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -delta]), flat, V)]
     pair = ContactPair(facet_tags, slave=TAGS["curved"], master=TAGS["block_top"], friction=0.0,
-                       search_distance=0.25 * R, name="hertz")
+                       search_distance=0.25 * R, name="hertz", method=method)
     with ContactProblem(elasticity(V, cell_tags), None, bcs, contact_pairs=[pair], settings={"rtol": 1e-10},
                         petsc_options_prefix="hertz2_") as problem:
+        t1 = time.perf_counter()
         _, result = problem.solve()
+        solve_seconds = comm.allreduce(time.perf_counter() - t1, op=MPI.MAX)
+        pairing_seconds = comm.allreduce(timed.seconds, op=MPI.MAX)
         model = problem.model
         checks = physics_residuals(model, result.relative_displacement)
         (forces,) = pair_forces(model, result, [pair])
         areas = contact_areas(model)
+        mortar = np.isfinite(model.pairing.area)  # λᵢ/Dᵢ on mortar nodes
+        areas[mortar] = model.pairing.area[mortar]
         pressure = np.divide(result.normal_force, areas, out=np.zeros_like(areas), where=areas > 0)
         xs = model.pairing.coordinates
         r = np.hypot(xs[:, 0], xs[:, 1])
@@ -136,7 +180,8 @@ def run(comm: MPI.Comm, h: float, delta: float) -> dict[str, Any]:
     inside = r < a_h
     shape = np.sqrt(1 - (r[inside] / a_h) ** 2)
     p0_fit = float(shape @ pressure[inside] / (shape @ shape))
-    return {"h": h, "dofs": int(n_dofs), "contact_nodes": int(result.p), "closed_nodes": int(closed.sum()),
+    return {"variant": variant, "h": h, "dofs": int(n_dofs), "pairing_seconds": pairing_seconds,
+            "solve_seconds": solve_seconds, "contact_nodes": int(result.p), "closed_nodes": int(closed.sum()),
             "newton_iterations": result.iterations, "converged": bool(result.converged), "delta": delta, "P": P,
             "balance": forces["balance"], "a_hertz": a_H, "a": a_h, "r_closed": r_c, "r_open": r_o,
             "a_error": a_h / a_H - 1, "p0_hertz": p0_H, "p0": p0_h, "p0_error": p0_h / p0_H - 1,
@@ -150,22 +195,24 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     if comm.rank != 0:
         return
     out.mkdir(parents=True, exist_ok=True)
-    keys = ["h", "dofs", "contact_nodes", "closed_nodes", "newton_iterations", "delta", "P", "balance", "a_hertz",
+    keys = ["variant", "h", "dofs", "pairing_seconds", "solve_seconds", "contact_nodes", "closed_nodes", "newton_iterations", "delta", "P", "balance", "a_hertz",
             "a", "r_closed", "r_open", "a_error", "p0_hertz", "p0", "p0_error", "p0_fit", "p0_fit_error", "seconds"]
-    lines = [",".join(keys)] + [",".join(f"{row[k]:.10g}" if isinstance(row[k], float) else str(row[k])
+    lines = [",".join(keys)] + [",".join(f"{row[k]:.10g}" if isinstance(row[k], float) else f'"{row[k]}"' if k == "variant" else str(row[k])
                                          for k in keys) for row in rows]
     (out / "hertz.csv").write_text("\n".join(lines) + "\n")
-    profile = ["h,r,pressure"] + [f"{row['h']:g},{ri:.8g},{pi:.8g}" for row in rows for ri, pi in zip(*row["profile"])]
+    profile = ["variant,h,r,pressure"] + [f"\"{row['variant']}\",{row['h']:g},{ri:.8g},{pi:.8g}" for row in rows
+                                         for ri, pi in zip(*row["profile"])]
     (out / "hertz_profile.csv").write_text("\n".join(profile) + "\n")
     E_star = effective_modulus()
-    table = ["| contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ (largest "
-             "nodal) | error | p₀ (fit) | error | Newton its | balance |", "|" + "---|" * 13]
+    table = ["| method | contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ "
+             "(largest nodal) | error | p₀ (fit) | error | Newton its | balance | pairing / solve |", "|" + "---|" * 15]
     for row in rows:
-        table.append(f"| {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | {row['a']:.4f} "
+        table.append(f"| {row['variant']} | {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | {row['a']:.4f} "
                      f"[{row['r_closed']:.4f}, {row['r_open']:.4f}] | {100 * row['a_error']:+.2f} % | "
                      f"{row['p0_hertz']:.4g} | {row['p0']:.4g} | {100 * row['p0_error']:+.2f} % | "
                      f"{row['p0_fit']:.4g} | {100 * row['p0_fit_error']:+.2f} % | "
-                     f"{row['newton_iterations']} | {row['balance']:.1e} |")
+                     f"{row['newton_iterations']} | {row['balance']:.1e} | "
+                     f"{row['pairing_seconds']:.2f} s / {row['solve_seconds']:.1f} s |")
     worst = max(max(row["checks"].values()) for row in rows)
     (out / "hertz.md").write_text(f"""# Frictionless Hertz contact between two elastic bodies
 
@@ -195,17 +242,20 @@ Software: {json.dumps(software_versions())}; {comm.size} MPI ranks.
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    variants = list(dict.fromkeys(row["variant"] for row in rows))
+    fig, axes = plt.subplots(1, len(variants), figsize=(5.2 * len(variants), 4.2), squeeze=False, sharey=True)
     s = np.linspace(0, 1, 200)
-    ax.plot(s, np.sqrt(1 - s**2), "k-", label="Hertz")
-    for row, marker in zip(rows, "o^sv", strict=False):
-        r, p = row["profile"]
-        ax.plot(r / row["a_hertz"], p / row["p0_hertz"], marker, ms=3, alpha=0.6, label=f"h = {row['h']:g}")
-    ax.set_xlabel("r / a (Hertz)")
-    ax.set_ylabel("nodal pressure / p₀ (Hertz)")
-    ax.set_xlim(0, 1.6)
-    ax.set_title("Elastic hemisphere on an elastic block, frictionless")
-    ax.legend()
+    for ax, variant in zip(axes[0], variants, strict=True):
+        ax.plot(s, np.sqrt(1 - s**2), "k-", label="Hertz")
+        for row, marker in zip([r for r in rows if r["variant"] == variant], "o^sv", strict=False):
+            r, p = row["profile"]
+            ax.plot(r / row["a_hertz"], p / row["p0_hertz"], marker, ms=3, alpha=0.6, label=f"h = {row['h']:g}")
+        ax.set_xlabel("r / a (Hertz)")
+        ax.set_xlim(0, 1.6)
+        ax.set_title(variant)
+        ax.legend()
+    axes[0, 0].set_ylabel("nodal pressure / p₀ (Hertz)")
+    fig.suptitle("Elastic hemisphere on an elastic block, frictionless")
     fig.tight_layout()
     fig.savefig(out / "hertz.png", dpi=120)
 
@@ -214,13 +264,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=float, nargs="+", default=[0.04, 0.02], help="contact element sizes")
     parser.add_argument("--delta", type=float, default=0.03, help="the flat face's downward displacement")
+    parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
     parser.add_argument("--out", default=str(ROOT / "docs" / "two-bodies"))
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     rows = []
-    for h in args.sizes:
-        row = run(comm, h, args.delta)
-        rows.append(row)
+    for variant in args.variants:
+        for h in args.sizes:
+            row = run(comm, h, args.delta, variant)
+            rows.append(row)
         if comm.rank == 0:
             print({k: v for k, v in row.items() if k != "profile"}, flush=True)
     write(Path(args.out), rows, comm)

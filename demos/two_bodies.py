@@ -30,21 +30,25 @@
 # The bodies are disconnected parts of one mesh, with one vector Q1 space and one stiffness matrix; each has
 # its own material through a subdomain integral over its cells. A **contact pair** names the slave surface S
 # (the small block's bottom) and the master surface M (the large block's top). Once, in the reference
-# configuration, every vertex x_s of S is paired with its closest point x_m on M: n is M's outward normal
-# there, g = (x_s − x_m)·n the initial gap, (t₁, t₂, n) the node's frame and φ_j the shape functions at x_m
-# of the master facet containing it. With the relative displacement
+# configuration, the pair is discretized by **dual mortar** (the default, `fenics_coulomb/model/mortar.py`):
+# each slave facet is clipped against the master facets on an auxiliary plane, and with the dual
+# (biorthogonal) basis ψ_j of the slave surface the mortar integrals give, per slave node j, the diagonal
+# D_j = ∫ ψ_j N_j, the master weights M_jl = ∫ ψ_j N_l^m, the gap g_j = ∫ ψ_j g / D_j and the frame (t₁, t₂, n) of
+# the slave nodal normal. With φ_jl = M_jl / D_j and the relative displacement
 #
-#     w_s = u_s − Σ_j φ_j u_j
+#     w_j = u_j − Σ_l φ_jl u_l
 #
-# the contact conditions of each slave node are those of a node against a rigid obstacle with u_s replaced
-# by w_s: the gap g + n·w_s ≥ 0, the normal force λ ≥ 0, λ (g + n·w_s) = 0, and Coulomb's law on the slip
-# T w_s (on a load path on its increment T(w_{s,k} − w_{s,k−1})). The slave node's force f_s acts on the
-# slave body; the master nodes carry the reaction f_j = −Σ_s φ_sj f_s, so the two bodies feel equal and
-# opposite forces.
+# the contact conditions of each slave node are those of a node against a rigid obstacle with u_j replaced
+# by w_j: the gap g + n·w_j ≥ 0, the normal force λ ≥ 0, λ (g + n·w_j) = 0, and Coulomb's law on the slip
+# T w_j (on a load path on its increment T(w_{j,k} − w_{j,k−1})). The slave node's force f_j acts on the
+# slave body; the master nodes carry the reaction f_l = −Σ_j φ_jl f_j, so the two bodies feel equal and
+# opposite forces, and a uniform pressure is transmitted exactly (the patch test, docs/two-bodies/patch.md).
+# (`ContactPair(..., method="node-to-surface")` pairs each slave node with its closest master point instead:
+# φ_jl are then the master shape functions there.)
 #
 # ## The change of variables
 #
-# Let Φ hold the slave-row, master-column blocks φ_sj I₃ and u = M z with M = I + Φ. No slave node is a
+# Let Φ hold the slave-row, master-column blocks φ_jl I₃ and u = M z with M = I + Φ. No slave node is a
 # node of a master facet (Φ² = 0), so M⁻¹ = I − Φ and z = u − Φ u: z equals u except on the slave nodes,
 # where it is w_s. In z the potential energy reads ½ zᵀ(Mᵀ A M) z − ⟨Mᵀ l, z⟩ and the contact conditions act
 # on single 3-blocks of z, so the problem is the one-body generalized equation of the reference paper

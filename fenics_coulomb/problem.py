@@ -394,8 +394,11 @@ class ContactProblem:
             result.master_force = self.model.master_forces(result.contact_force)
             penetrating = self.model.free_slave_penetrations(result.displacement)
             if penetrating and self.model.comm.rank == 0:
-                logger.warning("%d free slave node(s) (beyond the search distance or with a Dirichlet component) "
-                               "penetrate the master surface: enlarge the pairs' search_distance", penetrating)
+                logger.warning("%d free slave node(s) (beyond the search distance, with a Dirichlet component, or "
+                               "a mortar node not fully covered by the master surface) penetrate the master "
+                               "surface: enlarge the pairs' search_distance, and make the smaller surface the "
+                               "slave (mortar drops the slave nodes whose facets reach past the master's border)",
+                               penetrating)
         self.u.x.petsc_vec.array[:] = result.displacement
         self.u.x.scatter_forward()
         return self.u

@@ -93,6 +93,7 @@ from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.frames import frames_from_normals
+from fenics_coulomb.model.mortar import mortar_nodes
 
 __all__ = ["ContactPair", "Pairing", "pair_surfaces"]
 
@@ -105,6 +106,8 @@ Array = npt.NDArray[np.float64]
 TIE_TOL = 1e-10
 CONE_TOL = 1e-8
 OVERLAP_TOL = 1e-6
+#: The discretizations of a pair: dual mortar (the default) and node-to-surface.
+METHODS = ("mortar", "node-to-surface")
 
 
 # -- the pair ---------------------------------------------------------------------------------------------
@@ -137,6 +140,8 @@ class ContactPair:
         friction: Coulomb coefficient F >= 0.
         search_distance: Largest |g| of a contact node; default 0.1 × M's bounding-box diagonal.
         name: Optional name used in messages.
+        method: ``"mortar"`` (default: dual mortar, :mod:`fenics_coulomb.model.mortar`; passes the patch test)
+            or ``"node-to-surface"`` (each slave node against its closest master point, this module).
     """
 
     facet_tags: dolfinx.mesh.MeshTags
@@ -145,9 +150,12 @@ class ContactPair:
     friction: float = 0.0
     search_distance: float | None = None
     name: str | None = None
+    method: str = "mortar"
 
     def __post_init__(self) -> None:
         owner = self.label
+        if self.method not in METHODS:
+            raise InputError(f"{owner}: method = {self.method!r}: must be one of {', '.join(map(repr, METHODS))}")
         if self.name is not None and (not isinstance(self.name, str) or not self.name):
             raise InputError(f"contact pair: name = {self.name!r}: must be a non-empty string")
         _tags(self.slave, "slave", owner)
@@ -186,9 +194,11 @@ class Pairing:
         closest: x_m, shape (m, 3).
         gap: g = (x_s − x_m)·n, shape (m,).
         frames: (t₁, t₂, n) as columns, shape (m, 3, 3).
-        master_blocks: GLOBAL DOF-block indices of the chosen master facet's vertices, shape (m, 4) (−1
-            padding for triangles).
-        weights: φ_j at x_m (0 on padding), shape (m, 4); rows sum to 1.
+        master_blocks: GLOBAL DOF-block indices of the stencil's master nodes, shape (m, k) (−1 padding):
+            node-to-surface the chosen master facet's vertices (k = 4, padding for triangles); mortar the
+            master nodes l with Φ_jl ≠ 0 (k the widest stencil on any rank, at least 4).
+        weights: Φ_jl (node-to-surface: φ_j at x_m), 0 on padding, shape (m, k); rows sum to 1.
+        area: Mortar D_j (the pressure is f_j·n_j / D_j); NaN for node-to-surface nodes, shape (m,).
         pair_index: Index of each node's pair, shape (m,).
         friction: The pair's F per node, shape (m,).
         num_global: Number of contact nodes on all ranks.
@@ -205,6 +215,7 @@ class Pairing:
     frames: Array
     master_blocks: npt.NDArray[np.int64]
     weights: Array
+    area: Array
     pair_index: npt.NDArray[np.intp]
     friction: Array
     num_global: int
@@ -214,7 +225,7 @@ class Pairing:
         """The pairing of the nodes ``keep`` selects (collective: the global count)."""
         return Pairing(blocks=self.blocks[keep], coordinates=self.coordinates[keep], closest=self.closest[keep],
                        gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
-                       weights=self.weights[keep], pair_index=self.pair_index[keep], friction=self.friction[keep],
+                       weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep], friction=self.friction[keep],
                        num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
 
     @property
@@ -624,19 +635,35 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         key = np.sort(master.blocks, axis=1)
         rank = np.empty(key.shape[0], dtype=np.intp)
         rank[np.lexsort(key.T[::-1])] = np.arange(key.shape[0])
-        res = _pair_nodes(X_dofs[nodes], master, size, rank)
-        R = frames_from_normals(res["normal"]) if nodes.size else np.zeros((0, 3, 3))
-        g = _dot(X_dofs[nodes] - res["closest"], res["normal"])
-        contact = res["paired"] & (np.abs(g) <= search)
+        if pair.method == "mortar":
+            slave = _gather(comm, _facet_data(V, slave_facets, X_dofs), nv)
+            gnodes = imap.local_to_global(nodes).astype(np.int64)
+            mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
+                                  gnodes, lambda p: _pair_nodes(p, master, size, rank)["closest"])
+            g = mortar.gap
+            normal = mortar.normal
+            R = frames_from_normals(normal) if nodes.size else np.zeros((0, 3, 3))
+            contact = mortar.fully_covered & (np.abs(g) <= search)
+            closest = X_dofs[nodes] - np.where(np.isfinite(g), g, 0.0)[:, None] * normal
+            stencil_blocks, stencil = mortar.stencil_blocks, mortar.stencil
+            D = mortar.D
+        else:
+            res = _pair_nodes(X_dofs[nodes], master, size, rank)
+            R = frames_from_normals(res["normal"]) if nodes.size else np.zeros((0, 3, 3))
+            g = _dot(X_dofs[nodes] - res["closest"], res["normal"])
+            contact = res["paired"] & (np.abs(g) <= search)
+            closest = res["closest"]
+            stencil_blocks = master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64)
+            stencil = res["weights"]
+            D = np.full(nodes.size, np.nan)
         # the other owned slave nodes over M (Dirichlet ones, or beyond the search distance): checked for
         # penetration after a solve
         others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
         ro = _pair_nodes(X_dofs[others], master, size, rank)
         go = _dot(X_dofs[others] - ro["closest"], ro["normal"])
         over = ro["paired"]
-        per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=res["closest"],
-                             blocks=master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64),
-                             weights=res["weights"], body=body,
+        per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=closest, blocks=stencil_blocks,
+                             weights=stencil, D=D, body=body,
                              free=dict(blocks=others[over], gap=go[over], normals=ro["normal"][over],
                                        master_blocks=master.blocks[ro["facet"][over]] if others.size
                                        else np.zeros((0, nv), np.int64), weights=ro["weights"][over])))
@@ -656,14 +683,23 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     winner = winner[is_contact]
     m = blocks.size
     coordinates = X_dofs[blocks].copy()
-    closest, gap = np.zeros((m, 3)), np.zeros(m)
-    frames, master_blocks, weights = np.zeros((m, 3, 3)), np.full((m, 4), -1, np.int64), np.zeros((m, 4))
+    closest, gap, area = np.zeros((m, 3)), np.zeros(m), np.zeros(m)
+    # the stencils' width: 4 (node-to-surface) or the widest mortar stencil of a contact node on any rank
+    width = 4
+    for i, p in enumerate(per_pair):
+        src = np.searchsorted(p["nodes"], blocks[winner == i])
+        used = (p["blocks"][src] >= 0).sum(axis=1).max(initial=0) if src.size else 0
+        width = max(width, int(used))
+    width = comm.allreduce(width, op=MPI.MAX)
+    frames, master_blocks, weights = np.zeros((m, 3, 3)), np.full((m, width), -1, np.int64), np.zeros((m, width))
     friction = np.zeros(m)
     for i, p in enumerate(per_pair):
         sel = np.flatnonzero(winner == i)
         src = np.searchsorted(p["nodes"], blocks[sel])
         closest[sel], gap[sel], frames[sel] = p["closest"][src], p["g"][src], p["R"][src]
-        master_blocks[sel, :nv], weights[sel, :nv] = p["blocks"][src], p["weights"][src]
+        k = min(p["blocks"].shape[1], width)
+        master_blocks[sel, :k], weights[sel, :k] = p["blocks"][src, :k], p["weights"][src, :k]
+        area[sel] = p["D"][src]
         friction[sel] = float(pairs[i].friction)
 
     # Φ² = 0: no contact node is a vertex of a master facet used by any contact node
@@ -705,7 +741,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                                "search distance or beside the master surface)", labels[i],
                                list(pair.slave_tags), list(pair.master_tags))
     return Pairing(blocks=blocks, coordinates=coordinates, closest=closest, gap=gap, frames=frames,
-                   master_blocks=master_blocks, weights=weights, pair_index=winner.astype(np.intp),
+                   master_blocks=master_blocks, weights=weights, area=area, pair_index=winner.astype(np.intp),
                    friction=friction, num_global=int(count.sum()) if pairs else 0,
                    free=_free_nodes([p["free"] for p in per_pair], blocks, nv))
 

@@ -221,7 +221,8 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
         pairs = [ContactPair(body.facet_tags, slave=[body.tag(n) for n in q.slave],
                              master=[body.tag(n) for n in q.master],
                              friction=friction if q.friction is None else float(q.friction),
-                             search_distance=q.search_distance, name=q.name) for q in scene.contact_pairs]
+                             search_distance=q.search_distance, name=q.name, method=q.method)
+                 for q in scene.contact_pairs]
         contact = (body.facet_tags, [body.tag(name) for name in body.contact]) if scene.obstacles else None
         problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
                                  obstacles=scene.obstacles or None, contact_pairs=pairs, settings=settings,

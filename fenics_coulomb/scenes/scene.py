@@ -47,7 +47,8 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     [[contact_pair]]        # slave and master: boundary names (lists allowed); friction: default [friction]
     slave = "curved"
     master = "block_top"
-    friction = 0.0          # optional: search_distance (default 0.1 × the master's bounding-box diagonal), name
+    friction = 0.0          # optional: search_distance (default 0.1 × the master's bounding-box diagonal), name,
+    method = "mortar"       #   method: "mortar" (dual mortar, default) or "node-to-surface"; the smaller surface is the slave
 
     [[path.step]]           # optional: a quasi-static load path (fenics_coulomb.scenes.path), one table per step;
     substeps = 3            # what a step does not set is the scene's value (per boundary, per obstacle)
@@ -121,7 +122,7 @@ KINDS: dict[str, dict[str, str]] = {
                   "body_force": "vector", "substeps": "int"},
     "bodies": {"*": "int"},
     "contact_pair": {"slave": "surface", "master": "surface", "friction": "number", "search_distance": "number",
-                     "name": "str"},
+                     "name": "str", "method": "str"},
 }
 _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
               "names": "a list of boundary names (strings)",
@@ -397,6 +398,8 @@ class PairSection:
     #: None: 0.1 × the master surface's bounding-box diagonal.
     search_distance: float | None = None
     name: str | None = None
+    #: "mortar" (dual mortar, the default) or "node-to-surface".
+    method: str = "mortar"
 
 
 def pairs_from_toml(where: str, value: Any) -> list[PairSection]:
@@ -664,6 +667,8 @@ class Scene:
             if pair.search_distance is not None and not (math.isfinite(pair.search_distance)
                                                           and pair.search_distance > 0):
                 raise InputError(f"[[contact_pair]] {i} search_distance = {pair.search_distance!r}: must be > 0")
+            if pair.method not in ("mortar", "node-to-surface"):
+                raise InputError(f"[[contact_pair]] {i} method = {pair.method!r}: must be 'mortar' or 'node-to-surface'")
 
     def _validate_path(self, names: dict[str, Any], where: str) -> None:
         """Check the ``[[path.step]]`` tables: kinds, boundary and obstacle names, values, substeps."""

@@ -165,7 +165,7 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
     from brute_force import solve_contact
 
     V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_SELF, lower=(5, 3, 2), upper=(4, 4, 3))
-    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction, method="node-to-surface")
     with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="bf_") as problem:
         uh, result = problem.solve()
         assert result.converged
@@ -282,7 +282,7 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
            dolfinx.fem.dirichletbc(np.zeros(3), sides, V)]
     a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
     plane = Plane(point=[0.0, 0.0, -1.00003], normal=[0.0, 0.0, 1.0], name="floor")
-    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction, method="node-to-surface")
     with ContactProblem(a, None, bcs, contact=(ft, [LOWER_BOTTOM]), obstacles=[plane], friction=friction,
                         contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mixed_") as problem:
         _, result = problem.solve()

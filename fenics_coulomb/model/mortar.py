@@ -1,0 +1,463 @@
+r"""Dual mortar pairing of two elastic bodies (issue 28): the stencil Φ_jl = M_jl / D_j, the weighted gap, the
+slave nodal normals — the same change of variables u = (I + Φ) z as node-to-surface contact.
+
+With biorthogonal ("dual") multipliers the mortar matrix D of the slave side is diagonal, so the mortar
+constraint of slave node j, D_j u_j − Σ_l M_jl u_l, divided by D_j is again a node-wise relative displacement
+
+    w_j = u_j − Σ_l Φ_jl u_l,   Φ_jl = M_jl / D_j,
+
+exactly the form of :mod:`fenics_coulomb.model.two_body` (there Φ_jl = the master shape functions at one
+closest point). Only the pairing changes; the SCD Newton, the frames and friction are those of one node.
+
+Derivation
+----------
+Let λ_h = Σ_j λ_j ψ_j be the contact traction on the slave surface S (ψ_j the dual basis below) and
+u^s, u^m the slave and master displacements. The mortar coupling is the virtual work
+
+    ∫_S λ_h · (u^s − u^m ∘ π) ds = Σ_j λ_j · (D_j u_j − Σ_l M_jl u_l),
+
+    D_jk = ∫_S ψ_j N_k^s ds = δ_jk D_j   (biorthogonality),   M_jl = ∫_S ψ_j (N_l^m ∘ π) ds,
+
+π the map of a slave point to the master point opposite it (here: the same point of an auxiliary plane).
+So the slave node j receives the force f_j = D_j λ_j and the master node l receives −Σ_j M_jl λ_j = −Σ_j Φ_jl f_j
+(the master forces of :meth:`fenics_coulomb.model.coupling.PairCoupling.master_forces`, unchanged), and the
+contact conditions are imposed on the weighted gap g̃_j + n_j · (D_j u_j − Σ_l M_jl u_l) = D_j (g_j + n_j · w_j)
+with the nodal gap g_j = g̃_j / D_j: node j is a contact node of the one-body form with u_j replaced by w_j and
+the force f_j; its pressure is λ_j·n_j = f_j·n_j / D_j. A rigid translation c of both bodies gives
+w_j = (1 − Σ_l Φ_jl) c = 0, since Σ_l N_l^m = 1 makes Σ_l M_jl = ∫ ψ_j = ∫ ψ_j Σ_k N_k^s = D_j on a fully
+covered node. A uniform pressure p (λ_j = p n_j... with Σ_j ψ_j = 1) gives the slave forces p ∫ N_j and the
+master forces p ∫ N_l^m: the consistent loads of both bodies, so the patch test passes on any meshes.
+
+The discretization (exactly the definitions of issue 28; held-out references use them)
+--------------------------------------------------------------------------------------
+All in the reference configuration, once per pair, for P1 triangles (N = 1 − ξ − η, ξ, η) and Q1
+quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex order).
+
+* Slave nodal normal: n̂_j = the normalized sum, over the slave facets f containing vertex j, of f's unit
+  outward normal (out of the SLAVE body) at x_j. The frame normal is n_j = −n̂_j (it plays the master's
+  outward normal); t₁, t₂ from :func:`fenics_coulomb.model.frames.frames_from_normals`.
+* Dual basis on each slave facet e: ψ_j = Σ_k A_jk N_k, A = D_e M_e⁻¹, D_e = diag(∫_e N_j ds),
+  (M_e)_jk = ∫_e N_j N_k ds on the whole facet (triangle: the 7-point rule, exact; quadrilateral: 4 × 4 Gauss
+  points of |x_ξ × x_η|, exact for a planar facet), so ∫_e ψ_j N_k = δ_jk ∫_e N_j.
+* Segmentation: for each slave facet e the auxiliary plane P_e through its centre c_e (the vertex mean) with
+  normal n_c = the facet's outward unit normal at its centre. The vertices of e and of each candidate master
+  facet are projected orthogonally onto P_e (2D coordinates in an orthonormal basis of P_e), both polygons
+  oriented counter-clockwise; a projected quadrilateral that is not convex is an InputError. The master
+  polygon is clipped by the slave polygon (Sutherland–Hodgman), each clip polygon triangulated from its vertex
+  mean, each triangle integrated with the symmetric 7-point Gauss rule of degree 5. A point p of P_e maps back
+  to reference coordinates on e and on the master facet by inverting their projections onto P_e (linear for
+  triangles, 20 Newton steps from the centre for the bilinear map of a quadrilateral); ds on e = dA / |n_c · n_e(ξ)|.
+* D_j = Σ ∫ ψ_j N_j^s ds, M_jl = Σ ∫ ψ_j N_l^m ds, g̃_j = Σ ∫ ψ_j g ds over the segments of the facets containing
+  j, with g = (x^s − x^m) · n(ξ), n(ξ) = Σ_k N_k^s n_k (the interpolated frame normal, not normalized).
+  g_j = g̃_j / D_j, Φ_jl = M_jl / D_j (entries with |Φ_jl| <= 1e-12 are dropped: the zero-area slivers where
+  a master facet only touches the slave facet along an edge or at a vertex).
+* Coverage: node j is fully covered when Σ over its segments of ∫ N_j ds >= (1 − 1e-8) ∫_S N_j ds (the
+  whole-facet integrals of the dual basis above). Only fully covered nodes are contact nodes (with no Dirichlet
+  component and |g_j| <= the search distance): a partially covered node at the border of M is free, as a
+  node beside M's outer edge is in node-to-surface contact ("edge dropping": the smaller surface should be
+  the slave).
+
+Candidate master facets of a slave facet e: those facing it (n_m · n_c < 0 at the facets' centres, so the
+far side of a curved or thin master is never counted twice) whose centre lies within 2 r_e + r_m of p_e, the
+closest master point to e's centre (r the largest centre–vertex distance of a facet): every master facet
+under e when the master is locally smooth and not steeper than about 60° against P_e. A master facet
+parallel to n_c (projected area below 1e-10 of its own) is skipped.
+
+Vectorized over batches of (slave facet, master facet) pairs; contributions are summed per node in the
+global order of the facets (sorted by their global vertex numbers), so every partition gives the same sums.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from fenics_coulomb.errors import InputError
+
+__all__ = ["COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "clip", "dual_coefficients", "facet_map",
+           "facet_normals", "mortar_nodes", "nodal_normals", "shape_functions"]
+
+Array = npt.NDArray[np.float64]
+
+#: Full coverage: Σ ∫ N_j over the segments >= (1 − COVERAGE_TOL) ∫_S N_j.
+COVERAGE_TOL = 1e-8
+#: Stencil entries |Φ_jl| at most this are dropped (zero-area slivers).
+DROP_TOL = 1e-12
+#: Clipping: a point within CLIP_TOL × the slave facet's size of an edge's inside counts as inside.
+CLIP_TOL = 1e-12
+#: Pairs per batch (bounds the memory: about 56 quadrature points per pair).
+BATCH = 4096
+
+_S15 = np.sqrt(15.0)
+_A1, _B1 = (9 - 2 * _S15) / 21, (6 + _S15) / 21
+_A2, _B2 = (9 + 2 * _S15) / 21, (6 - _S15) / 21
+#: The symmetric 7-point Gauss rule on a triangle, exact for degree 5: barycentric points and weights (sum 1).
+GAUSS7 = np.array([[1 / 3, 1 / 3, 1 / 3],
+                   [_A1, _B1, _B1], [_B1, _A1, _B1], [_B1, _B1, _A1],
+                   [_A2, _B2, _B2], [_B2, _A2, _B2], [_B2, _B2, _A2]])
+GAUSS7_W = np.array([9 / 40] + [(155 + _S15) / 1200] * 3 + [(155 - _S15) / 1200] * 3)
+
+#: Polygon (cyclic) order of the facet vertices: triangle, quadrilateral (basix tensor order 0 1 2 3).
+_CYCLE = {3: np.array([0, 1, 2]), 4: np.array([0, 1, 3, 2])}
+#: Reference coordinates of the facet vertices.
+_VERTICES = {3: np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
+             4: np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])}
+
+
+def _dot(a: Array, b: Array) -> Array:
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _norm(a: Array) -> Array:
+    return np.sqrt(_dot(a, a))
+
+
+def _cross2(a: Array, b: Array) -> Array:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def shape_functions(nv: int, xi: Array, eta: Array) -> Array:
+    """N at reference points (…): triangle (1 − ξ − η, ξ, η), quadrilateral the bilinear ones; shape (…, nv)."""
+    if nv == 3:
+        return np.stack([1 - xi - eta, xi, eta], axis=-1)
+    return np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), (1 - xi) * eta, xi * eta], axis=-1)
+
+
+def facet_map(X: Array, xi: Array, eta: Array) -> tuple[Array, Array, Array]:
+    """x(ξ, η), x_ξ, x_η of facets X (…, nv, dim) at reference points (…) (broadcast over the leading axes)."""
+    if X.shape[-2] == 3:
+        a, b = X[..., 1, :] - X[..., 0, :], X[..., 2, :] - X[..., 0, :]
+        x = X[..., 0, :] + xi[..., None] * a + eta[..., None] * b
+        return x, np.broadcast_to(a, x.shape), np.broadcast_to(b, x.shape)
+    a, b = X[..., 1, :] - X[..., 0, :], X[..., 2, :] - X[..., 0, :]
+    c = X[..., 0, :] - X[..., 1, :] - X[..., 2, :] + X[..., 3, :]
+    x = X[..., 0, :] + xi[..., None] * a + eta[..., None] * b + (xi * eta)[..., None] * c
+    return x, a + eta[..., None] * c, b + xi[..., None] * c
+
+
+def facet_normals(X: Array, sign: Array, xi: Array, eta: Array) -> Array:
+    """Outward unit normals sign·(x_ξ × x_η)/|x_ξ × x_η| of facets X (…, nv, 3) at (ξ, η) (…)."""
+    _, xx, xe = facet_map(X, xi, eta)
+    N = np.cross(xx, xe)
+    return sign[..., None] * N / _norm(N)[..., None]
+
+
+def _inverse_2d(P: Array, p: Array) -> tuple[Array, Array]:
+    """Reference coordinates of the points p (k, q, 2) in the 2D facets P (k, nv, 2): linear (triangle) or 20
+    Newton steps from the centre (bilinear; a fixed count, so a point's result does not depend on its batch)."""
+    a, b = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
+    r = p - P[:, None, 0]
+    if P.shape[1] == 3:
+        det = _cross2(a, b)[:, None]
+        return _cross2(r, b[:, None]) / det, _cross2(a[:, None], r) / det
+    c = (P[:, 0] - P[:, 1] - P[:, 2] + P[:, 3])[:, None]
+    a, b = a[:, None], b[:, None]
+    xi = np.full(p.shape[:2], 0.5)
+    eta = np.full(p.shape[:2], 0.5)
+    for _ in range(20):
+        f = xi[..., None] * a + eta[..., None] * b + (xi * eta)[..., None] * c - r
+        ja, jb = a + eta[..., None] * c, b + xi[..., None] * c
+        det = _cross2(ja, jb)
+        det = np.where(np.abs(det) > 0, det, 1.0)
+        xi, eta = xi - _cross2(f, jb) / det, eta - _cross2(ja, f) / det
+    return xi, eta
+
+
+def dual_coefficients(X: Array) -> tuple[Array, Array]:
+    """A = D_e M_e⁻¹ of the dual basis and D_e's diagonal ∫_e N_j ds for facets X (k, nv, 3) (whole facets)."""
+    nv = X.shape[1]
+    if nv == 3:
+        xi, eta = GAUSS7[:, 1], GAUSS7[:, 2]
+        w = 0.5 * GAUSS7_W
+    else:
+        g, gw = np.polynomial.legendre.leggauss(4)
+        g, gw = 0.5 * (g + 1), 0.5 * gw
+        xi, eta = np.repeat(g, 4), np.tile(g, 4)
+        w = np.repeat(gw, 4) * np.tile(gw, 4)
+    N = shape_functions(nv, xi, eta)  # (q, nv)
+    _, xx, xe = facet_map(X[:, None], xi[None], eta[None])
+    J = _norm(np.cross(xx, xe)) * w  # (k, q)
+    Me = np.einsum("kq,qi,qj->kij", J, N, N)
+    De = np.einsum("kq,qi->ki", J, N)
+    A = np.transpose(np.linalg.solve(Me, De[:, :, None] * np.eye(nv)), (0, 2, 1))  # (M⁻¹ D)ᵀ = D M⁻¹
+    return A, De
+
+
+def _vertex_normals(X: Array, sign: Array) -> Array:
+    """Each facet's outward unit normal at each of its vertices, shape (k, nv, 3)."""
+    nv = X.shape[1]
+    ref = _VERTICES[nv]
+    return facet_normals(X[:, None], sign[:, None] * np.ones(nv), ref[None, :, 0] * np.ones((X.shape[0], 1)),
+                         ref[None, :, 1] * np.ones((X.shape[0], 1)))
+
+
+def nodal_normals(X: Array, blocks: npt.NDArray[np.int64], sign: Array) -> tuple[npt.NDArray[np.int64], Array]:
+    """The slave FRAME normals n_j = −n̂_j of every vertex of the facets (sorted unique vertices, normals)."""
+    vertices, inverse = np.unique(blocks.ravel(), return_inverse=True)
+    total = np.zeros((vertices.size, 3))
+    np.add.at(total, inverse, _vertex_normals(X, sign).reshape(-1, 3))
+    return vertices, -total / _norm(total)[:, None]
+
+
+@dataclass
+class MortarNodes:
+    """The mortar data of the requested slave nodes (in their order).
+
+    Attributes:
+        normal: Frame normal n_j = −n̂_j, shape (m, 3).
+        D: D_j, shape (m,).
+        full: ∫_S N_j ds over the whole slave facets containing j, shape (m,).
+        covered: Σ ∫ N_j ds over the segments, shape (m,).
+        weighted_gap: g̃_j, shape (m,).
+        stencil_blocks: Global master blocks l with Φ_jl ≠ 0, ascending, −1 padded, shape (m, k).
+        stencil: Φ_jl, 0 on padding, shape (m, k).
+        M: M_jl on the same layout (unscaled), shape (m, k).
+    """
+
+    normal: Array
+    D: Array
+    full: Array
+    covered: Array
+    weighted_gap: Array
+    stencil_blocks: npt.NDArray[np.int64]
+    stencil: Array
+    M: Array
+
+    @property
+    def fully_covered(self) -> npt.NDArray[np.bool_]:
+        """Σ ∫ N_j >= (1 − 1e-8) ∫_S N_j (and D_j > 0)."""
+        return (self.covered >= (1 - COVERAGE_TOL) * self.full) & (self.D > 0) & (self.full > 0)
+
+    @property
+    def gap(self) -> Array:
+        """g_j = g̃_j / D_j (inf where D_j <= 0)."""
+        return np.divide(self.weighted_gap, self.D, out=np.full_like(self.D, np.inf), where=self.D > 0)
+
+
+def _where(x: Array) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
+
+
+def _convex(P: Array) -> npt.NDArray[np.bool_]:
+    """Whether the counter-clockwise polygons P (k, n, 2) are convex (every turn left, up to round-off)."""
+    e = np.roll(P, -1, axis=1) - P
+    turn = _cross2(e, np.roll(e, -1, axis=1))
+    scale = np.max(_dot(e, e), axis=1)
+    return (turn >= -1e-10 * scale[:, None]).all(axis=1)
+
+
+def _ccw(P: Array) -> tuple[Array, Array]:
+    """The polygons P (k, n, 2) counter-clockwise, and their (positive) areas."""
+    area = 0.5 * np.sum(_cross2(P, np.roll(P, -1, axis=1)), axis=1)
+    return np.where((area < 0)[:, None, None], P[:, ::-1], P), np.abs(area)
+
+
+def clip(subject: Array, count: npt.NDArray[np.intp], clipper: Array, tol: Array) -> tuple[Array, npt.NDArray[np.intp]]:
+    """Sutherland–Hodgman: the convex polygons ``subject`` (k, s, 2; ``count`` vertices each) clipped by the
+    convex counter-clockwise polygons ``clipper`` (k, c, 2); a point within ``tol`` (k,) of an edge's inside
+    counts as inside. Returns the clip polygons (k, s + c, 2) and their vertex counts (0 when empty)."""
+    k, c = clipper.shape[0], clipper.shape[1]
+    width = subject.shape[1] + c
+    P = np.zeros((k, width, 2))
+    P[:, : subject.shape[1]] = subject
+    n = count.astype(np.intp).copy()
+    rows = np.arange(k)
+    slots = np.arange(width)
+    for edge in range(c):
+        a, b = clipper[:, edge], clipper[:, (edge + 1) % c]
+        t = b - a
+        length = _norm(t)
+        d = _cross2(t[:, None], P - a[:, None]) / np.maximum(length, np.finfo(float).tiny)[:, None]  # > 0: inside
+        inside = d >= -tol[:, None]
+        nxt = (slots[None, :] + 1) % np.maximum(n, 1)[:, None]
+        Pn = P[rows[:, None], nxt]
+        dn = d[rows[:, None], nxt]
+        inn = inside[rows[:, None], nxt]
+        valid = slots[None, :] < n[:, None]
+        cross = valid & (inside != inn)
+        s = d / np.where(d - dn != 0, d - dn, 1.0)
+        hit = P + s[..., None] * (Pn - P)
+        out = np.zeros((k, 2 * width, 2))
+        keep = np.zeros((k, 2 * width), dtype=bool)
+        out[:, 0::2], keep[:, 0::2] = hit, cross
+        out[:, 1::2], keep[:, 1::2] = Pn, valid & inn
+        order = np.argsort(~keep, axis=1, kind="stable")[:, :width]
+        P = np.take_along_axis(out, order[..., None], axis=1)
+        n = np.minimum(keep.sum(axis=1), width)
+    n = np.where(n >= 3, n, 0)
+    return P, n
+
+
+def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Array, m_centre: Array,
+                m_radius: Array, m_normal: Array) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """(slave facet, master facet) pairs with |c_m − p_e| <= 2 r_e + r_m, facing each other, sorted."""
+    if anchors.shape[0] == 0 or m_centre.shape[0] == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    pad = 1e-9 * float(max(s_radius.max(), m_radius.max()))
+    found = []
+    # r_m <= r_e: within 3 r_e of p_e; r_m > r_e: within 3 r_m of c_m (the two queries cover every pair)
+    lists = cKDTree(m_centre).query_ball_point(anchors, 3 * s_radius + pad)
+    lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
+    found.append((np.repeat(np.arange(len(lists)), lengths),
+                  np.fromiter((j for li in lists for j in li), dtype=np.intp, count=int(lengths.sum()))))
+    lists = cKDTree(anchors).query_ball_point(m_centre, 3 * m_radius + pad)
+    lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
+    found.append((np.fromiter((j for li in lists for j in li), dtype=np.intp, count=int(lengths.sum())),
+                  np.repeat(np.arange(len(lists)), lengths)))
+    e = np.concatenate([f[0] for f in found])
+    m = np.concatenate([f[1] for f in found])
+    key = np.unique(e.astype(np.int64) * m_centre.shape[0] + m)
+    e, m = key // m_centre.shape[0], key % m_centre.shape[0]
+    near = _norm(m_centre[m] - anchors[e]) <= 2 * s_radius[e] + m_radius[m] + pad
+    facing = _dot(m_normal[m], s_normal[e]) < 0
+    keep = near & facing
+    return e[keep].astype(np.intp), m[keep].astype(np.intp)
+
+
+def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tuple[Array, npt.NDArray[np.int64], Array],
+                 nodes: npt.NDArray[np.int64], anchor) -> MortarNodes:
+    """The mortar data of the slave nodes ``nodes`` (global blocks) of one pair (see the module docstring).
+
+    Args:
+        slave: The whole slave surface (every rank's facets): vertex coordinates (F, nv, 3), global blocks
+            (F, nv), outward orientation ±1 (F,) (out of the slave body), facets sorted by their vertices.
+        master: The whole master surface, likewise (orientation out of the master body).
+        nodes: The global blocks of the slave nodes wanted.
+        anchor: A function giving the closest master points of points (k, 3) (the node-to-surface projection).
+
+    Raises:
+        InputError: A projected quadrilateral that is not convex (the facet named by its centre).
+    """
+    sX, sB, sS = slave
+    mX, mB, mS = master
+    m = nodes.size
+    nv, nvm = sX.shape[1], mX.shape[1]
+    empty = MortarNodes(np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m),
+                        np.full((m, 1), -1, np.int64), np.zeros((m, 1)), np.zeros((m, 1)))
+    if m == 0 or sX.shape[0] == 0:
+        return empty
+    vertices, frame_normals = nodal_normals(sX, sB, sS)
+    mine = np.isin(sB, nodes).any(axis=1)
+    E = np.flatnonzero(mine)
+    X, B, sign = sX[E], sB[E], sS[E]
+    A, De = dual_coefficients(X)
+    nF = E.size
+    # the auxiliary planes: centre, normal, an orthonormal basis (e1, e2) with e1 × e2 = n_c
+    centre = X.mean(axis=1)
+    half = np.full(nF, 0.5) if nv == 4 else np.full(nF, 1 / 3)
+    nc = facet_normals(X, sign, half, half)
+    e1 = X[:, 1] - X[:, 0]
+    e1 -= _dot(e1, nc)[:, None] * nc
+    e1 /= _norm(e1)[:, None]
+    e2 = np.cross(nc, e1)
+    s2 = np.stack([_dot(X - centre[:, None], e1[:, None]), _dot(X - centre[:, None], e2[:, None])], axis=-1)
+    s_poly, _ = _ccw(s2[:, _CYCLE[nv]])
+    s_radius = _norm(X - centre[:, None]).max(axis=1)
+    if nv == 4:
+        bad = np.flatnonzero(~_convex(s_poly))
+        if bad.size:
+            raise InputError(f"slave facet at {_where(centre[bad[0]])}: its projection onto its own auxiliary plane is "
+                             "not a convex quadrilateral (a warped facet): the mortar segmentation needs convex facets")
+    m_centre = mX.mean(axis=1)
+    m_radius = _norm(mX - m_centre[:, None]).max(axis=1)
+    mhalf = np.full(mX.shape[0], 0.5 if nvm == 4 else 1 / 3)
+    m_normal = facet_normals(mX, mS, mhalf, mhalf)
+    ei, mi = _candidates(centre, s_radius, np.asarray(anchor(centre)), nc, m_centre, m_radius, m_normal)
+
+    parts: dict[str, list] = {k: [] for k in ("e", "D", "cov", "g", "M", "m")}
+    for start in range(0, ei.size, BATCH):
+        e, f = ei[start:start + BATCH], mi[start:start + BATCH]
+        c, n1, n2 = centre[e], e1[e], e2[e]
+        m2 = np.stack([_dot(mX[f] - c[:, None], n1[:, None]), _dot(mX[f] - c[:, None], n2[:, None])], axis=-1)
+        m_poly, m_area = _ccw(m2[:, _CYCLE[nvm]])
+        true_area = 0.5 * _norm(np.cross(mX[f, 1] - mX[f, 0], mX[f, -1] - mX[f, 0] if nvm == 4 else
+                                         mX[f, 2] - mX[f, 0])) * (2 if nvm == 4 else 1)
+        lo, hi = m_poly.min(axis=1), m_poly.max(axis=1)
+        slo, shi = s_poly[e].min(axis=1), s_poly[e].max(axis=1)
+        tol = CLIP_TOL * s_radius[e]
+        keep = (m_area > 1e-10 * true_area) & (lo <= shi + tol[:, None]).all(axis=1) & \
+            (hi >= slo - tol[:, None]).all(axis=1)
+        if nvm == 4:
+            bad = np.flatnonzero(keep & ~_convex(m_poly))
+            if bad.size:
+                j = bad[0]
+                raise InputError(f"master facet at {_where(m_centre[f[j]])}: its projection onto the auxiliary plane of "
+                                 f"the slave facet at {_where(c[j])} is not a convex quadrilateral: the mortar "
+                                 "segmentation needs facets that face each other (refine, or use method = "
+                                 "'node-to-surface')")
+        e, f, m2, m_poly, c, tol = e[keep], f[keep], m2[keep], m_poly[keep], c[keep], tol[keep]
+        if e.size == 0:
+            continue
+        P, count = clip(m_poly, np.full(e.size, nvm), s_poly[e], tol)
+        # triangles from each clip polygon's vertex mean, the 7-point rule on each
+        width = P.shape[1]
+        valid = np.arange(width)[None, :] < count[:, None]
+        mean = np.sum(P * valid[..., None], axis=1) / np.maximum(count, 1)[:, None]
+        nxt = (np.arange(width)[None, :] + 1) % np.maximum(count, 1)[:, None]
+        Q = np.take_along_axis(P, nxt[..., None], axis=1)
+        area = 0.5 * _cross2(P - mean[:, None], Q - mean[:, None]) * valid  # (k, width)
+        pts = (GAUSS7[None, None, :, 0, None] * mean[:, None, None] + GAUSS7[None, None, :, 1, None] * P[:, :, None]
+               + GAUSS7[None, None, :, 2, None] * Q[:, :, None]).reshape(e.size, -1, 2)
+        wts = (area[:, :, None] * GAUSS7_W[None, None]).reshape(e.size, -1)
+        xs, es = _inverse_2d(s2[e], pts)
+        xm, em = _inverse_2d(m2, pts)
+        Ns = shape_functions(nv, xs, es)
+        Nm = shape_functions(nvm, xm, em)
+        x_s = facet_map(X[e][:, None], xs, es)[0]
+        x_m = facet_map(mX[f][:, None], xm, em)[0]
+        ne = facet_normals(X[e][:, None], sign[e][:, None] * np.ones(xs.shape[1]), xs, es)
+        W = wts / np.abs(_dot(ne, nc[e][:, None]))
+        vert = np.searchsorted(vertices, B[e])
+        nbar = np.einsum("kqi,kid->kqd", Ns, frame_normals[vert])
+        g = _dot(x_s - x_m, nbar)
+        psi = np.einsum("kjl,kql->kqj", A[e], Ns)
+        parts["e"].append(e)
+        parts["m"].append(f)
+        parts["D"].append(np.einsum("kq,kqj,kqj->kj", W, psi, Ns))
+        parts["cov"].append(np.einsum("kq,kqj->kj", W, Ns))
+        parts["g"].append(np.einsum("kq,kqj,kq->kj", W, psi, g))
+        parts["M"].append(np.einsum("kq,kqj,kql->kjl", W, psi, Nm))
+
+    # sums per node, in the global order of the (slave facet, master facet) pairs
+    order = np.argsort(nodes)
+    sorted_nodes = nodes[order]
+
+    def node_index(blocks: npt.NDArray[np.int64]) -> npt.NDArray[np.intp]:
+        pos = np.clip(np.searchsorted(sorted_nodes, blocks), 0, m - 1)
+        return np.where(sorted_nodes[pos] == blocks, order[pos], -1)
+
+    idx = node_index(B)
+    ok = idx >= 0
+    full = np.bincount(idx[ok], weights=De[ok], minlength=m)
+    normal = frame_normals[np.searchsorted(vertices, nodes)]
+    if not parts["e"]:
+        return MortarNodes(normal, np.zeros(m), full, np.zeros(m), np.zeros(m), np.full((m, 1), -1, np.int64),
+                           np.zeros((m, 1)), np.zeros((m, 1)))
+    e = np.concatenate(parts["e"])
+    f = np.concatenate(parts["m"])
+    idx = node_index(B[e])  # (k, nv)
+    ok = idx >= 0
+    D = np.bincount(idx[ok], weights=np.concatenate(parts["D"])[ok], minlength=m)
+    covered = np.bincount(idx[ok], weights=np.concatenate(parts["cov"])[ok], minlength=m)
+    gt = np.bincount(idx[ok], weights=np.concatenate(parts["g"])[ok], minlength=m)
+    Mv = np.concatenate(parts["M"])  # (k, nv, nvm)
+    rows = np.broadcast_to(idx[:, :, None], Mv.shape)
+    cols = np.broadcast_to(mB[f][:, None, :], Mv.shape)
+    sel = rows >= 0
+    rows, cols, vals = rows[sel], cols[sel], Mv[sel]
+    key, inverse = np.unique(np.stack([rows.astype(np.int64), cols]), axis=1, return_inverse=True)
+    sums = np.bincount(inverse.ravel(), weights=vals, minlength=key.shape[1])
+    r, l = key[0], key[1]
+    phi = sums / np.where(D[r] > 0, D[r], 1.0)
+    keep = np.abs(phi) > DROP_TOL
+    r, l, phi, sums = r[keep], l[keep], phi[keep], sums[keep]
+    width = max(int(np.bincount(r, minlength=m).max(initial=0)), 1)
+    start = np.searchsorted(r, np.arange(m))
+    slot = np.arange(r.size) - start[r]
+    blocks = np.full((m, width), -1, np.int64)
+    stencil, Mjl = np.zeros((m, width)), np.zeros((m, width))
+    blocks[r, slot], stencil[r, slot], Mjl[r, slot] = l, phi, sums
+    return MortarNodes(normal, D, full, covered, gt, blocks, stencil, Mjl)
