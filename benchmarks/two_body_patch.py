@@ -191,10 +191,9 @@ the master mesh (every slave node at a master vertex, edge midpoint or facet cen
 like the matching one; on non-matching meshes the largest nodal pressure error is several per cent on
 hexahedra and over 10 % on tetrahedra and does not fall when both meshes are refined (the row "refined
 twice"), while the total force stays within 0.3 %. Pressure: λᵢ/Dᵢ (mortar), λᵢ/Aᵢ (node-to-surface, Aᵢ the
-lumped area ∫ φᵢ ds; equal to Dᵢ on a fully covered node). "balance" is |force on the upper
-+ force on the lower block| / |force on the upper block| from their residuals; on tetrahedra it includes the
-lower block's lateral roller reactions at the master surface's perimeter nodes (they are supported nodes,
-counted in `prescribed_nodes` of `output.pair_forces`): support reactions, not contact forces.
+lumped area ∫ φᵢ ds; equal to Dᵢ on a fully covered node). "balance" is |force on the upper + force on the
+lower block| / |force on the upper block|, each from its own residual (on a supported master node the contact
+force it receives, `fenics_coulomb.model.forces.pair_forces`).
 
 {chr(10).join(table)}
 

@@ -97,9 +97,16 @@ def _ray_facets(x, direction, masters):
                 r = x + t[:, None] * direction - y
                 d1 = np.outer(1 - b, Y[1] - Y[0]) + np.outer(b, Y[3] - Y[2])
                 d2 = np.outer(1 - a, Y[2] - Y[0]) + np.outer(a, Y[3] - Y[1])
-                J = np.stack([np.broadcast_to(direction, d1.shape), -d1, -d2], axis=2)
-                step = np.linalg.solve(J, -r[:, :, None])[:, :, 0]
+                # Cramer's rule for [d, −x_ξ, −x_η] step = −r
+                c0, c1, c2 = np.broadcast_to(direction, d1.shape), -d1, -d2
+                det = np.einsum("qi,qi->q", c0, np.cross(c1, c2))
+                rhs = -r
+                step = np.stack([np.einsum("qi,qi->q", rhs, np.cross(c1, c2)),
+                                 np.einsum("qi,qi->q", c0, np.cross(rhs, c2)),
+                                 np.einsum("qi,qi->q", c0, np.cross(c1, rhs))], axis=1) / det[:, None]
                 t, a, b = t + step[:, 0], a + step[:, 1], b + step[:, 2]
+                if np.abs(step[:, 1:]).max() < 1e-15:
+                    break
             inside = (a >= -1e-12) & (a <= 1 + 1e-12) & (b >= -1e-12) & (b <= 1 + 1e-12)
             w = shape(4, a, b)
         take = inside & (np.abs(t) < best)
@@ -138,12 +145,13 @@ def brute_force(slave, slave_blocks, slave_sign, master, master_blocks, master_s
         N = shape(nv, P[:, 0], P[:, 1])
         psi = N @ A.T
         nbar = N @ np.array([normal[int(b)] for b in B])
-        # candidate master facets: facing, and near (the test meshes are small)
+        # candidate master facets: facing, and near (the test meshes' gaps are below 0.5)
         radius = np.linalg.norm(X - X.mean(axis=0), axis=1).max()
         cand = []
         for f, (Y, sg) in enumerate(zip(master, master_sign, strict=True)):
             _, cm = point(Y, np.array([0.5 if Y.shape[0] == 4 else 1 / 3]), np.array([0.5 if Y.shape[0] == 4 else 1 / 3]))
-            if sg * cm[0] @ nc < 0 and np.linalg.norm(mcentre[f] - X.mean(axis=0)) < 4 * radius + 1.0:
+            mradius = np.linalg.norm(Y - mcentre[f], axis=1).max()
+            if sg * cm[0] @ nc < 0 and np.linalg.norm(mcentre[f] - X.mean(axis=0)) < 2 * (radius + mradius) + 0.5:
                 cand.append(f)
         hit, xm, wm = _ray_facets(x, nc, [master[f] for f in cand])
         covered = hit >= 0

@@ -70,6 +70,7 @@ global order of the facets (sorted by their global vertex numbers), so every par
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 import numpy.typing as npt
@@ -284,8 +285,11 @@ def clip(subject: Array, count: npt.NDArray[np.intp], clipper: Array, tol: Array
         keep = np.zeros((k, 2 * width), dtype=bool)
         out[:, 0::2], keep[:, 0::2] = hit, cross
         out[:, 1::2], keep[:, 1::2] = Pn, valid & inn
-        order = np.argsort(~keep, axis=1, kind="stable")[:, :width]
-        P = np.take_along_axis(out, order[..., None], axis=1)
+        # compact the kept vertices to the front, in order (at most width: convex polygons)
+        dest = np.cumsum(keep, axis=1) - 1
+        row, col = np.nonzero(keep & (dest < width))
+        P = np.zeros((k, width, 2))
+        P[row, dest[row, col]] = out[row, col]
         n = np.minimum(keep.sum(axis=1), width)
     n = np.where(n >= 3, n, 0)
     return P, n
@@ -302,10 +306,10 @@ def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Arra
     lists = cKDTree(m_centre).query_ball_point(anchors, 3 * s_radius + pad)
     lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
     found.append((np.repeat(np.arange(len(lists)), lengths),
-                  np.fromiter((j for li in lists for j in li), dtype=np.intp, count=int(lengths.sum()))))
+                  np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))))
     lists = cKDTree(anchors).query_ball_point(m_centre, 3 * m_radius + pad)
     lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-    found.append((np.fromiter((j for li in lists for j in li), dtype=np.intp, count=int(lengths.sum())),
+    found.append((np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum())),
                   np.repeat(np.arange(len(lists)), lengths)))
     e = np.concatenate([f[0] for f in found])
     m = np.concatenate([f[1] for f in found])
@@ -313,12 +317,15 @@ def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Arra
     e, m = key // m_centre.shape[0], key % m_centre.shape[0]
     near = _norm(m_centre[m] - anchors[e]) <= 2 * s_radius[e] + m_radius[m] + pad
     facing = _dot(m_normal[m], s_normal[e]) < 0
-    keep = near & facing
+    # necessary for overlapping projections: the centres within r_e + r_m of each other along the plane P_e
+    d = m_centre[m] - s_centre[e]
+    lateral = _norm(d - _dot(d, s_normal[e])[:, None] * s_normal[e])
+    keep = near & facing & (lateral <= s_radius[e] + m_radius[m] + pad)
     return e[keep].astype(np.intp), m[keep].astype(np.intp)
 
 
 def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tuple[Array, npt.NDArray[np.int64], Array],
-                 nodes: npt.NDArray[np.int64], anchor) -> MortarNodes:
+                 nodes: npt.NDArray[np.int64], vertex_closest: tuple[npt.NDArray[np.int64], Array]) -> MortarNodes:
     """The mortar data of the slave nodes ``nodes`` (global blocks) of one pair (see the module docstring).
 
     Args:
@@ -326,7 +333,9 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
             (F, nv), outward orientation ±1 (F,) (out of the slave body), facets sorted by their vertices.
         master: The whole master surface, likewise (orientation out of the master body).
         nodes: The global blocks of the slave nodes wanted.
-        anchor: A function giving the closest master points of points (k, 3) (the node-to-surface projection).
+        vertex_closest: The closest master points (the node-to-surface projection) of the vertices of every slave
+            facet at ``nodes``: their global blocks (sorted) and the points; a facet's anchor p_e (the candidate
+            search) is the mean of its vertices' points.
 
     Raises:
         InputError: A projected quadrilateral that is not convex (the facet named by its centre).
@@ -365,7 +374,9 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     m_radius = _norm(mX - m_centre[:, None]).max(axis=1)
     mhalf = np.full(mX.shape[0], 0.5 if nvm == 4 else 1 / 3)
     m_normal = facet_normals(mX, mS, mhalf, mhalf)
-    ei, mi = _candidates(centre, s_radius, np.asarray(anchor(centre)), nc, m_centre, m_radius, m_normal)
+    known, points = vertex_closest
+    anchors = points[np.searchsorted(known, B)].mean(axis=1)
+    ei, mi = _candidates(centre, s_radius, anchors, nc, m_centre, m_radius, m_normal)
 
     parts: dict[str, list] = {k: [] for k in ("e", "D", "cov", "g", "M", "m")}
     for start in range(0, ei.size, BATCH):
@@ -411,15 +422,16 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         ne = facet_normals(X[e][:, None], sign[e][:, None] * np.ones(xs.shape[1]), xs, es)
         W = wts / np.abs(_dot(ne, nc[e][:, None]))
         vert = np.searchsorted(vertices, B[e])
-        nbar = np.einsum("kqi,kid->kqd", Ns, frame_normals[vert])
+        nbar = Ns @ frame_normals[vert]  # (k, q, 3)
         g = _dot(x_s - x_m, nbar)
-        psi = np.einsum("kjl,kql->kqj", A[e], Ns)
+        psi = Ns @ np.transpose(A[e], (0, 2, 1))  # ψ_j = Σ_l A_jl N_l
+        Wpsi = W[..., None] * psi
         parts["e"].append(e)
         parts["m"].append(f)
-        parts["D"].append(np.einsum("kq,kqj,kqj->kj", W, psi, Ns))
-        parts["cov"].append(np.einsum("kq,kqj->kj", W, Ns))
-        parts["g"].append(np.einsum("kq,kqj,kq->kj", W, psi, g))
-        parts["M"].append(np.einsum("kq,kqj,kql->kjl", W, psi, Nm))
+        parts["D"].append(np.sum(Wpsi * Ns, axis=1))
+        parts["cov"].append(np.sum(W[..., None] * Ns, axis=1))
+        parts["g"].append(np.sum(Wpsi * g[..., None], axis=1))
+        parts["M"].append(np.transpose(Wpsi, (0, 2, 1)) @ Nm)
 
     # sums per node, in the global order of the (slave facet, master facet) pairs
     order = np.argsort(nodes)
@@ -448,9 +460,10 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     cols = np.broadcast_to(mB[f][:, None, :], Mv.shape)
     sel = rows >= 0
     rows, cols, vals = rows[sel], cols[sel], Mv[sel]
-    key, inverse = np.unique(np.stack([rows.astype(np.int64), cols]), axis=1, return_inverse=True)
-    sums = np.bincount(inverse.ravel(), weights=vals, minlength=key.shape[1])
-    r, l = key[0], key[1]
+    span = int(cols.max(initial=0)) + 1
+    key, inverse = np.unique(rows.astype(np.int64) * span + cols, return_inverse=True)
+    sums = np.bincount(inverse.ravel(), weights=vals, minlength=key.size)
+    r, l = key // span, key % span
     phi = sums / np.where(D[r] > 0, D[r], 1.0)
     keep = np.abs(phi) > DROP_TOL
     r, l, phi, sums = r[keep], l[keep], phi[keep], sums[keep]

@@ -80,6 +80,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from itertools import chain
 from typing import Any
 
 from mpi4py import MPI
@@ -463,7 +464,13 @@ def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
 
 
 def _pair_nodes(x: Array, surface: _Surface, size: Array, rank: npt.NDArray[np.intp]) -> dict[str, Array]:
-    """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface."""
+    """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface.
+
+    Candidate facets: a first bound U on each node's distance from its 4 nearest facet centres, then every facet
+    whose centre lies within U + r_f (+ the tie tolerance) of the node — a facet nearer than U, or tied with the
+    nearest, is among them (its distance is at least its centre distance − its radius r_f). The facets are
+    grouped by radius (powers of 2) with a KD-tree per group, so the small facets of a graded surface are not
+    searched with the radius of its largest facet."""
     m, nv = x.shape[0], surface.X.shape[1]
     out = {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
            "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
@@ -472,22 +479,37 @@ def _pair_nodes(x: Array, surface: _Surface, size: Array, rank: npt.NDArray[np.i
         return out
     centres = surface.X.mean(axis=1)
     radius = _norm(surface.X - centres[:, None]).max(axis=1)
-    rmax, hmax = float(radius.max()), float(size.max())
-    tree = cKDTree(centres)
-    pending = np.arange(m)
-    k = min(nf, 8)
-    while pending.size:  # candidate facets: the k nearest centroids, k doubled until provably enough
-        dd, ii = tree.query(x[pending], k=k)
-        dd, ii = dd.reshape(pending.size, k), ii.reshape(pending.size, k)
-        p = np.repeat(x[pending], k, axis=0)
-        q, w, dist = _closest(p, surface.X[ii.ravel()])
-        q, w, dist = q.reshape(-1, k, 3), w.reshape(-1, k, nv), dist.reshape(-1, k)
-        bound = dd[:, -1] - rmax
-        done = (k == nf) | (bound > dist.min(axis=1) + TIE_TOL * hmax)
-        sel = np.flatnonzero(done)
-        _select(x[pending[sel]], ii[sel], q[sel], w[sel], dist[sel], surface, size, rank, out, pending[sel])
-        pending = pending[~done]
-        k = min(2 * k, nf)
+    hmax = float(size.max())
+    k0 = min(nf, 4)
+    _, ii = cKDTree(centres).query(x, k=k0)
+    ii = ii.reshape(m, k0)
+    _, _, dist = _closest(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
+    bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
+    # the candidate (node, facet) pairs, by radius classes
+    level = np.floor(np.log2(np.maximum(radius, np.finfo(float).tiny))).astype(np.int64)
+    nodes_l, facets_l = [], []
+    for lv in np.unique(level):
+        members = np.flatnonzero(level == lv)
+        lists = cKDTree(centres[members]).query_ball_point(x, bound + radius[members].max())
+        lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
+        nodes_l.append(np.repeat(np.arange(m), lengths))
+        facets_l.append(members[np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))])
+    node = np.concatenate(nodes_l)
+    facet = np.concatenate(facets_l)
+    order = np.lexsort((facet, node))
+    node, facet = node[order], facet[order]
+    q, w, dist = _closest(x[node], surface.X[facet])
+    # rectangular batches of nodes with similar candidate counts (padding: distance inf, never tied or chosen)
+    count = np.bincount(node, minlength=m)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]])
+    width = np.maximum(1, 2 ** np.ceil(np.log2(np.maximum(count, 1)))).astype(np.intp)
+    for k in np.unique(width):
+        sel = np.flatnonzero(width == k)
+        slot = np.arange(k)[None, :]
+        valid = slot < count[sel, None]
+        src = np.where(valid, first[sel, None] + slot, first[sel, None])
+        dk = np.where(valid, dist[src], np.inf)
+        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel)
     return out
 
 
@@ -539,6 +561,18 @@ def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array,
 
 
 # -- the pairing ------------------------------------------------------------------------------------------
+def _node_size(surface: _Surface, nodes: npt.NDArray[np.int64]) -> Array:
+    """The largest diameter of the facets of ``surface`` at each of the global blocks ``nodes`` (0: none)."""
+    nv = surface.X.shape[1]
+    diameter = np.max([_norm(surface.X[:, i] - surface.X[:, j]) for i in range(nv) for j in range(i + 1, nv)], axis=0) \
+        if surface.X.shape[0] else np.zeros(0)
+    vertices, inverse = np.unique(surface.blocks.ravel(), return_inverse=True)
+    largest = np.zeros(vertices.size)
+    np.maximum.at(largest, inverse.ravel(), np.repeat(diameter, nv))
+    pos = np.clip(np.searchsorted(vertices, nodes), 0, max(vertices.size - 1, 0))
+    return np.where(vertices[pos] == nodes, largest[pos], 0.0) if vertices.size else np.zeros(nodes.size)
+
+
 def _where(x: Array) -> str:
     return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
 
@@ -637,16 +671,36 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         rank[np.lexsort(key.T[::-1])] = np.arange(key.shape[0])
         if pair.method == "mortar":
             slave = _gather(comm, _facet_data(V, slave_facets, X_dofs), nv)
-            gnodes = imap.local_to_global(nodes).astype(np.int64)
+            # the node-to-surface projection of every vertex of the slave facets at this rank's owned slave
+            # nodes, once: the nodes to segment, the facets' anchors, the free nodes' penetration check
+            g_owned = imap.local_to_global(owned_slave).astype(np.int64)
+            touch = np.isin(slave.blocks, g_owned).any(axis=1)
+            verts, first = np.unique(slave.blocks[touch].ravel(), return_index=True)
+            projected = _pair_nodes(slave.X[touch].reshape(-1, 3)[first], master, size, rank)
+            position = np.searchsorted(verts, g_owned)  # owned slave node i ↔ vertex position[i]
+            at_nodes = position[np.searchsorted(owned_slave, nodes)]
+            # segmented: the nodes within 2 × search + 4 h of M (node-to-surface distance; h the largest slave
+            # facet diameter at the node); the others cannot have |g_j| <= search (see the mortar module)
+            gn = g_owned[np.searchsorted(owned_slave, nodes)]
+            near = _norm(X_dofs[nodes] - projected["closest"][at_nodes]) <= 2 * search + 4 * _node_size(slave, gn)
             mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
-                                  gnodes, lambda p: _pair_nodes(p, master, size, rank)["closest"])
-            g = mortar.gap
-            normal = mortar.normal
+                                  gn[near], (verts, projected["closest"]))
+            g = np.full(nodes.size, np.inf)
+            g[near] = mortar.gap
+            normal = np.tile([0.0, 0.0, 1.0], (nodes.size, 1))
+            normal[near] = mortar.normal
             R = frames_from_normals(normal) if nodes.size else np.zeros((0, 3, 3))
-            contact = mortar.fully_covered & (np.abs(g) <= search)
+            contact = np.zeros(nodes.size, dtype=bool)
+            contact[near] = mortar.fully_covered & (np.abs(mortar.gap) <= search)
             closest = X_dofs[nodes] - np.where(np.isfinite(g), g, 0.0)[:, None] * normal
-            stencil_blocks, stencil = mortar.stencil_blocks, mortar.stencil
-            D = mortar.D
+            stencil_blocks = np.full((nodes.size, mortar.stencil.shape[1]), -1, np.int64)
+            stencil = np.zeros((nodes.size, mortar.stencil.shape[1]))
+            stencil_blocks[near], stencil[near] = mortar.stencil_blocks, mortar.stencil
+            D = np.zeros(nodes.size)
+            D[near] = mortar.D
+            others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
+            at = position[np.searchsorted(owned_slave, others)]
+            ro = {key: value[at] for key, value in projected.items()}
         else:
             res = _pair_nodes(X_dofs[nodes], master, size, rank)
             R = frames_from_normals(res["normal"]) if nodes.size else np.zeros((0, 3, 3))
@@ -656,10 +710,10 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             stencil_blocks = master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64)
             stencil = res["weights"]
             D = np.full(nodes.size, np.nan)
-        # the other owned slave nodes over M (Dirichlet ones, or beyond the search distance): checked for
-        # penetration after a solve
-        others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
-        ro = _pair_nodes(X_dofs[others], master, size, rank)
+            others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
+            ro = _pair_nodes(X_dofs[others], master, size, rank)
+        # the other owned slave nodes over M (Dirichlet ones, beyond the search distance, mortar nodes not fully
+        # covered): checked for penetration after a solve, with their node-to-surface projection
         go = _dot(X_dofs[others] - ro["closest"], ro["normal"])
         over = ro["paired"]
         per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=closest, blocks=stencil_blocks,

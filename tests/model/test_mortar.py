@@ -57,8 +57,9 @@ def surfaces(cell, slave_tag, master_tag, n_lower, n_upper=(4, 4, 2), gap=0.3, l
 def library(S, M, nodes):
     size = np.linalg.norm(M.X[:, 0] - M.X[:, -1], axis=1)
     rank = np.arange(M.X.shape[0])
-    return mortar_nodes((S.X, S.blocks, S.sign), (M.X, M.blocks, M.sign), nodes,
-                        lambda p: _pair_nodes(p, M, size, rank)["closest"])
+    verts, first = np.unique(S.blocks.ravel(), return_index=True)
+    closest = _pair_nodes(S.X.reshape(-1, 3)[first], M, size, rank)["closest"]
+    return mortar_nodes((S.X, S.blocks, S.sign), (M.X, M.blocks, M.sign), nodes, (verts, closest))
 
 
 def test_quadrature_and_dual_basis():
@@ -292,4 +293,4 @@ def test_bad_method_and_non_convex_facets():
     Y[0, 3] = [0.2, 0.2, -0.1]  # a non-convex (arrow-shaped) master facet
     with pytest.raises(InputError, match="not a convex quadrilateral"):
         mortar_nodes((X, np.array([[0, 1, 2, 3]]), np.array([-1.0])), (Y, np.array([[4, 5, 6, 7]]), np.array([1.0])),
-                     np.array([0, 1, 2, 3]), lambda p: p - [0, 0, 0.1])
+                     np.array([0, 1, 2, 3]), (np.arange(4), X[0] - [0, 0, 0.1]))
