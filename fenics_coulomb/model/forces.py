@@ -37,10 +37,22 @@ def block_to_scalar_dofs(V: dolfinx.fem.FunctionSpace, S: dolfinx.fem.FunctionSp
 
 
 def contact_areas(model: ContactModel) -> npt.NDArray[np.float64]:
-    """Each owned contact node's share of the contact surface, ∫ φᵢ ds over the contact boundary (lumped facet
-    areas; collective)."""
+    """Each owned contact node's share of the contact surface: ∫ φᵢ ds over the contact boundary (lumped facet
+    areas), and D_j = ∫ ψ_j N_j ds on a dual mortar pair's slave nodes (= ∫ N_j ds over its slave facets: the
+    pressure there is f_j·n_j / D_j; collective)."""
     if not model.markers:
         return np.zeros(model.contact.size)
+    areas = _lumped_areas(model)
+    pairing = getattr(model, "pairing", None)
+    if pairing is not None and pairing.size:
+        paired = np.flatnonzero(model.paired)  # the pairing's nodes, in the same ascending block order
+        mortar = np.isfinite(pairing.area)
+        areas[paired[mortar]] = pairing.area[mortar]
+    return areas
+
+
+def _lumped_areas(model: ContactModel) -> npt.NDArray[np.float64]:
+    """∫ φᵢ ds over the contact boundary at each owned contact node (collective)."""
     msh = model.V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
     v = ufl.TestFunction(S)
@@ -74,7 +86,8 @@ def pair_forces(model: ContactModel, result: SolveResult,
             their names and tags (optional).
 
     Returns:
-        One dict per pair: ``pair`` (index), ``name``, ``slave``/``master`` tags (when ``pairs`` is given),
+        One dict per pair: ``pair`` (index), ``name``, ``slave``/``master`` tags and ``method`` (when ``pairs``
+        is given),
         ``contact_nodes``, ``master_nodes``, ``prescribed_nodes``, ``force_on_slave_body`` and
         ``force_on_master_body`` (3-vectors from the residuals), ``contact_force`` (Σ of the solver's force
         on the slave contact nodes) and ``balance`` = ‖slave + master‖ / ‖slave‖.
@@ -118,6 +131,7 @@ def pair_forces(model: ContactModel, result: SolveResult,
             entry["name"] = getattr(q, "name", None)
             entry["slave"] = [int(t) for t in np.atleast_1d(q.slave)]
             entry["master"] = [int(t) for t in np.atleast_1d(q.master)]
+            entry["method"] = getattr(q, "method", None)
         entry.update({
             "contact_nodes": int(total[9]),
             "master_nodes": int(total[10]),

@@ -93,10 +93,12 @@ def assert_physics(problem, result, label=""):
         assert checks[key] < 1e-8, (label, key, checks[key])
 
 
+@pytest.mark.parametrize("method", ["mortar", "node-to-surface"])
 @pytest.mark.parametrize("friction", [0.0, 0.3])
-def test_rigid_master_equals_the_moved_plane(friction):
+def test_rigid_master_equals_the_moved_plane(friction, method):
     """Every node of the lower (master) body prescribed to δ: the pair equals the one-body solve of the upper
-    block against the plane x3 = 0 moved by δ, on the same mesh (1e-8)."""
+    block against the plane x3 = 0 moved by δ, on the same mesh (1e-8): both discretizations reproduce a
+    linear gap exactly (dual mortar: Σ_l Φ_jl = 1 and g̃_j / D_j is the gap of a flat pair)."""
     delta = np.array([0.0005, 0.0002, 0.0003])
     msh, ft = two_blocks(MPI.COMM_WORLD)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
@@ -105,7 +107,8 @@ def test_rigid_master_equals_the_moved_plane(friction):
     lower = dolfinx.fem.locate_dofs_geometrical(V, lambda x: x[2] <= 1e-9)
     bcs = [dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.004]), top, V),
            dolfinx.fem.dirichletbc(delta, lower, V)]
-    with ContactProblem(a, None, bcs, contact_pairs=[ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)],
+    with ContactProblem(a, None, bcs, contact_pairs=[ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction,
+                                                                 method=method)],
                         settings=TIGHT, petsc_options_prefix="pair_") as problem:
         _, result = problem.solve()
         assert result.converged and result.counts["open"] < problem.p

@@ -95,6 +95,7 @@ def test_pair_scene_on_the_command_line(mesh_file):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["converged"]
     (pair,) = summary["contact_pairs"]
+    assert pair["method"] == "mortar"  # the default
     slave, master = np.array(pair["force_on_slave_body"]), np.array(pair["force_on_master_body"])
     assert slave[2] > 0 and abs(slave[0]) > 0  # pressed up by the block, dragged back by friction
     assert np.linalg.norm(slave + master) <= 1e-8 * np.linalg.norm(slave)
@@ -108,6 +109,21 @@ def test_pair_scene_on_the_command_line(mesh_file):
                 "reaction_balance"):
         assert checks[key] < 1e-7, (key, checks[key])
     assert result.counts["stick"] + result.counts["slip"] > 0
+
+
+@pytest.mark.parametrize("method", ["mortar", "node-to-surface"])
+def test_the_method_key_chooses_the_discretization(mesh_file, method):
+    """[[contact_pair]] method: dual mortar nodes carry D_j (their pressure's area), node-to-surface ones none;
+    both solve the scene with the physics."""
+    path = write_scene(mesh_file.parent / f"method{method}{MPI.COMM_WORLD.size}.toml", mesh_file,
+                       extra=f'method = "{method}"\n')
+    with build_problem(Scene.from_toml(path)).problem as problem:
+        _, result = problem.solve()
+        pairing = problem.model.pairing
+        has_area = MPI.COMM_WORLD.allreduce(bool(np.isfinite(pairing.area).any()), op=MPI.LOR)
+        checks = physics_residuals(problem.model, result.relative_displacement)
+    assert result.converged and has_area == (method == "mortar")
+    assert all(checks[k] < 1e-7 for k in ("equilibrium", "penetration", "negative_pressure", "complementarity"))
 
 
 def test_material_per_body_is_used(mesh_file):
@@ -152,6 +168,8 @@ def test_pair_scene_with_a_rigid_floor(mesh_file):
     ('[[contact_pair]]\nslave = "flat"\nmaster = "block_top"\nfriction = -1.0\n', "friction = -1.0"),
     ('[[contact_pair]]\nslave = "flat"\nmaster = "block_top"\nsearch_distance = 0\n', "search_distance = 0"),
     ('[[contact_pair]]\nslave = "flat"\nmaster = "block_top"\nspeed = 1\n', "unknown key 'speed'"),
+    ('method = "nitsche"\n', "method = 'nitsche'"),
+    ('method = 3\n', "method"),
     ('[material.ball]\nyoung = 1.0\n', "[material.ball]: 'ball' is not in [bodies]"),
     ('[[obstacle]]\ntype = "plane"\npoint = [0, 0, -5]\nnormal = [0, 0, 1]\n', "name the obstacles' contact boundary"),
 ])
