@@ -5,6 +5,8 @@ the sphere) and ``cylinder`` (a closed prism around an axis), each with the tria
 the solid (``side = "outward"``), written as ASCII or binary STL::
 
     container/run python3 meshes/surfaces.py icosphere out/ball.stl --radius 0.5 --center 1 0.5 1.5 --level 4
+    container/run python3 meshes/surfaces.py cylinder meshes/roller.stl --radius 0.5 --center 0.6 -0.25 1.5 \
+        --length 1.5 --segments 360 --binary
 """
 
 from __future__ import annotations
@@ -102,13 +104,15 @@ def main() -> None:
     parser.add_argument("--center", type=float, nargs=3, default=[0.0, 0.0, 0.0])
     parser.add_argument("--level", type=int, default=3)
     parser.add_argument("--binary", action="store_true")
+    parser.add_argument("--segments", type=int, default=64, help="cylinder: sides of the prism")
+    parser.add_argument("--length", type=float, default=1.0, help="cylinder: length along x2 from --center")
     args = parser.parse_args()
     if args.kind == "icosphere":
         tris = icosphere(args.radius, tuple(args.center), args.level)
     elif args.kind == "rectangle":
         tris = rectangle((-1.0, -1.0), (3.0, 2.0))
     else:
-        tris = cylinder(args.radius, tuple(args.center), 1.0)
+        tris = cylinder(args.radius, tuple(args.center), args.length, segments=args.segments)
     write_stl(args.out, tris, args.binary)
 
 

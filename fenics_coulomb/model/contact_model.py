@@ -518,9 +518,9 @@ class ContactModel:
     def _place_pairs(self, obstacles: list[Obstacle], previous_displacement: npt.NDArray[np.float64] | None,
                      previous_obstacle_displacements: npt.ArrayLike | Sequence[Obstacle] | None) -> None:
         """The shift with contact pairs: the paired nodes' frames and gaps are fixed by the pairing (tangential
-        offset w_{k−1}); rigid obstacles' nodes as in :meth:`place` (offset ũ_{k−1} + δ_k − δ_{k−1})."""
-        if _previous_placements(obstacles, previous_obstacle_displacements) is not None:
-            raise InputError("obstacles that rotate together with contact pairs are not supported yet")
+        offset w_{k−1}); rigid obstacles' nodes as in :meth:`place` (offset ũ_{k−1} + δ_k − δ_{k−1}, or with a
+        rotation the motion of each node's material point of its obstacle)."""
+        previous_obstacles = _previous_placements(obstacles, previous_obstacle_displacements)
         if previous_obstacle_displacements is not None and len(previous_obstacle_displacements) and \
                 isinstance(previous_obstacle_displacements[0], Obstacle):
             previous_obstacle_displacements = [o.displacement for o in previous_obstacle_displacements]
@@ -540,7 +540,15 @@ class ContactModel:
             delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
             self.obstacle_displacement[rigid] = delta[index]
             offset[rigid] = delta[index]
-            if previous_obstacle_displacements is not None:
+            if previous_obstacles is not None:  # a rotation: each node's material point of its obstacle
+                x = cmap.coordinates[rigid]
+                moved = np.zeros((rigid.size, 3))
+                for j, (now, before) in enumerate(zip(obstacles, previous_obstacles, strict=True)):
+                    mine = index == j
+                    if np.any(mine):
+                        moved[mine] = now.motion(before, before.closest_point(x[mine]))
+                offset[rigid] = moved
+            elif previous_obstacle_displacements is not None:
                 previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
                 offset[rigid] -= previous[index]
         if previous_displacement is not None:

@@ -125,6 +125,14 @@ def blend_rotation(a: Any, b: Any, w: float) -> Any:
     return (_blend(a[0], b[0], w), b[1], b[2])
 
 
+def _plain_rotation(rotation: Any) -> list | None:
+    """A rotation as plain JSON data [angle_deg, [ax, ay, az], [cx, cy, cz]] (None: none)."""
+    if rotation is None:
+        return None
+    angle, axis, centre = rotation
+    return [float(angle), [float(c) for c in axis], [float(c) for c in centre]]
+
+
 def _blend(a: float, b: float, w: float) -> float:
     """(1 − w)·a + w·b: exactly b at w = 1, exactly a at w = 0."""
     return (1.0 - w) * a + w * b
@@ -323,6 +331,8 @@ class StepRecord:
     obstacle_displacements: dict[str, list[float]]
     wall_time_s: float
     residual_history: list[float] = field(default_factory=list)
+    #: Each obstacle's rotation [angle_deg, [ax, ay, az], [cx, cy, cz]] at this solve (None: not rotated).
+    obstacle_rotations: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         """The record as plain data (summary.json "steps")."""
@@ -332,7 +342,8 @@ class StepRecord:
             "reason": self.reason, "newton_iterations": self.newton_iterations,
             "krylov_iterations": self.krylov_iterations, "state_counts": dict(self.counts),
             "contact_force": self.contact_force, "applied_load": self.applied_load, "reactions": self.reactions,
-            "obstacle_displacements": self.obstacle_displacements, "wall_time_s": self.wall_time_s,
+            "obstacle_displacements": self.obstacle_displacements, "obstacle_rotations": self.obstacle_rotations,
+            "wall_time_s": self.wall_time_s,
             "residual_history": self.residual_history,
         }
 
@@ -379,8 +390,8 @@ def run_path(
     for i, solve in enumerate(solves):
         t0 = time.perf_counter()
         loads.apply(solve.start, solve.end, solve.weight)
-        deltas = solve.obstacle_displacements
-        for j, (delta, rotation) in enumerate(zip(deltas, solve.obstacle_rotations, strict=True)):
+        deltas, rotations = solve.obstacle_displacements, solve.obstacle_rotations
+        for j, (delta, rotation) in enumerate(zip(deltas, rotations, strict=True)):
             problem.move(j, delta, rotation=rotation)
         failure = ""
         try:
@@ -402,6 +413,7 @@ def run_path(
             applied_load=[float(c) for c in model.total_load()],
             reactions=boundary_reactions(model, result.displacement, groups, result.master_force),
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
+            obstacle_rotations={name: _plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
             wall_time_s=wall, residual_history=[float(r) for r in result.residual_history])
         records.append(record)
         if solve.substeps == 1:

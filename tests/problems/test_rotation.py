@@ -141,3 +141,52 @@ def test_the_material_motion_against_the_explicit_rigid_map():
     g2, n2, _ = moved.evaluate(x)
     assert np.allclose(g1, g2, atol=1e-13) and np.allclose(n1, n2, atol=1e-13)
     assert np.allclose(F1[:, :, 2], n1) and np.allclose(np.linalg.det(F1), 1.0)
+
+
+def test_a_turning_floor_under_a_contact_pair():
+    """A contact pair (the upper block pressed onto the lower) and a plane floor under the lower block (held by
+    its clamped sides) that turns by 0.3° about the vertical axis through the block's centre: the floor's part of
+    each floor node's slip offset is the turn of its material point, R(θ)(p − c) + c − p (trigonometry, p the
+    node's point of the floor); the solve obeys the physics and the floor drags the block's bottom around the
+    axis (positive torque)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "model"))
+    from test_two_body import LOWER_BOTTOM, MASTER, SLAVE, TAGS, UPPER_TOP, elasticity, two_blocks
+
+    from fenics_coulomb import ContactPair, Plane
+    from fenics_coulomb.model.checks import physics_residuals
+
+    comm = MPI.COMM_WORLD
+    msh, ft = two_blocks(comm)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    sides = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(TAGS["lower_sides"]))
+    top = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP))
+    bcs = [dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.004]), top, V), dolfinx.fem.dirichletbc(np.zeros(3), sides, V)]
+    a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
+    theta, centre = 0.3, np.array([1.0, 0.5, -1.00003])
+    floor = Plane(point=[0.0, 0.0, -1.00003], normal=[0.0, 0.0, 1.0], name="floor",
+                  rotation=[theta, [0.0, 0.0, 1.0], centre.tolist()])
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3)
+    with ContactProblem(a, None, bcs, contact=(ft, [LOWER_BOTTOM]), obstacles=[floor], friction=0.3,
+                        contact_pairs=[pair], settings={"rtol": 1e-12}, petsc_options_prefix="turn_") as problem:
+        _, result = problem.solve()
+        model = problem.model
+        assert result.converged
+        checks = physics_residuals(model, result.relative_displacement)
+        assert all(checks[k] < 1e-8 for k in ("equilibrium", "penetration", "negative_pressure", "complementarity",
+                                                 "cone", "slip_direction")), checks
+        rigid = ~model.paired
+        x = model.contact.coordinates[rigid]
+        p = np.column_stack([x[:, 0], x[:, 1], np.full(x.shape[0], centre[2])])
+        c, s = math.cos(math.radians(theta)), math.sin(math.radians(theta))
+        d = p - centre
+        moved = np.column_stack([c * d[:, 0] - s * d[:, 1], s * d[:, 0] + c * d[:, 1], d[:, 2]]) + centre - p
+        T = model.contact.frames[rigid][:, :, :2]  # tangent columns
+        assert np.allclose(model.local_shift[rigid, :2], -np.einsum("kil,ki->kl", T, moved), rtol=0, atol=1e-15)
+        f = result.contact_force[rigid]
+        torque = comm.allreduce(float(np.sum((x[:, 0] - centre[0]) * f[:, 1] - (x[:, 1] - centre[1]) * f[:, 0])),
+                                op=MPI.SUM)
+        floor_force = comm.allreduce(float(np.sum(f[:, 2])), op=MPI.SUM)
+    assert floor_force > 0 and torque > 1e-3 * floor_force

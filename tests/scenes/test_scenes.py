@@ -261,6 +261,14 @@ def test_a_rolling_path_sticks_and_the_same_drag_slides(mpi_tmp_path):
         assert main(["--scene", str(path), "--out", str(out), "--quiet", "--no-plots"]) == 0
         steps = json.loads((out / "summary.json").read_text())["steps"]
         counts[name] = [s["state_counts"] for s in steps[1:]]
+        # each solve records each obstacle's rotation: none at the press, the substeps' blended angles after
+        rotations = [s["obstacle_rotations"]["roller"] for s in steps]
+        if name == "rolled":
+            assert rotations[0] is None and [r[0] for r in rotations[1:]] == [0.5 * 1.1459155902616465,
+                                                                               1.1459155902616465]
+            assert all(r[1] == [0.0, 1.0, 0.0] and r[2] == [0.6, 0.5, 1.5] for r in rotations[1:])
+        else:
+            assert rotations == [None] * len(steps)
     assert all(c["slip"] == 0 and c["stick"] > 0 for c in counts["rolled"]), counts
     assert all(c["stick"] == 0 and c["slip"] > 0 for c in counts["dragged"]), counts
 
@@ -274,3 +282,23 @@ def test_rotations_that_cannot_be_blended_are_named(mpi_tmp_path, capsys):
     assert main(["--scene", str(scene), "--out", str(mpi_tmp_path / "o"), "--quiet", "--no-plots"]) == EXIT_INPUT
     err = capsys.readouterr().err
     assert MPI.COMM_WORLD.rank != 0 or "substeps between rotations about different axes" in err, err
+
+
+def test_an_stl_roller_rolls_then_skids(mpi_tmp_path):
+    """demos/scenes/stl_roller_rolling.toml (issue 26): the roller from an STL file sticks while it rolls
+    (translated by R θ and turned by θ) and slides when it skids (translated only); the skid's tangential force
+    is bounded by F × the normal force and far above the rolling one."""
+    import json
+
+    from fenics_coulomb.cli import main
+
+    out = mpi_tmp_path / "stl_rolling"
+    assert main(["--scene", str(ROOT / "demos" / "scenes" / "stl_roller_rolling.toml"), "--out", str(out),
+                 "--quiet", "--no-plots"]) == 0
+    steps = json.loads((out / "summary.json").read_text())["steps"]
+    counts = [s["state_counts"] for s in steps]
+    force = np.array([s["contact_force"] for s in steps])
+    assert all(c["slip"] == 0 and c["stick"] > 0 for c in counts[:3]), counts
+    assert all(c["stick"] == 0 and c["slip"] > 0 for c in counts[3:]), counts
+    ratio = np.abs(force[:, 0]) / np.abs(force[:, 2])
+    assert np.all(ratio[3:] <= 0.5 + 1e-8) and ratio[3:].min() > 5 * ratio[:3].max()
