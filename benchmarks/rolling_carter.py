@@ -54,18 +54,18 @@ from fenics_coulomb.io.summary import software_versions  # noqa: E402
 from fenics_coulomb.scenes.partition import box_partitioner  # noqa: E402
 
 E, NU, MU, R = 70.0, 0.49, 0.3, 1.0
-X0, X1, W, H = -0.5, 1.0, 0.3, 1.0
+X0, X1, W, H = -0.5, 1.0, 0.5, 1.0
 
 
 def block(comm: MPI.Comm, n: tuple[int, int, int]) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
-    """The block, its hexahedra refined toward the top (z = −H ζ²) and toward the track x ∈ [−0.15, 0.55]."""
+    """The block, its hexahedra refined toward the top (z = −H ζ²) and toward the track x ∈ [−0.12, 0.42]."""
     corners = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]]
     msh = dolfinx.mesh.create_box(comm, corners, list(n), dolfinx.mesh.CellType.hexahedron,
                                   partitioner=box_partitioner(corners, list(n), dolfinx.mesh.GhostMode.none))
     x = msh.geometry.x
-    # x: 70 % of the cells on the track [−0.15, 0.55], the rest on either side (piecewise linear, monotone)
+    # x: 70 % of the cells on the track [−0.12, 0.42], the rest on either side (piecewise linear, monotone)
     s = x[:, 0].copy()
-    knots_s, knots_x = [0.0, 0.15, 0.85, 1.0], [X0, -0.15, 0.55, X1]
+    knots_s, knots_x = [0.0, 0.15, 0.85, 1.0], [X0, -0.12, 0.42, X1]
     x[:, 0] = np.interp(s, knots_s, knots_x)
     x[:, 1] *= W
     x[:, 2] = -H * (1.0 - x[:, 2]) ** 2
@@ -89,8 +89,8 @@ def roller(kind: str, out: Path, depth: float, comm: MPI.Comm) -> Any:
     return Surface(file=str(path), displacement=(0, 0, -depth), name="roller")
 
 
-def run(comm: MPI.Comm, kind: str, creep: float, out: Path, n=(90, 6, 24), depth=0.004, step=0.01,
-        steps=30) -> dict[str, Any]:
+def run(comm: MPI.Comm, kind: str, creep: float, out: Path, n=(156, 6, 24), depth=0.01, step=0.01,
+        steps=20) -> dict[str, Any]:
     msh, tags = block(comm, n)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, tags.find(2)), V)
@@ -123,7 +123,7 @@ def run(comm: MPI.Comm, kind: str, creep: float, out: Path, n=(90, 6, 24), depth
     state = nodes.state[mid]
     order = np.argsort(x)
     x, state = x[order], state[order]
-    pressure, traction = nodes.pressure[mid][order], nodes.force[mid][order] / np.maximum(nodes.area[mid][order], 1e-300)
+    pressure, traction = nodes.pressure[mid][order], nodes.force[mid][order] / np.maximum(nodes.area[mid][order], 1e-300)[:, None]
     closed = state != ContactState.OPEN
     spacing = float(np.min(np.diff(x))) if x.size > 1 else 0.0
     a = 0.5 * (x[closed].max() - x[closed].min() + spacing)
@@ -142,7 +142,7 @@ def run(comm: MPI.Comm, kind: str, creep: float, out: Path, n=(90, 6, 24), depth
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(ROOT / "docs" / "rolling"))
-    parser.add_argument("--creeps", type=float, nargs="+", default=[0.0, 0.0025, 0.005])
+    parser.add_argument("--creeps", type=float, nargs="+", default=[0.005, 0.01])
     parser.add_argument("--obstacles", nargs="+", default=["cylinder", "surface"])
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD

@@ -32,6 +32,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
 from mortar_brute_force import brute_force  # noqa: E402
 from two_blocks import TAGS, two_blocks  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_two_body import elasticity  # noqa: E402
+
 MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP = (TAGS[k] for k in ("lower_top", "upper_bottom", "lower_bottom", "upper_top"))
 TIGHT = {"rtol": 1e-12, "tol": 1e-12}
 PHYSICS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",
@@ -163,26 +166,11 @@ def tet_blocks(comm, lower=(5, 3, 2), upper=(4, 4, 2), gap=1e-3):
     return blocks.mesh, blocks.facet_tags
 
 
-def elasticity(V, E=70.0, nu=0.2, upper=(20.0, 0.45)):
-    import ufl
-    mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-    above = ufl.SpatialCoordinate(V.mesh)[2] > 0.0
-    E2, nu2 = upper
-    mu = ufl.conditional(above, E2 / (2 * (1 + nu2)), mu)
-    lmbda = ufl.conditional(above, E2 * nu2 / ((1 + nu2) * (1 - 2 * nu2)), lmbda)
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-
-    def eps(w):
-        return ufl.sym(ufl.grad(w))
-
-    return ufl.inner(2 * mu * eps(u) + lmbda * ufl.tr(eps(u)) * ufl.Identity(3), eps(v)) * ufl.dx
-
-
 def pressed(comm, msh, ft, top=(0.0015, 0.0, -0.004)):
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     bcs = [dolfinx.fem.dirichletbc(np.asarray(top, float), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V),
            dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)]
-    return V, bcs, elasticity(V)
+    return V, bcs, elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
 
 
 @pytest.mark.serial
@@ -243,7 +231,6 @@ def test_scd_agrees_with_alart_curnier_on_brute_force_matrices(friction):
 def test_swapping_slave_and_master_on_non_matching_meshes(friction):
     """The full-footprint blocks of docs/two-bodies (lower top 5 × 3, upper bottom 4 × 4 cells), pressed and
     sheared: the swapped mortar pair moves the displacement by well under 1 % (node-to-surface: 3.7 %)."""
-    from test_two_body import elasticity as elasticity_hex
     from test_two_body import two_blocks as blocks_hex
 
     results = []
@@ -253,7 +240,7 @@ def test_swapping_slave_and_master_on_non_matching_meshes(friction):
     bcs = [dolfinx.fem.dirichletbc(np.array([0.0008, 0.0, -0.004]),
                                    dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V),
            dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)]
-    a = elasticity_hex(V, 70.0, 0.2, upper=(20.0, 0.45))
+    a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
     for slave, master in ((SLAVE, MASTER), (MASTER, SLAVE)):
         pair = ContactPair(ft, slave=slave, master=master, friction=friction, search_distance=0.05)
         with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mswap_") as p:
