@@ -25,8 +25,9 @@ contact conditions are imposed on the weighted gap g̃_j + n_j · (D_j u_j − �
 with the nodal gap g_j = g̃_j / D_j: node j is a contact node of the one-body form with u_j replaced by w_j and
 the force f_j; its pressure is λ_j·n_j = f_j·n_j / D_j. A rigid translation c of both bodies gives
 w_j = (1 − Σ_l Φ_jl) c = 0, since Σ_l N_l^m = 1 makes Σ_l M_jl = ∫ ψ_j = ∫ ψ_j Σ_k N_k^s = D_j on a fully
-covered node. A uniform pressure p (λ_j = p n_j... with Σ_j ψ_j = 1) gives the slave forces p ∫ N_j and the
-master forces p ∫ N_l^m: the consistent loads of both bodies, so the patch test passes on any meshes.
+covered node. A uniform pressure p on a flat interface, λ_h = p n, has the nodal values λ_j = p n (Σ_j ψ_j = 1
+reproduces constants) and gives the slave forces p D_j n = p ∫ N_j n and the master forces −p Σ_j M_jl n =
+−p ∫ N_l^m n: the consistent loads of a uniform pressure on both bodies, so the patch test passes on any meshes.
 
 The discretization (exactly the definitions of issue 28; held-out references use them)
 --------------------------------------------------------------------------------------
@@ -62,6 +63,13 @@ far side of a curved or thin master is never counted twice) whose centre lies wi
 closest master point to e's centre (r the largest centre–vertex distance of a facet): every master facet
 under e when the master is locally smooth and not steeper than about 60° against P_e. A master facet
 parallel to n_c (projected area below 1e-10 of its own) is skipped.
+
+Which slave nodes are segmented (:func:`fenics_coulomb.model.pairing.pair_surfaces`): those without a Dirichlet
+component within 2 × the search distance + 4 h of M (their node-to-surface distance; h the largest diameter of
+their slave facets). A node farther away cannot have |g_j| <= the search distance: on its facets g is at least
+about its distance less h (the segments' x^s − x^m is at least as long as the distance of x^s from M, and n_c·n(ξ)
+stays near 1 on a surface whose normals turn little across a facet), and g_j is an average of g with the weights
+ψ_j, whose negative part is a fraction of D_j.
 
 Vectorized over batches of (slave facet, master facet) pairs; contributions are summed per node in the
 global order of the facets (sorted by their global vertex numbers), so every partition gives the same sums.

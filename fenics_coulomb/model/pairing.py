@@ -1,10 +1,12 @@
-r"""Node-to-surface pairing of two elastic bodies (issue 18): slave nodes, closest master points, gaps, frames.
+r"""The pairing of two elastic bodies: node-to-surface (issue 18, this module) and dual mortar (issue 28,
+:mod:`fenics_coulomb.model.mortar`, the default ``method``): slave nodes, stencils, gaps, frames.
 
 A :class:`ContactPair` names a slave surface S and a master surface M (facet tag values of one mesh's facet
 tags) and a Coulomb coefficient F. :func:`pair_surfaces` computes, once and in the REFERENCE configuration,
-for every slave vertex the data of the two-body model's change of variables u = (I + Φ) z: the closest
-master point, the stencil φ_j of master vertices (Φ's slave-row, master-column blocks φ_j I₃), the gap and
-the frame::
+for every slave vertex the data of the two-body model's change of variables u = (I + Φ) z: the stencil of
+master vertices (Φ's slave-row, master-column blocks Φ_jl I₃), the gap and the frame. Below: the
+node-to-surface definitions (the closest master point, φ_j its master shape functions); the mortar ones are in
+:mod:`fenics_coulomb.model.mortar`, which shares the gathering, the checks and the several-pairs rule here::
 
     pairs = [ContactPair(facet_tags, slave=2, master=1, friction=0.3, name="press")]
     pairing = pair_surfaces(V, pairs, excluded=dirichlet_blocks)   # collective
@@ -20,9 +22,10 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   (triangle: projection on the plane, else the closest point of the three edges; quadrilateral: Newton's
   method for the stationary point (ξ, η) of ½|x(ξ, η) − x_s|² from the centre (the Gauss–Newton matrix
   where the full Hessian is not positive definite), accepted when it converges inside [0, 1]²; else, or when
-  nearer, the closest point of the four straight edges — "edge/vertex clamping"). Candidate facets come
-  from a KD-tree of the facet centroids (the k nearest, k doubled until no facet outside them can be
-  nearer: centroid distance − the largest facet radius > the best distance found).
+  nearer, the closest point of the four straight edges — "edge/vertex clamping"). Candidate facets: a bound
+  U on the distance from the 4 nearest facet centroids, then every facet whose centroid lies within
+  U + its radius (+ the tie tolerance) — KD-trees per facet-radius class (powers of 2), so the small facets
+  of a graded surface are not searched with the radius of its largest one.
 * Facets "containing x_m" (the tie set T): the facets whose own closest point lies within 1e-10 h of the
   best one (h = the diameter of the best facet) at a distance within 1e-10 h of the best distance.
   φ_j = the shape functions at x_m of the facet of T whose SORTED GLOBAL vertex (DOF-block) indices are
@@ -226,8 +229,8 @@ class Pairing:
         """The pairing of the nodes ``keep`` selects (collective: the global count)."""
         return Pairing(blocks=self.blocks[keep], coordinates=self.coordinates[keep], closest=self.closest[keep],
                        gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
-                       weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep], friction=self.friction[keep],
-                       num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
+                       weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep],
+                       friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
 
     @property
     def normals(self) -> Array:
