@@ -686,8 +686,13 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             # facet diameter at the node); the others cannot have |g_j| <= search (see the mortar module)
             gn = g_owned[np.searchsorted(owned_slave, nodes)]
             near = _norm(X_dofs[nodes] - projected["closest"][at_nodes]) <= 2 * search + 4 * _node_size(slave, gn)
-            mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
-                                  gn[near], (verts, projected["closest"]))
+            try:  # a rank's facets may be bad where another's are not: every rank raises, before the next collective
+                mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
+                                      gn[near], (verts, projected["closest"]))
+                failure = ""
+            except InputError as err:
+                failure = f"{pair.label}: {err}"
+            check_all(comm, not failure, failure)
             g = np.full(nodes.size, np.inf)
             g[near] = mortar.gap
             normal = np.tile([0.0, 0.0, 1.0], (nodes.size, 1))

@@ -281,3 +281,23 @@ def test_bad_method_and_non_convex_facets():
     with pytest.raises(InputError, match="not a convex quadrilateral"):
         mortar_nodes((X, np.array([[0, 1, 2, 3]]), np.array([-1.0])), (Y, np.array([[4, 5, 6, 7]]), np.array([1.0])),
                      np.array([0, 1, 2, 3]), (np.arange(4), X[0] - [0, 0, 0.1]))
+
+
+def test_a_bad_facet_on_one_rank_is_an_error_on_every_rank(monkeypatch):
+    """The segmentation's InputError (a non-convex projected quadrilateral) found by one rank only: every rank
+    raises it, naming the pair, before the next collective call (no rank waits for the others)."""
+    import fenics_coulomb.model.pairing as pairing
+
+    comm = MPI.COMM_WORLD
+    original = pairing.mortar_nodes
+
+    def bad_on_rank_0(*args, **kwargs):
+        if comm.rank == 0:
+            raise InputError("master facet at (1, 2, 3): its projection ... is not a convex quadrilateral")
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(pairing, "mortar_nodes", bad_on_rank_0)
+    msh, ft = tet_blocks(comm)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    with pytest.raises(InputError, match=r"contact pair 'press': master facet at \(1, 2, 3\)"):
+        pairing.pair_surfaces(V, [ContactPair(ft, slave=SLAVE, master=MASTER, name="press")], np.zeros(0, np.int32))
