@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from fenics_coulomb import ContactProblem
+from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.scenes.cuboid import paper_tractions  # noqa: F401  (re-exported for the tests)
@@ -125,3 +126,17 @@ def solve_each(factory, setting: str, values, *args, tol: float = 1e-8, **kwargs
         assert np.allclose(x, x_ref)
         assert np.linalg.norm(u - u_ref) <= tol * np.linalg.norm(u_ref)
     return solved
+
+
+#: The physics checks of a converged solve (:func:`fenics_coulomb.model.checks.physics_residuals`).
+PHYSICS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "slip_direction",
+           "reaction_balance")
+
+
+def assert_physics(model, relative_displacement: np.ndarray, tol: float = 1e-8,
+                   keys: tuple[str, ...] = PHYSICS) -> dict[str, float]:
+    """Assert every check in ``keys`` below ``tol`` (naming the failing one); return all the residuals."""
+    checks = physics_residuals(model, relative_displacement)
+    for key in keys:
+        assert checks[key] < tol, (key, checks[key])
+    return checks
