@@ -38,6 +38,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+from launching import rank_pids, session_processes, start_in_newton  # noqa: E402
 
 #: The statuses a run may end with (128 + SIGINT, SIGTERM, SIGHUP included).
 STATUSES = {0, 2, 3, 4, 129, 130, 143}
@@ -156,12 +158,6 @@ def _digest(directory: Path) -> str:
     return h.hexdigest()
 
 
-def _env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_", "OMPI_MCA_orte"))}
-    env["PYTHONPATH"] = str(ROOT)
-    return env
-
-
 def run_case(case: Case, work: Path, earlier: Path) -> tuple[int, list[str]]:
     """Run ``case`` in a fresh directory holding a copy of the earlier result set at ``out``; return the status
     and the violations found (empty: the case passed)."""
@@ -214,15 +210,11 @@ def run_case(case: Case, work: Path, earlier: Path) -> tuple[int, list[str]]:
 
 
 def _run_signal(case: Case, argv: list[str]) -> tuple[int, str]:
-    cmd = ["mpirun", "-n", str(case.ranks), sys.executable, "-m", "fenics_coulomb", *argv, "--no-plots"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
-                            start_new_session=True)
-    assert proc.stdout is not None
-    for line in proc.stdout:
-        if line.startswith("it "):
-            break
-    children = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout.split()
-    ranks = [int(p) for p in children if "fenics_coulomb" in Path(f"/proc/{p}/cmdline").read_text()]
+    try:
+        proc = start_in_newton([*argv, "--no-plots"], ranks=case.ranks)
+    except RuntimeError as err:
+        return -3, str(err)
+    ranks = rank_pids(proc)
     for rank in (ranks[-1:] if case.signal == signal.SIGINT else ranks):
         os.kill(rank, case.signal)
     try:
@@ -231,12 +223,7 @@ def _run_signal(case: Case, argv: list[str]) -> tuple[int, str]:
         os.killpg(proc.pid, signal.SIGKILL)
         return -1, "hang"
     deadline = time.monotonic() + 5.0
-    left = ""
-    while time.monotonic() < deadline:
-        ps = subprocess.run(["ps", "-s", str(proc.pid), "-o", "stat=,args="], capture_output=True, text=True)
-        left = "\n".join(line for line in ps.stdout.splitlines() if not line.strip().startswith("Z"))
-        if not left:
-            break
+    while (left := "\n".join(session_processes(proc.pid))) and time.monotonic() < deadline:
         time.sleep(0.1)
     if left:
         return -2, "processes left: " + left

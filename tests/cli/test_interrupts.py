@@ -25,38 +25,15 @@ import pytest
 
 pytestmark = pytest.mark.serial
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-
-
-def _env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_", "OMPI_MCA_orte"))}
-    env["PYTHONPATH"] = ROOT
-    env.pop("DISPLAY", None)  # the run starts its own Xvfb for the plots, which must end with it
-    return env
-
-
-def _session(sid: int) -> list[str]:
-    out = subprocess.run(["ps", "-s", str(sid), "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
-    return [line for line in out.splitlines() if line.split()[1][0] != "Z"]  # zombies are reaped, not running
-
-
-def _children(pid: int) -> list[int]:
-    out = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout
-    return [int(p) for p in out.split()]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from launching import command_env, rank_pids, session_processes, start_in_newton  # noqa: E402
 
 
 def _start(tmp_path, lev: int = 6) -> subprocess.Popen:
-    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", "--lev", str(lev), "--out",
-           str(tmp_path / "out")]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
-                            start_new_session=True)
-    assert proc.stdout is not None
-    for line in proc.stdout:  # wait until the ranks are inside the Newton iteration
-        if line.startswith("it "):
-            break
-    else:
-        pytest.fail(f"the run ended before its first Newton iteration (status {proc.wait()})")
-    return proc
+    try:
+        return start_in_newton(["--lev", str(lev), "--out", str(tmp_path / "out")], display=False)
+    except RuntimeError as err:
+        pytest.fail(str(err))
 
 
 @pytest.mark.parametrize(
@@ -66,8 +43,8 @@ def _start(tmp_path, lev: int = 6) -> subprocess.Popen:
 )
 def test_signal_ends_all_ranks(tmp_path, target, signum):
     proc = _start(tmp_path)
-    ranks = _children(proc.pid)
-    assert len([p for p in ranks if "fenics_coulomb" in open(f"/proc/{p}/cmdline").read()]) == 2
+    ranks = rank_pids(proc)
+    assert len(ranks) == 2
     xvfb = subprocess.run(["ps", "-s", str(proc.pid), "-o", "args="], capture_output=True, text=True).stdout
     assert "Xvfb" in xvfb  # the plots' display runs during the solve ...
     t0 = time.monotonic()
@@ -86,7 +63,7 @@ def test_signal_ends_all_ranks(tmp_path, target, signum):
     assert proc.returncode != 0
     assert elapsed < 10.0, elapsed
     deadline = time.monotonic() + 5.0
-    while (left := _session(proc.pid)) and time.monotonic() < deadline:
+    while (left := session_processes(proc.pid)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not left, left  # ... and neither it nor a rank is left behind
 
@@ -110,18 +87,13 @@ def _digest(directory: Path) -> str:
 def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
     out = tmp_path / "out"
     subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--no-plots",
-                    "--quiet"], env=_env(), check=True)
+                    "--quiet"], env=command_env(display=False), check=True)
     before = _digest(out)
-    cmd = ["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", *path, "--out", str(out), "--no-plots"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
-                            start_new_session=True)
-    assert proc.stdout is not None
-    for line in proc.stdout:
-        if line.startswith("it "):
-            break
-    else:
-        pytest.fail(f"the run ended before its first Newton iteration (status {proc.wait()})")
-    ranks = [p for p in _children(proc.pid) if "fenics_coulomb" in open(f"/proc/{p}/cmdline").read()]
+    try:
+        proc = start_in_newton([*path, "--out", str(out), "--no-plots"], display=False)
+    except RuntimeError as err:
+        pytest.fail(str(err))
+    ranks = rank_pids(proc)
     for rank in ranks[-1:] if target == "rank" else ranks:
         os.kill(rank, signum)
     try:
@@ -132,7 +104,7 @@ def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
     assert proc.returncode == 128 + signum, rest
     assert f"interrupted by {signal.Signals(signum).name}" in rest
     deadline = time.monotonic() + 5.0
-    while (left := _session(proc.pid)) and time.monotonic() < deadline:
+    while (left := session_processes(proc.pid)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not left, left
     assert _digest(out) == before  # the earlier result set, byte for byte

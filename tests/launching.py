@@ -1,0 +1,49 @@
+"""Running the real command under ``mpirun`` from a test or benchmark, to interrupt it mid-solve: the
+environment of a fresh run, starting it and waiting until its ranks are inside the Newton iteration, the
+processes of its session (tests/cli/test_interrupts.py, benchmarks/fuzz.py)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+__all__ = ["ROOT", "command_env", "rank_pids", "session_processes", "start_in_newton"]
+
+
+def command_env(display: bool = True) -> dict[str, str]:
+    """This environment without the MPI launcher's variables of an enclosing mpirun, the repository on the path;
+    ``display=False`` drops DISPLAY (a run then starts its own Xvfb for the plots)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_", "OMPI_MCA_orte"))}
+    env["PYTHONPATH"] = str(ROOT)
+    if not display:
+        env.pop("DISPLAY", None)
+    return env
+
+
+def start_in_newton(args: list[str], ranks: int = 2, display: bool = True) -> subprocess.Popen:
+    """``mpirun -n ranks python3 -m fenics_coulomb *args`` in a new session, returned once it printed its first
+    Newton iteration (the ranks are inside the solve); RuntimeError if it ended before."""
+    cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "fenics_coulomb", *args]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            env=command_env(display), start_new_session=True)
+    assert proc.stdout is not None
+    for line in proc.stdout:
+        if line.startswith("it "):
+            return proc
+    raise RuntimeError(f"the run ended before its first Newton iteration (status {proc.wait()})")
+
+
+def rank_pids(proc: subprocess.Popen) -> list[int]:
+    """The ranks (children of mpirun running fenics_coulomb)."""
+    out = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True).stdout
+    return [int(p) for p in out.split() if "fenics_coulomb" in Path(f"/proc/{p}/cmdline").read_text()]
+
+
+def session_processes(sid: int) -> list[str]:
+    """The processes still running in session ``sid`` (zombies are reaped, not running)."""
+    out = subprocess.run(["ps", "-s", str(sid), "-o", "pid=,stat=,args="], capture_output=True, text=True).stdout
+    return [line for line in out.splitlines() if line.split()[1][0] != "Z"]
