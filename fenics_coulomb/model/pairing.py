@@ -591,7 +591,7 @@ def _diagonal(comm: MPI.Comm, points: Array) -> tuple[Array, Array]:
 
 
 def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
-                  excluded: npt.NDArray[np.int32]) -> Pairing:
+                  excluded: npt.NDArray[np.int32], coordinates: Array | None = None) -> Pairing:
     """Pair the slave nodes of every contact pair with their master surfaces (see the module docstring).
 
     Collective.
@@ -601,6 +601,9 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         pairs: The contact pairs (their facet tags on V's mesh).
         excluded: Local DOF-block indices (owned and ghost) with any Dirichlet component — never contact
             nodes.
+        coordinates: The configuration to pair in: the position X + u of every local DOF block (owned and
+            ghost), shape (number of blocks, 3); None for the reference configuration X. Only the reference
+            configuration is checked for overlapping bodies (a deformed one is an iterate of finite sliding).
 
     Returns:
         The owned contact nodes of all pairs.
@@ -655,7 +658,8 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
 
     imap = V.dofmap.index_map
     n_owned = imap.size_local
-    X_dofs = V.tabulate_dof_coordinates()
+    reference = coordinates is None
+    X_dofs = V.tabulate_dof_coordinates() if reference else np.asarray(coordinates, dtype=np.float64)
     nv = 4 if cell == "hexahedron" else 3
     excluded = np.asarray(excluded, dtype=np.int32)
     per_pair = []
@@ -781,7 +785,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
 
     # overlap at the reference configuration
     worst = None
-    for i, p in enumerate(per_pair):
+    for i, p in enumerate(per_pair if reference else []):
         sel = np.flatnonzero(winner == i)
         depth = -gap[sel]
         if sel.size and depth.max() > OVERLAP_TOL * p["body"]:
