@@ -44,19 +44,42 @@ quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex
   normal n_c = the facet's outward unit normal at its centre. The vertices of e and of each candidate master
   facet are projected orthogonally onto P_e (2D coordinates in an orthonormal basis of P_e), both polygons
   oriented counter-clockwise; a projected quadrilateral that is not convex is an InputError. The master
-  polygon is clipped by the slave polygon (Sutherland–Hodgman), each clip polygon triangulated from its vertex
-  mean, each triangle integrated with the symmetric 7-point Gauss rule of degree 5. A point p of P_e maps back
+  polygon is clipped by the slave polygon (Sutherland–Hodgman), each clip polygon triangulated as the fan of its
+  edges from its vertex mean, each triangle integrated with the symmetric 7-point Gauss rule of degree 5. The
+  mean leaves out duplicate vertices (within CENTRE_TOL = 1e-6 × r_e of the previous one: a master vertex on
+  the line of a slave edge comes out of the clipping twice) and collinear ones (within 1e-6 r_e of the line
+  through their neighbours), so it is the vertex mean of the clip polygon as a geometric figure and moves
+  continuously with the meshes: grids that share grid lines and the same grids offset by 1e-9 give the same
+  fan. The fan still runs over every edge of the clip polygon, so the integrals are over exactly the clip
+  polygon (an edge of zero length adds a triangle of zero area). A point p of P_e maps back
   to reference coordinates on e and on the master facet by inverting their projections onto P_e (linear for
   triangles, 20 Newton steps from the centre for the bilinear map of a quadrilateral); ds on e = dA / |n_c · n_e(ξ)|.
 * D_j = Σ ∫ ψ_j N_j^s ds, M_jl = Σ ∫ ψ_j N_l^m ds, g̃_j = Σ ∫ ψ_j g ds over the segments of the facets containing
   j, with g = (x^s − x^m) · n(ξ), n(ξ) = Σ_k N_k^s n_k (the interpolated frame normal, not normalized).
   g_j = g̃_j / D_j, Φ_jl = M_jl / D_j (entries with |Φ_jl| <= 1e-12 are dropped: the zero-area slivers where
   a master facet only touches the slave facet along an edge or at a vertex).
-* Coverage: node j is fully covered when Σ over its segments of ∫ N_j ds >= (1 − 1e-8) ∫_S N_j ds (the
-  whole-facet integrals of the dual basis above). Only fully covered nodes are contact nodes (with no Dirichlet
-  component and |g_j| <= the search distance): a partially covered node at the border of M is free, as a
-  node beside M's outer edge is in node-to-surface contact ("edge dropping": the smaller surface should be
-  the slave).
+* Coverage, decided by geometry: a slave facet e is covered when the shoelace areas of its clip polygons
+  (exact polygon areas; a duplicate vertex adds nothing) sum to at least (1 − COVERAGE_TOL) × the area of e's
+  own projection onto P_e; node j is fully covered when every slave facet containing j is covered. Only fully
+  covered nodes are contact nodes (with no Dirichlet component and |g_j| <= the search distance): a partially
+  covered node at the border of M is free, as a node beside M's outer edge is in node-to-surface contact
+  ("edge dropping": the smaller surface should be the slave). The quadrature sums Σ ∫ N_j over the segments
+  (``MortarNodes.covered``) are NOT the test: on a non-parallelogram or warped facet the 7-point rule
+  integrates a non-polynomial integrand (the inverse bilinear maps, 1/|n_c · n_e|) and is off by 1e-8 – 5e-8,
+  so a fixed threshold near 1 decides by round-off and quadrature error instead of geometry.
+
+  COVERAGE_TOL = 1e-6, derived. Round-off: the clip vertices are intersections of lines through vertices of
+  size r_e (relative error a few ε ≈ 1e-15), and the clipping counts points up to CLIP_TOL r_e = 1e-12 r_e
+  outside an edge as inside, so a clip polygon's area is off by at most its perimeter × 1e-12 r_e; summed
+  over the clip polygons of a facet (their perimeters add up to at most a few times 8 r_e) against the
+  facet's area (≥ r_e²/10 for a facet that is not a sliver), the covered fraction of a covered facet is 1
+  within about 1e-10: the tolerance is four orders above it. A real gap: a master border that leaves a strip
+  of width w along a slave edge of length L uncovers the fraction ≈ w L / area ≈ w / h; below 1e-6 that strip
+  is 1e-6 of a facet — under the geometric tolerance of mesh generators (gmsh: 1e-8 of the model) for borders
+  meant to coincide, and far below any gap a model means. A node kept with an uncovered fraction τ <= 1e-6
+  has D_j, M_jl, g̃_j over its covered part (their definitions unchanged): Σ_l Φ_jl = 1 up to about
+  τ max|ψ_j| / (D_j / area) <= 40 τ, a rigid translation changing w_j by 4e-5 of it at worst, against
+  freeing the node (100 % of its contact force lost).
 
 Candidate master facets of a slave facet e: those facing it (n_m · n_c < 0 at the facets' centres, so the
 far side of a curved or thin master is never counted twice) whose centre lies within 2 r_e + r_m of p_e, the
@@ -86,13 +109,18 @@ from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "clip", "dual_coefficients", "facet_map",
-           "facet_normals", "mortar_nodes", "nodal_normals", "shape_functions"]
+__all__ = ["CENTRE_TOL", "COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "clip", "dual_coefficients",
+           "facet_map", "facet_normals", "mortar_nodes", "nodal_normals", "polygon_area", "polygon_centre",
+           "shape_functions"]
 
 Array = npt.NDArray[np.float64]
 
-#: Full coverage: Σ ∫ N_j over the segments >= (1 − COVERAGE_TOL) ∫_S N_j.
-COVERAGE_TOL = 1e-8
+#: Full coverage of a slave facet: its clip polygons' areas sum to at least (1 − COVERAGE_TOL) × its projected
+#: area (derivation in the module docstring).
+COVERAGE_TOL = 1e-6
+#: A clip polygon's fan centre leaves out vertices within CENTRE_TOL × the slave facet's size of their
+#: predecessor (duplicates) or of the line through their neighbours (collinear).
+CENTRE_TOL = 1e-6
 #: Stencil entries |Φ_jl| at most this are dropped (zero-area slivers).
 DROP_TOL = 1e-12
 #: Clipping: a point within CLIP_TOL × the slave facet's size of an edge's inside counts as inside.
@@ -224,6 +252,9 @@ class MortarNodes:
         stencil_blocks: Global master blocks l with Φ_jl ≠ 0, ascending, −1 padded, shape (m, k).
         stencil: Φ_jl, 0 on padding, shape (m, k).
         M: M_jl on the same layout (unscaled), shape (m, k).
+        coverage: The smallest, over the slave facets containing j, of the facet's covered fraction: the
+            shoelace areas of its clip polygons summed, over its own projected area (1 up to round-off on a
+            covered facet), shape (m,).
     """
 
     normal: Array
@@ -234,11 +265,12 @@ class MortarNodes:
     stencil_blocks: npt.NDArray[np.int64]
     stencil: Array
     M: Array
+    coverage: Array
 
     @property
     def fully_covered(self) -> npt.NDArray[np.bool_]:
-        """Σ ∫ N_j >= (1 − 1e-8) ∫_S N_j (and D_j > 0)."""
-        return (self.covered >= (1 - COVERAGE_TOL) * self.full) & (self.D > 0) & (self.full > 0)
+        """Every slave facet containing j covered: coverage >= 1 − COVERAGE_TOL (and D_j > 0)."""
+        return (self.coverage >= 1 - COVERAGE_TOL) & (self.D > 0) & (self.full > 0)
 
     @property
     def gap(self) -> Array:
@@ -303,6 +335,64 @@ def clip(subject: Array, count: npt.NDArray[np.intp], clipper: Array, tol: Array
     return P, n
 
 
+def polygon_centre(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Array, npt.NDArray[np.intp]]:
+    """The vertex mean of each clip polygon without its duplicate and collinear vertices.
+
+    A vertex within ``tol`` (k,) of its predecessor is a duplicate (a master vertex on a slave edge's line comes
+    out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear. Both
+    are left out of the mean, which is then a continuous function of the geometry: the same centre, up to the
+    size of a perturbation, for a vertex exactly on an edge and for one 1e-9 beside it.
+
+    Args:
+        P: Convex polygons (k, w, 2), the first ``count`` vertices valid.
+        count: Vertex counts (k,) (0: empty).
+        tol: The merge distance of each polygon (k,).
+
+    Returns:
+        The centres (k, 2) (0 for an empty polygon) and the number of vertices left (k,).
+    """
+    k, width = P.shape[0], P.shape[1]
+    slots = np.arange(width)[None, :]
+    valid = slots < count[:, None]
+    n = np.maximum(count, 1)[:, None]
+    prev = np.take_along_axis(P, ((slots - 1) % n)[..., None], axis=1)
+    keep = valid & (_norm(P - prev) > tol[:, None])
+    # a polygon of identical points keeps one
+    keep[:, 0] |= valid[:, 0] & ~keep.any(axis=1)
+    Q, m = _compact(P, keep)
+    slots = np.arange(Q.shape[1])[None, :]
+    n = np.maximum(m, 1)[:, None]
+    a = np.take_along_axis(Q, ((slots - 1) % n)[..., None], axis=1)
+    b = np.take_along_axis(Q, ((slots + 1) % n)[..., None], axis=1)
+    ab = b - a
+    off = np.abs(_cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
+    keep = (slots < m[:, None]) & ((off > tol[:, None]) | (m[:, None] < 3))
+    keep[:, 0] |= (m > 0) & ~keep.any(axis=1)
+    Q, m = _compact(Q, keep)
+    valid = np.arange(Q.shape[1])[None, :] < m[:, None]
+    centre = np.sum(Q * valid[..., None], axis=1) / np.maximum(m, 1)[:, None]
+    return centre, m
+
+
+def _compact(P: Array, keep: npt.NDArray[np.bool_]) -> tuple[Array, npt.NDArray[np.intp]]:
+    """The kept vertices of each row moved to the front, in order; their counts."""
+    dest = np.cumsum(keep, axis=1) - 1
+    row, col = np.nonzero(keep)
+    Q = np.zeros_like(P)
+    Q[row, dest[row, col]] = P[row, col]
+    return Q, keep.sum(axis=1).astype(np.intp)
+
+
+def polygon_area(P: Array, count: npt.NDArray[np.intp]) -> Array:
+    """The (signed, counter-clockwise positive) shoelace areas of the polygons P (k, w, 2) with ``count``
+    vertices (exact up to round-off; a duplicate vertex adds nothing)."""
+    width = P.shape[1]
+    slots = np.arange(width)[None, :]
+    valid = slots < count[:, None]
+    nxt = np.take_along_axis(P, ((slots + 1) % np.maximum(count, 1)[:, None])[..., None], axis=1)
+    return 0.5 * np.sum(_cross2(P, nxt) * valid, axis=1)
+
+
 def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Array, m_centre: Array,
                 m_radius: Array, m_normal: Array) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
     """(slave facet, master facet) pairs with |c_m − p_e| <= 2 r_e + r_m, facing each other, sorted."""
@@ -353,7 +443,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     m = nodes.size
     nv, nvm = sX.shape[1], mX.shape[1]
     empty = MortarNodes(np.zeros((m, 3)), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(m),
-                        np.full((m, 1), -1, np.int64), np.zeros((m, 1)), np.zeros((m, 1)))
+                        np.full((m, 1), -1, np.int64), np.zeros((m, 1)), np.zeros((m, 1)), np.zeros(m))
     if m == 0 or sX.shape[0] == 0:
         return empty
     vertices, frame_normals = nodal_normals(sX, sB, sS)
@@ -371,7 +461,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     e1 /= _norm(e1)[:, None]
     e2 = np.cross(nc, e1)
     s2 = np.stack([_dot(X - centre[:, None], e1[:, None]), _dot(X - centre[:, None], e2[:, None])], axis=-1)
-    s_poly, _ = _ccw(s2[:, _CYCLE[nv]])
+    s_poly, s_area = _ccw(s2[:, _CYCLE[nv]])
     s_radius = _norm(X - centre[:, None]).max(axis=1)
     if nv == 4:
         bad = np.flatnonzero(~_convex(s_poly))
@@ -386,7 +476,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     anchors = points[np.searchsorted(known, B)].mean(axis=1)
     ei, mi = _candidates(centre, s_radius, anchors, nc, m_centre, m_radius, m_normal)
 
-    parts: dict[str, list] = {k: [] for k in ("e", "D", "cov", "g", "M", "m")}
+    parts: dict[str, list] = {k: [] for k in ("e", "D", "cov", "g", "M", "m", "e_all", "area")}
     for start in range(0, ei.size, BATCH):
         e, f = ei[start:start + BATCH], mi[start:start + BATCH]
         c, n1, n2 = centre[e], e1[e], e2[e]
@@ -411,10 +501,13 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         if e.size == 0:
             continue
         P, count = clip(m_poly, np.full(e.size, nvm), s_poly[e], tol)
-        # triangles from each clip polygon's vertex mean, the 7-point rule on each
+        parts["e_all"].append(e)
+        parts["area"].append(np.where(count > 0, polygon_area(P, count), 0.0))
+        # the fan from each clip polygon's vertex mean (duplicate and collinear vertices left out), the 7-point
+        # rule on each triangle
         width = P.shape[1]
         valid = np.arange(width)[None, :] < count[:, None]
-        mean = np.sum(P * valid[..., None], axis=1) / np.maximum(count, 1)[:, None]
+        mean, _ = polygon_centre(P, count, CENTRE_TOL * s_radius[e])
         nxt = (np.arange(width)[None, :] + 1) % np.maximum(count, 1)[:, None]
         Q = np.take_along_axis(P, nxt[..., None], axis=1)
         area = 0.5 * _cross2(P - mean[:, None], Q - mean[:, None]) * valid  # (k, width)
@@ -453,9 +546,18 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     ok = idx >= 0
     full = np.bincount(idx[ok], weights=De[ok], minlength=m)
     normal = frame_normals[np.searchsorted(vertices, nodes)]
+    # geometric coverage: each slave facet's clip areas (in the global pair order) over its projected area; a
+    # node's coverage is the smallest of its facets'
+    covered_area = np.zeros(nF)
+    if parts["e_all"]:
+        np.add.at(covered_area, np.concatenate(parts["e_all"]), np.concatenate(parts["area"]))
+    fraction = covered_area / np.maximum(s_area, np.finfo(float).tiny)
+    coverage = np.full(m, np.inf)
+    np.minimum.at(coverage, idx[ok], np.broadcast_to(fraction[:, None], idx.shape)[ok])
+    coverage[~np.isfinite(coverage)] = 0.0
     if not parts["e"]:
         return MortarNodes(normal, np.zeros(m), full, np.zeros(m), np.zeros(m), np.full((m, 1), -1, np.int64),
-                           np.zeros((m, 1)), np.zeros((m, 1)))
+                           np.zeros((m, 1)), np.zeros((m, 1)), coverage)
     e = np.concatenate(parts["e"])
     f = np.concatenate(parts["m"])
     idx = node_index(B[e])  # (k, nv)
@@ -481,4 +583,4 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     blocks = np.full((m, width), -1, np.int64)
     stencil, Mjl = np.zeros((m, width)), np.zeros((m, width))
     blocks[r, slot], stencil[r, slot], Mjl[r, slot] = l, phi, sums
-    return MortarNodes(normal, D, full, covered, gt, blocks, stencil, Mjl)
+    return MortarNodes(normal, D, full, covered, gt, blocks, stencil, Mjl, coverage)

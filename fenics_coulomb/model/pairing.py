@@ -59,10 +59,17 @@ is a non-negative combination of three independent generators.
 Checks (InputError, one line, the same on every rank before the next collective call)
 -------------------------------------------------------------------------------------
 V not a vector P1/Q1 space; facet tags of another dimension than the facets'; a tag that no facet carries
-on any rank; a tagged facet that is not on the mesh boundary; Φ² ≠ 0 (a contact node that is itself a
-vertex of a master facet used by any contact node, both nodes named by coordinates); an overlap at the
-reference configuration: a contact node with g < −1e-6 × the diagonal of the bounding box of M ∪ S (node
-and depth named, the deepest over all ranks). Invalid ContactPair fields (friction, search distance, tags,
+on any rank; a tagged facet that is not on the mesh boundary; a pair that does not join two bodies: slave and
+master surfaces with a common facet (slave = master, or one containing the other), or (in the reference
+configuration) both on one connected part of the mesh (:func:`fenics_coulomb.model.two_body.connected_bodies`;
+a slave node of that body named); Φ² ≠ 0 (a contact node that is itself a vertex of a master facet used by
+any contact node — with two bodies per pair only possible across pairs — both nodes named by coordinates);
+an overlap at the reference configuration, on the true geometry: a contact node whose node-to-surface
+distance to M (the rules above) is g < −1e-6 × the diagonal of the bounding box of M ∪ S, or a master node
+over S within the search distance whose node-to-surface distance to S is as negative (node and depth named,
+the deepest over all ranks). For mortar pairs this is NOT the nodal gap g̃_j / D_j: the dual basis is
+negative on part of each facet, so g̃_j can be negative beside a curved master where no point overlaps; such
+a node is a contact node with a negative initial gap, and the solve separates it. Invalid ContactPair fields (friction, search distance, tags,
 name) are rejected when the pair is created.
 A pair with no contact node is a logged warning (rank 0), not an error.
 
@@ -660,6 +667,13 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     n_owned = imap.size_local
     reference = coordinates is None
     X_dofs = V.tabulate_dof_coordinates() if reference else np.asarray(coordinates, dtype=np.float64)
+    # a pair joins two bodies: no common facet, and (checked once, in the reference configuration) the surfaces
+    # on different connected components of the mesh
+    message = _common_facets(comm, pairs, labels, surfaces, num_owned)
+    check_all(comm, not message, message)
+    if reference:
+        message = _one_body(V, pairs, labels, surfaces, X_dofs)
+        check_all(comm, not message, message)
     nv = 4 if cell == "hexahedron" else 3
     excluded = np.asarray(excluded, dtype=np.int32)
     per_pair = []
@@ -676,8 +690,9 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         key = np.sort(master.blocks, axis=1)
         rank = np.empty(key.shape[0], dtype=np.intp)
         rank[np.lexsort(key.T[::-1])] = np.arange(key.shape[0])
+        slave = _gather(comm, _facet_data(V, slave_facets, X_dofs), nv) if pair.method == "mortar" or reference \
+            else None
         if pair.method == "mortar":
-            slave = _gather(comm, _facet_data(V, slave_facets, X_dofs), nv)
             # the node-to-surface projection of every vertex of the slave facets at this rank's owned slave
             # nodes, once: the nodes to segment, the facets' anchors, the free nodes' penetration check
             g_owned = imap.local_to_global(owned_slave).astype(np.int64)
@@ -705,6 +720,10 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             contact = np.zeros(nodes.size, dtype=bool)
             contact[near] = mortar.fully_covered & (np.abs(mortar.gap) <= search)
             closest = X_dofs[nodes] - np.where(np.isfinite(g), g, 0.0)[:, None] * normal
+            # the overlap check's pointwise gap: the node-to-surface distance where the node lies over M
+            pointwise = np.where(projected["paired"][at_nodes],
+                                 _dot(X_dofs[nodes] - projected["closest"][at_nodes], projected["normal"][at_nodes]),
+                                 np.inf)
             stencil_blocks = np.full((nodes.size, mortar.stencil.shape[1]), -1, np.int64)
             stencil = np.zeros((nodes.size, mortar.stencil.shape[1]))
             stencil_blocks[near], stencil[near] = mortar.stencil_blocks, mortar.stencil
@@ -722,6 +741,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             stencil_blocks = master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64)
             stencil = res["weights"]
             D = np.full(nodes.size, np.nan)
+            pointwise = np.where(res["paired"], g, np.inf)
             others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
             ro = _pair_nodes(X_dofs[others], master, size, rank)
         # the other owned slave nodes over M (Dirichlet ones, beyond the search distance, mortar nodes not fully
@@ -729,7 +749,9 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         go = _dot(X_dofs[others] - ro["closest"], ro["normal"])
         over = ro["paired"]
         per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=closest, blocks=stencil_blocks,
-                             weights=stencil, D=D, body=body,
+                             weights=stencil, D=D, body=body, pointwise=pointwise,
+                             master_depth=_master_overlap(imap, slave, _thickness(comm, V, slave_facets, X_dofs),
+                                                          master, search) if reference else None,
                              free=dict(blocks=others[over], gap=go[over], normals=ro["normal"][over],
                                        master_blocks=master.blocks[ro["facet"][over]] if others.size
                                        else np.zeros((0, nv), np.int64), weights=ro["weights"][over])))
@@ -783,17 +805,28 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                    "(check the pairs' slave and master tags)")
     check_all(comm, not message, message)
 
-    # overlap at the reference configuration
+    # overlap at the reference configuration, on the true geometry: the pointwise (node-to-surface) distance of
+    # each contact node to M and of each master node to S — not the mortar nodal gap g̃_j / D_j, which can be
+    # negative beside a curved master without any overlap (ψ_j < 0 on part of each facet)
     worst = None
     for i, p in enumerate(per_pair if reference else []):
         sel = np.flatnonzero(winner == i)
-        depth = -gap[sel]
+        depth = -p["pointwise"][np.searchsorted(p["nodes"], blocks[sel])]
         if sel.size and depth.max() > OVERLAP_TOL * p["body"]:
-            j = sel[int(np.argmax(depth))]
-            if worst is None or -gap[j] > worst[0]:
-                worst = (float(-gap[j]), f"{labels[i]}: the bodies overlap at the reference configuration: "
-                                         f"contact node {_where(coordinates[j])} lies {-gap[j]:.6g} inside the master "
-                                         f"body (more than {OVERLAP_TOL:g} × the surfaces' size {p['body']:.6g})")
+            k = int(np.argmax(depth))
+            j = sel[k]
+            if worst is None or depth[k] > worst[0]:
+                worst = (float(depth[k]), f"{labels[i]}: the bodies overlap at the reference configuration: "
+                                          f"contact node {_where(coordinates[j])} lies {depth[k]:.6g} inside the "
+                                          f"master body (more than {OVERLAP_TOL:g} × the surfaces' size "
+                                          f"{p['body']:.6g})")
+        x, d = p["master_depth"]
+        if d.size and d.max() > OVERLAP_TOL * p["body"]:
+            k = int(np.argmax(d))
+            if worst is None or d[k] > worst[0]:
+                worst = (float(d[k]), f"{labels[i]}: the bodies overlap at the reference configuration: master "
+                                      f"node {_where(x[k])} lies {d[k]:.6g} inside the slave body (more than "
+                                      f"{OVERLAP_TOL:g} × the surfaces' size {p['body']:.6g})")
     everyone = [w for w in comm.allgather(worst) if w is not None]
     if everyone:
         raise InputError(max(everyone, key=lambda w: w[0])[1])
@@ -810,6 +843,90 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                    master_blocks=master_blocks, weights=weights, area=area, pair_index=winner.astype(np.intp),
                    friction=friction, num_global=int(count.sum()) if pairs else 0,
                    free=_free_nodes([p["free"] for p in per_pair], blocks, nv))
+
+
+def _common_facets(comm: MPI.Comm, pairs: Sequence[ContactPair], labels: list[str],
+                   surfaces: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]], num_owned: int) -> str:
+    """The first pair whose slave and master surfaces share a facet (slave = master, one containing the other),
+    as a one-line message ("" when none; collective)."""
+    local = np.asarray([np.intersect1d(s[s < num_owned], m).size for s, m in surfaces], dtype=np.int64)
+    common = comm.allreduce(local, op=MPI.SUM) if pairs else local
+    for label, pair, n in zip(labels, pairs, common, strict=True):
+        if n:
+            what = "are the same surface" if set(pair.slave_tags) == set(pair.master_tags) else \
+                f"share {int(n)} facet(s)"
+            return (f"{label}: slave tag(s) {list(pair.slave_tags)} and master tag(s) {list(pair.master_tags)} "
+                    f"{what}: a contact pair joins surfaces of two different bodies")
+    return ""
+
+
+def _one_body(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair], labels: list[str],
+              surfaces: list[tuple[npt.NDArray[np.int32], npt.NDArray[np.int32]]], X: Array) -> str:
+    """The first pair whose slave and master surfaces lie on one body (a connected component of the mesh), as a
+    one-line message naming a slave node of that body ("" when none; collective)."""
+    from fenics_coulomb.model.two_body import connected_bodies
+
+    comm = V.mesh.comm
+    tdim = V.mesh.topology.dim
+    body, num_bodies = connected_bodies(V)
+    for label, pair, (slave_facets, master_facets) in zip(labels, pairs, surfaces, strict=True):
+        sb = np.unique(dolfinx.fem.locate_dofs_topological(V, tdim - 1, slave_facets))
+        mb = np.unique(dolfinx.fem.locate_dofs_topological(V, tdim - 1, master_facets))
+        on = np.zeros((2, num_bodies), dtype=np.int64)
+        on[0, body[sb]] = 1
+        on[1, body[mb]] = 1
+        on = comm.allreduce(on, op=MPI.SUM)
+        both = np.flatnonzero((on[0] > 0) & (on[1] > 0))
+        if both.size:
+            mine = sb[body[sb] == both[0]]
+            points = [p for p in comm.allgather(X[mine[0]] if mine.size else None) if p is not None]
+            return (f"{label}: slave tag(s) {list(pair.slave_tags)} and master tag(s) {list(pair.master_tags)} lie "
+                    f"on one body (the connected part of the mesh through the slave node {_where(points[0])}): a "
+                    "contact pair joins surfaces of two different bodies")
+    return ""
+
+
+def _thickness(comm: MPI.Comm, V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], X: Array) -> Array:
+    """Twice the distance of each facet's cell centroid from the facet's centre along its normal (about the
+    thickness of the cell layer under the facet), in the order of :func:`_gather` of the same facets."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    surface = _facet_data(V, facets, X)
+    cells = f2c.array[f2c.offsets[facets]]
+    centroid = X[V.dofmap.list[cells]].mean(axis=1)
+    nv = surface.X.shape[1]
+    normal = _facet_normals(surface.X, np.full((facets.size, nv), 1.0 / nv), surface.sign) if facets.size \
+        else np.zeros((0, 3))
+    local = 2 * np.abs(_dot(centroid - surface.X.mean(axis=1), normal))
+    blocks = np.concatenate(comm.allgather(surface.blocks.reshape(-1, nv)))
+    thickness = np.concatenate(comm.allgather(local))
+    _, first = np.unique(np.sort(blocks, axis=1), axis=0, return_index=True)
+    return thickness[first]
+
+
+def _master_overlap(imap: Any, slave: _Surface, thickness: Array, master: _Surface, search: float
+                    ) -> tuple[Array, Array]:
+    """The master nodes owned by this rank (``imap``: the DOF-block index map) that lie over the gathered slave
+    surface S (in its normal cone) within the search distance and within the thickness of the cell layer under
+    their closest slave facet (``thickness``, per facet of S; deeper, S alone does not tell inside the slave
+    body from beyond a thin one), with their depth inside the slave body (−g, the node-to-surface gap on S):
+    (coordinates, depth)."""
+    nv = master.X.shape[1]
+    lo, hi = imap.local_range
+    vertices, first = np.unique(master.blocks.ravel(), return_index=True)
+    mine = (vertices >= lo) & (vertices < hi)
+    x = master.X.reshape(-1, 3)[first[mine]]
+    if x.shape[0] == 0 or slave.X.shape[0] == 0:
+        return np.zeros((0, 3)), np.zeros(0)
+    size = np.max([_norm(slave.X[:, i] - slave.X[:, j]) for i in range(nv) for j in range(i + 1, nv)], axis=0)
+    key = np.sort(slave.blocks, axis=1)
+    rank = np.empty(key.shape[0], dtype=np.intp)
+    rank[np.lexsort(key.T[::-1])] = np.arange(key.shape[0])
+    res = _pair_nodes(x, slave, size, rank)
+    g = _dot(x - res["closest"], res["normal"])
+    over = res["paired"] & (np.abs(g) <= search) & (-g < thickness[res["facet"]])
+    return x[over], -g[over]
 
 
 def _free_nodes(per_pair: list[dict[str, np.ndarray]], contact: npt.NDArray[np.int32], nv: int

@@ -405,12 +405,14 @@ def test_overlap_rejected(cell):
 
 
 def test_phi_squared_rejected():
-    """Slave and master surfaces sharing nodes (the upper block's bottom against its own sides)."""
+    """Two pairs over one interface, each surface the slave of one and the master of the other: contact nodes
+    that are vertices of master facets (a pair within one body is refused before: test_mortar_geometry.py)."""
     b = two_blocks(MPI.COMM_WORLD, gap=0.01, n_upper=(2, 2, 1))
     V = space(b.mesh)
     with pytest.raises(InputError, match=r"contact node \(.*\) is a vertex of the master facet used by contact "
                                          r"node \(.*\).*Φ²"):
-        pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["upper_sides"])], NONE)
+        pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"]),
+                          ContactPair(b.facet_tags, slave=TAGS["lower_top"], master=TAGS["upper_bottom"])], NONE)
 
 
 def test_bad_tags_and_space():
