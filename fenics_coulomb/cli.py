@@ -119,8 +119,9 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
                    f"(default {d.solver.gamma_scale})")
     p.add_argument(
         "--start",
-        help="'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d), 'undeformed' (ũ = 0) or the "
-        "solution.xdmf of an earlier run, interpolated onto this mesh (default zero)",
+        help="'auto' (the default: 'zero' when the loads drive the body onto its obstacles, 'undeformed' when the "
+        "obstacles overlap it), 'zero' (the paper's origin u = 0 of the shifted unknown, ũ = −d), 'undeformed' "
+        "(ũ = 0) or the solution.xdmf of an earlier run, interpolated onto this mesh",
     )
     p.add_argument("--nested", type=int, default=None, metavar="K",
                    help="nested iteration for the cuboid: solve lev-2K, ..., lev-2 first (each to a residual "

@@ -28,6 +28,7 @@ from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
 from fenics_coulomb.scenes.nested import NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels, start_from_coarse
 from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.settings import START_RULES
 
 __all__ = ["BYTES_PER_UNKNOWN", "BYTES_PER_RANK", "scene_from_args", "prepare_output", "run",
            "check_path_arguments", "run_load_path", "friction_text", "check_memory", "available_memory"]
@@ -72,7 +73,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         raise InputError(f"--out {args.out!r}: give an output directory (an empty name would write into the "
                          "current directory)")
     check_memory(comm, scene)
-    if scene.start not in ("zero", "undeformed"):
+    if scene.start not in START_RULES:
         check_start_file(comm, scene.start)
     nested = args.nested
     check_all(comm, nested is None or (not isinstance(nested, bool) and isinstance(nested, int) and nested >= 0),
@@ -156,7 +157,7 @@ def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace)
     solves = plan(scene, steps)
     if start_step is not None:
         last = solves[-1].step
-        check_all(comm, scene.start not in ("zero", "undeformed"), f"--start-step {start_step}: give the earlier "
+        check_all(comm, scene.start not in START_RULES, f"--start-step {start_step}: give the earlier "
                   "path's solution.xdmf with --start FILE")
         check_all(comm, not isinstance(start_step, bool) and 1 <= start_step < last,
                   f"--start-step {start_step}: must lie in [1, {last - 1}] (the path has {last} steps; the last "

@@ -11,11 +11,13 @@ from dataclasses import dataclass
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "ERROR_PER_RTOL", "INTEGER_BOUNDS", "INTEGER_REASONS",
+__all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERROR_PER_RTOL", "INTEGER_BOUNDS", "INTEGER_REASONS",
            "rtol_for_accuracy", "SolverSettings"]
 
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
+#: The starts of a solve given no start that continues no load path (:attr:`SolverSettings.start`).
+START_RULES = ("auto", "zero", "undeformed")
 
 #: Bound on the measured ratio (relative displacement error)/rtol over docs/tradeoff (all pc, tol, forcing
 #: rules and levels, 2026-11-25, with the start-independent stopping rule): about twice the largest seen, 3.9
@@ -96,6 +98,12 @@ class SolverSettings:
             false (the default) leaves them those of A: fewer Krylov iterations (lev 8: 58 instead of 91) but more
             Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md). Needs pc
             "gamg" or "auto" (where it applies when GAMG is chosen) and variant 4a, else an InputError.
+        start: The start ũ⁽⁰⁾ of a solve given none that is not a later step of a load path (which starts from the
+            previous step's solution): "zero" (the paper's u⁽⁰⁾ = 0 of the shifted unknown, ũ = −d: every contact
+            node on its obstacle), "undeformed" (ũ = 0), or "auto" (the default): "zero" when the residual
+            ŷ(ũ = 0) of the undeformed body lies mostly in the free rows (loads or prescribed displacements drive
+            the body onto its obstacles), "undeformed" when it lies mostly in the contact rows (obstacles overlap
+            the body at rest); the rule and its measurements: :meth:`fenics_coulomb.problem.ContactProblem.start_rule`.
         poisson_ratio: The body's largest Poisson ratio, when known (scenes set it from their materials; the
             solver never sees a material otherwise): from 0.48 on (nearly incompressible) ``auto`` takes GAMG with
             smoothed aggregation on every mesh (:data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
@@ -119,6 +127,7 @@ class SolverSettings:
     no_contact_shortcut: bool = True
     matrix_free: bool = True
     galerkin_coarse: bool = False
+    start: str = "auto"
     poisson_ratio: float | None = None
 
     @property
@@ -140,6 +149,8 @@ class SolverSettings:
             acc = _number("accuracy", self.accuracy)
             if not 1e-13 <= acc < 1.0:
                 raise InputError(f"accuracy = {acc!r}: a relative displacement error in [1e-13, 1)")
+        if self.start not in START_RULES:
+            raise InputError(f"start {self.start!r}: choose one of {list(START_RULES)}")
         if self.pc not in PRECONDITIONERS:
             raise InputError(f"preconditioner {self.pc!r}: choose one of {list(PRECONDITIONERS)}")
         if self.variant == "4b" and self.pc == "hypre":

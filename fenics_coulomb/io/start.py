@@ -28,9 +28,10 @@ START_CHECK_ROWS = 1 << 20
 
 
 def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Function | None:
-    """The start ũ⁽⁰⁾ of a start setting: None (the paper's u⁽⁰⁾ = 0), zero, or an earlier run's solution
+    """The start ũ⁽⁰⁾ of a start setting: None for "auto" and "zero" (the problem's rule,
+    :attr:`~fenics_coulomb.settings.SolverSettings.start`), zero for "undeformed", or an earlier run's solution
     (checked beforehand by :func:`check_start_file`), interpolated onto V."""
-    if start == "zero":
+    if start in ("auto", "zero"):
         return None
     u0 = dolfinx.fem.Function(V)
     if start == "undeformed":

@@ -332,6 +332,18 @@ class SCDNewtonSolver:
         local = float(np.dot(self._weights * e, e))
         return math.sqrt(self.comm.allreduce(local, op=MPI.SUM))
 
+    def contact_norm(self, e: Array) -> float:
+        """The contact nodes' part of ‖ŷ‖ = ‖(Γ e, e)‖: the same sum over their rows only (collective)."""
+        ec = e[self.cdofs]
+        weights = 1.0 + self.gamma**2 if self._weights is None else self._weights[self.cdofs]
+        return math.sqrt(self.comm.allreduce(float(np.sum(weights * ec * ec)), op=MPI.SUM))
+
+    def undeformed(self) -> Iterate:
+        """The approximation step at ũ = 0 (u = d, residual A d − l = −l̃; no product with A): ŷ(ũ = 0), the
+        residual of the undeformed body under the solve's loads and obstacles (collective)."""
+        return self.approximation_step(np.array(self.model.shift.getArray(readonly=True), dtype=np.float64),
+                                       -self.model.load.getArray(readonly=True))
+
     # -- the Newton direction ---------------------------------------------------------------------
     def forcing(self, history: list[float], eta: float, rule: StoppingRule) -> float:
         """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term."""
@@ -493,7 +505,7 @@ class SCDNewtonSolver:
         residual of ũ = 0, whatever the start."""
         shift = self.model.shift.getArray(readonly=True)
         load = self.norm(self.model.load.getArray(readonly=True))
-        zero = self.approximation_step(np.array(shift, dtype=np.float64), -self.model.load.getArray(readonly=True))
+        zero = self.undeformed()
         return StoppingRule.create(self.settings.reduction, self.settings.max_it, first.residual, zero.residual,
                                    self.norm(shift), self.norm(first.u - shift), load, self.gamma)
 

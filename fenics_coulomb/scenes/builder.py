@@ -31,7 +31,7 @@ from fenics_coulomb.scenes.cuboid import GAP_PROFILES, Body, GapFunction, create
 from fenics_coulomb.scenes.meshes import read_gmsh_tags
 from fenics_coulomb.scenes.path import StepLoads, scene_state, step_state
 from fenics_coulomb.scenes.scene import Scene
-from fenics_coulomb.settings import COMMAND_PREFIX
+from fenics_coulomb.settings import COMMAND_PREFIX, START_RULES
 
 __all__ = ["QUADRATURE_DEGREE", "cuboid_gap", "build_body", "lame_fields", "isotropic_forms", "boundary_nodes",
            "clamp", "dirichlet_conditions", "Built", "build_problem"]
@@ -214,6 +214,8 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed)
     friction = float(scene.friction.coefficient)
     settings = scene.solver
+    if scene.start in START_RULES and settings.start != scene.start:  # a start file is the solve's u0 instead
+        settings = dataclasses.replace(settings, start=scene.start)
     if settings.poisson_ratio is None:  # the preconditioner policy knows nearly incompressible bodies
         settings = dataclasses.replace(settings, poisson_ratio=max(
             [float(material.poisson)] + [float(m.poisson) for m in per_body.values()]))

@@ -235,7 +235,9 @@ def start_from_coarse(start: CoarseStart, scene: Scene, V: dolfinx.fem.FunctionS
 
 def resolve_nested(nested: int | None, scene: Scene) -> int:
     """``--nested`` as given, or by default 1 for a cuboid of level NESTED_AUTO_MIN_LEV or finer started from the
-    paper's start, 0 otherwise (docs/scale: nested iteration pays from lev 7 on)."""
+    paper's start or by the start rule ("auto", which takes the paper's start on the loaded cuboid), 0 otherwise
+    (docs/scale: nested iteration pays from lev 7 on)."""
     if nested is not None:
         return nested
-    return int(scene.body.shape == "cuboid" and scene.body.lev >= NESTED_AUTO_MIN_LEV and scene.start == "zero")
+    return int(scene.body.shape == "cuboid" and scene.body.lev >= NESTED_AUTO_MIN_LEV
+               and scene.start in ("auto", "zero"))

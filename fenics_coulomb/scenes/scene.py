@@ -33,7 +33,7 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     tol = 0.1
     rtol = 1e-12            # the paper's reduction (default 1e-8)
     pc = "auto"             # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
-    start = "zero"
+    start = "auto"          # auto (default) | zero (the paper's) | undeformed | an earlier run's solution.xdmf
 
     Two elastic bodies (fenics_coulomb.model.two_body; a gmsh mesh with one volume group per body) replace
     ``contact`` and ``[[obstacle]]`` by contact pairs, with materials per body:
@@ -78,7 +78,7 @@ from fenics_coulomb.model.obstacles import Obstacle, _rotation, obstacles_from_l
 from fenics_coulomb.scd.preconditioner import NEARLY_INCOMPRESSIBLE_POISSON
 from fenics_coulomb.scenes.cuboid import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.scenes.expression import parse_gap_expression, parse_point_expression
-from fenics_coulomb.settings import SolverSettings
+from fenics_coulomb.settings import START_RULES, SolverSettings
 
 __all__ = ["KINDS", "NEARLY_INCOMPRESSIBLE_RTOL", "MAX_SCENE_BYTES", "YOUNG_RANGE", "GAMMA_SCALE_RANGE", "MAX_LOAD", "MAX_LEV", "check_kind",
            "OPTIONAL", "check_kinds", "read_scene_text", "check_gap_values",
@@ -425,7 +425,7 @@ FLAGS: dict[str, tuple[str | None, str]] = {
     "lev": ("body", "lev"), "gap": ("body", "gap"), "load": ("load", "case"), "load_scale": ("load", "scale"),
     "young": ("material", "young"), "poisson": ("material", "poisson"), "friction": ("friction", "coefficient"),
     "start": (None, "start"),
-    **{name: ("solver", name) for name in SolverSettings.__dataclass_fields__},
+    **{name: ("solver", name) for name in SolverSettings.__dataclass_fields__ if name != "start"},
 }
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
@@ -446,7 +446,9 @@ class Scene:
     load: LoadSection = field(default_factory=LoadSection)
     tractions: dict[str, list[float]] | None = None
     solver: SolverSettings = field(default_factory=SolverSettings)
-    start: str = "zero"
+    #: The start: a rule of :data:`~fenics_coulomb.settings.START_RULES` (the solver's ``start``, set from this one
+    #: by the builder) or an earlier run's solution.xdmf.
+    start: str = "auto"
     #: The solver settings (and ``start``) the user gave, in the scene file or as flags: the material's
     #: defaults (:meth:`with_scene_defaults`) never override them.
     given: frozenset[str] = frozenset()
@@ -522,7 +524,7 @@ class Scene:
                 if key not in allowed:
                     raise InputError(f"{where}: unknown key {key!r} in [{section}] (allowed: {', '.join(allowed)})")
             sections[section] = {k: v for k, v in value.items() if k != "start"}
-        start = data.get("solver", {}).get("start", "zero")
+        start = data.get("solver", {}).get("start", "auto")
         if "tractions" in data and "case" in data.get("load", {}):
             raise InputError(f"{where}: give either [load] case or [tractions], not both")
         load = sections.get("load", {})
@@ -629,9 +631,10 @@ class Scene:
                              f"stay below {MAX_LOAD:g} GPa in magnitude")
         self._validate_path(names, where)
         check_kind("start", self.start, "str")
-        if not (self.start in ("zero", "undeformed") or Path(self.start).suffix in (".xdmf", ".h5")):
-            raise InputError(f"start {self.start!r}: 'zero', 'undeformed' or a solution.xdmf of an earlier run")
-        if self.start not in ("zero", "undeformed") and not Path(self.start).with_suffix(".h5").is_file():
+        if not (self.start in START_RULES or Path(self.start).suffix in (".xdmf", ".h5")):
+            raise InputError(f"start {self.start!r}: 'auto', 'zero', 'undeformed' or a solution.xdmf of an earlier "
+                             "run")
+        if self.start not in START_RULES and not Path(self.start).with_suffix(".h5").is_file():
             raise InputError(f"start file {self.start!r} (and its .h5) does not exist")
         check_kinds("solver", self.solver)
         self.solver.validate()
@@ -752,28 +755,19 @@ class Scene:
         return f"{self.body.gap}/{self.load.case or 'tractions'}, lev {self.body.lev}"
 
     def with_scene_defaults(self) -> Scene:
-        """The scene with the defaults its obstacles and material call for (a copy; what the user gave is kept).
+        """The scene with the defaults its material calls for (a copy; what the user gave is kept): a nearly
+        incompressible body (the largest ν of the scene ≥
+        :data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`) is solved to ``rtol`` =
+        :data:`NEARLY_INCOMPRESSIBLE_RTOL` unless ``rtol`` or ``accuracy`` is given. The start is the solver's
+        (:attr:`~fenics_coulomb.settings.SolverSettings.start`, "auto" unless the scene names one).
 
-        * Obstacles of its own (``[[obstacle]]`` tables; not the paper's plane): ``start = "undeformed"`` unless
-          given. The paper's start ũ = −d puts EVERY contact node onto its obstacle — right for the paper's
-          cuboid over its plane (gaps of a few hundredths), far off for a sphere or a cylinder indenting a small
-          part of a large contact boundary, whose other nodes it moves by up to the largest gap
-          (docs/robustness: from the undeformed start 7–12 Newton steps where the paper's start took 15–22).
-        * Nearly incompressible bodies (the largest ν of the scene ≥
-          :data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`): ``start = "undeformed"`` and
-          ``rtol`` = :data:`NEARLY_INCOMPRESSIBLE_RTOL` unless given. From the paper's start the residual of such
-          a body falls only about 2.3× per Newton step for the first ten steps, and at rtol 1e-7 its force
-          balance stays at 2–4e-6 (docs/robustness: ν = 0.49 / 0.499, 26 / 25 Newton steps, 4.3–5.2 linear
-          solves); from the undeformed start with rtol 1e-8: 14 / 12 steps, 2.2–2.4 linear solves, balance 5e-8.
+        RTOL_MEASUREMENTS
         """
         poisson = max([float(self.material.poisson)] + [float(m.poisson) for m in self.materials.values()])
-        soft = poisson >= NEARLY_INCOMPRESSIBLE_POISSON
-        if not soft and not self.obstacles:
+        if poisson < NEARLY_INCOMPRESSIBLE_POISSON:
             return self
         scene = dataclasses.replace(self, solver=dataclasses.replace(self.solver))
-        if "start" not in self.given:
-            scene.start = "undeformed"
-        if soft and not {"rtol", "accuracy"} & self.given:
+        if not {"rtol", "accuracy"} & self.given:
             scene.solver.rtol = min(scene.solver.rtol, NEARLY_INCOMPRESSIBLE_RTOL)
         return scene
 

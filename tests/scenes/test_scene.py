@@ -91,35 +91,42 @@ def test_bad_scene(lev, gap, match):
 
 
 def test_nearly_incompressible_bodies_get_their_defaults(mpi_tmp_path):
-    """ν >= 0.48 without a start or rtol given: the undeformed start and rtol 1e-8 (issue 27, docs/robustness);
-    what the user gives (in the scene or as a flag) is kept; ν = 0.3 keeps the paper's start and rtol."""
+    """ν >= 0.48 without rtol given: rtol 1e-8 (docs/robustness); what the user gives (in the scene or as a flag)
+    is kept; ν = 0.3 keeps the rtol; the start is the solver's rule either way."""
     import json
 
     from fenics_coulomb.cli import main
     from fenics_coulomb.scenes.scene import NEARLY_INCOMPRESSIBLE_RTOL, Scene
 
     soft = Scene().override(poisson=0.49).with_scene_defaults()
-    assert soft.start == "undeformed" and soft.solver.rtol == NEARLY_INCOMPRESSIBLE_RTOL
+    assert soft.start == "auto" and soft.solver.rtol == NEARLY_INCOMPRESSIBLE_RTOL
     given = Scene().override(poisson=0.49, rtol=1e-6, start="zero").with_scene_defaults()
     assert given.start == "zero" and given.solver.rtol == 1e-6
     plain = Scene().override(poisson=0.3).with_scene_defaults()
-    assert plain.start == "zero" and plain.solver.rtol == Scene().solver.rtol
+    assert plain.start == "auto" and plain.solver.rtol == Scene().solver.rtol
     out = mpi_tmp_path / "soft"
     assert main(["--lev", "1", "--poisson", "0.49", "--out", str(out), "--quiet", "--no-plots"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["rtol"] == NEARLY_INCOMPRESSIBLE_RTOL and summary["scene"]["start"] == "undeformed"
+    assert summary["rtol"] == NEARLY_INCOMPRESSIBLE_RTOL and summary["scene"]["start"] == "auto"
+    assert summary["settings"]["start"] == "auto"
 
 
-def test_scenes_with_their_own_obstacles_start_undeformed():
-    """A sphere, cylinder or surface scene starts from the undeformed body unless it names a start (issue 27: the
-    paper's start puts every contact node onto its obstacle); the paper's cuboid over its plane keeps the paper's
-    start (Section 7 unchanged)."""
-    from fenics_coulomb.scenes.scene import Scene
+def test_the_scene_start_is_the_solvers_start_rule():
+    """A scene's start is no longer chosen by its kind: a sphere scene and the paper's cuboid both keep "auto"
+    (the rule of ContactProblem.start_rule), a named rule reaches the solver's settings, a start file does not
+    (it is the solve's u0)."""
+    from mpi4py import MPI
+
+    from fenics_coulomb.scenes.builder import build_problem
+    from fenics_coulomb.scenes.scene import FLAGS, Scene
 
     ROOT = Path(__file__).resolve().parents[2]
     sphere = Scene.from_toml(ROOT / "demos" / "scenes" / "sphere_indentation.toml")
-    assert sphere.with_scene_defaults().start == "undeformed"
+    assert sphere.start == "auto" and sphere.with_scene_defaults().start == "auto"
     assert sphere.override(start="zero").with_scene_defaults().start == "zero"
     assert sphere.with_scene_defaults().solver.rtol == sphere.solver.rtol
-    paper = Scene.from_toml(ROOT / "demos" / "scenes" / "d3_L2.toml")
-    assert paper.with_scene_defaults().start == "zero"
+    assert Scene.from_toml(ROOT / "demos" / "scenes" / "d3_L2.toml").start == "zero"  # named in the file
+    assert FLAGS["start"] == (None, "start")
+    for start in ("auto", "zero", "undeformed"):
+        with build_problem(Scene().override(lev=1, start=start), MPI.COMM_WORLD).problem as problem:
+            assert problem.settings.start == start
