@@ -103,12 +103,51 @@ SCENE_GOOD = [
 ]
 
 
+def _stl(triangles: object) -> str:
+    """ASCII STL text of triangles (k, 3, 3) (normals by the right-hand rule)."""
+    import numpy as np
+
+    X = np.asarray(triangles, dtype=np.float64)
+    lines = ["solid fuzz"]
+    for tri in X:
+        lines += ["facet normal 0 0 0", "outer loop", *(f"vertex {v[0]!r} {v[1]!r} {v[2]!r}" for v in tri),
+                  "endloop", "endfacet"]
+    return "\n".join([*lines, "endsolid fuzz", ""])
+
+
+def hostile_cases() -> list[tuple[list[str], dict[str, str]]]:
+    """Obstacles the contact nodes cannot see, a loose accuracy and rtol given twice (issue 33): (argv, files) —
+    each must end with exit 2 in one line or exit 3, never exit 0 with a wrong answer."""
+    sys.path.insert(0, str(ROOT / "meshes"))
+    from surfaces import icosphere, rectangle
+
+    block = "[body]\nlev = 2\ngap = '0.0*x1'\nclamped = ['bottom']\ncontact = ['top']\n[tractions]\n[[obstacle]]\n"
+    stl = {"ball.stl": _stl(icosphere(0.3, (1.0, 0.5, 1.5), level=1)),
+           "buried.stl": _stl(icosphere(0.2, (1.0, 0.5, 0.5), level=1)),
+           "up.stl": _stl(rectangle((-1.0, -1.0), (3.0, 2.0), z=1.0))}
+    scenes = [
+        "type = 'surface'\nfile = 'buried.stl'\n",
+        "type = 'surface'\nfile = 'ball.stl'\ndisplacement = [0, 0, -2.0]\n",
+        "name = 'b'\ntype = 'surface'\nfile = 'ball.stl'\n[[path.step]]\n[[path.step]]\n"
+        "rotate = { b = [180, [0, 1, 0], [1, 0.5, 0.5]] }\n",
+        "type = 'sphere'\ncenter = [1, 0.5, 1.5]\nradius = 0.3\ndisplacement = [0, 0, -2000.0]\n",
+        "type = 'plane'\npoint = [0, 0, 1.0]\nnormal = [0, 0, 1]\ndisplacement = [0, 0, -0.01]\n",
+        "type = 'surface'\nfile = 'up.stl'\ndisplacement = [0, 0, -0.01]\n",
+    ]
+    cases = [(["--scene", "{dir}/scene.toml"], {"scene.toml": block + text, **stl}) for text in scenes]
+    cases += [(["--lev", "0", "--rtol", "1e-5", "--accuracy", "1e-3"], {}),
+              (["--scene", "{dir}/scene.toml", "--lev", "0"], {"scene.toml": "[solver]\nrtol = 1e-6\naccuracy = 1e-4\n"}),
+              (["--lev", "3", "--accuracy", "0.9"], {})]
+    return cases
+
+
 def generate(seed: int, count: int) -> list[Case]:
     """``count`` reproducible cases of every kind."""
     rng = random.Random(seed)
     cases: list[Case] = []
     kinds = ["flag_bad", "flag_good", "petsc_bad", "petsc_good", "scene_bad", "scene_good", "out_bad", "mixed",
-             "diverge"]
+             "diverge", "hostile"]
+    hostile = hostile_cases()
     for i in range(count):
         kind = kinds[i % len(kinds)]
         argv: list[str] = ["--lev", rng.choice(["0", "1"])]
@@ -129,6 +168,9 @@ def generate(seed: int, count: int) -> list[Case]:
         if kind in ("scene_bad", "scene_good"):
             files["scene.toml"] = rng.choice(SCENE_BAD if kind == "scene_bad" else SCENE_GOOD)
             argv = ["--scene", "{dir}/scene.toml"]
+        if kind == "hostile":
+            argv, more = rng.choice(hostile)
+            files.update(more)
         if kind == "out_bad":
             argv += ["--out", rng.choice(["{dir}/" + "a" * 300, "/proc/nonexistent/out", "{dir}/file.txt", ""])]
             files["file.txt"] = "not a directory"

@@ -93,6 +93,8 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     p.add_argument("--young", type=float, help=f"Young's modulus E in GPa (default {d.material.young})")
     p.add_argument("--poisson", type=float, help=f"Poisson ratio (default {d.material.poisson})")
     p.add_argument("--friction", type=float, help=f"Coulomb coefficient F (default {d.friction.coefficient})")
+    p.add_argument("--sliding", help="contact geometry: finite (evaluated in the deformed configuration, the "
+                                     "default) or small (in the reference configuration only)")
     p.add_argument("--variant", help="Newton step: 4a (S*Q, (5.4)) or 4b (SQ); default 4a")
     p.add_argument("--tol", type=float, help=f"relative GMRES residual per Newton step (default {d.solver.tol})")
     p.add_argument("--rtol", type=float, help=f"stop at |y| <= rtol |y0| (default {d.solver.rtol})")

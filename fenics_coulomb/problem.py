@@ -42,12 +42,13 @@ import ufl
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
-from fenics_coulomb.model.obstacles import Obstacle
+from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.sliding import CYCLE_TOLERANCE, MAX_GEOMETRY_UPDATES, geometry_change
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
-from fenics_coulomb.settings import SolverSettings
+from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
 
 __all__ = ["INTERPOLATION_PADDING", "interpolate_displacement", "ContactProblem"]
 
@@ -88,6 +89,8 @@ def interpolate_displacement(
 
 def _settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSettings:
     """Validated settings from a SolverSettings, a dict of its fields or None (the defaults)."""
+    if settings is not None and not isinstance(settings, SolverSettings | dict):
+        raise InputError(f"settings = {_show(settings)}: give a SolverSettings, a dict of its fields or None")
     if isinstance(settings, dict):
         unknown = set(settings) - set(SolverSettings.__dataclass_fields__)
         if unknown:
@@ -96,6 +99,43 @@ def _settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSetting
     settings = settings or SolverSettings()
     settings.validate()
     return settings
+
+
+def _show(value: Any) -> str:
+    """A value as the user gave it, on one line (at most 80 characters)."""
+    text = repr(value).replace("\n", " ")
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _check_petsc_options(options: Any, prefix: str) -> None:
+    """InputError for ``petsc_options`` that are not a mapping of option names (without '-' and prefix) to values,
+    or that PETSc refuses (an unknown KSP or PC type, …): tried on a small KSP on this rank alone, before anything
+    collective (:func:`fenics_coulomb.scd.options.check_petsc_options`), then removed from the database again."""
+    if options is None:
+        return
+    if not isinstance(options, Mapping):
+        raise InputError(f"petsc_options = {_show(options)}: give a dict of PETSc option names (without '-' and "
+                         "prefix) to values, e.g. {'ksp_rtol': 1e-6}")
+    for key, value in options.items():
+        if not isinstance(key, str) or not key or key.startswith("-"):
+            raise InputError(f"petsc_options: key {key!r} must be an option name without '-' and prefix, "
+                             "e.g. 'ksp_monitor'")
+        if value is not None and not isinstance(value, str | int | float | bool | np.integer | np.floating):
+            raise InputError(f"petsc_options: {key} = {_show(value)}: give a string, a number, a bool or None")
+    from fenics_coulomb.scd.options import check_petsc_options
+
+    trial = f"{prefix}apicheck_"
+    database = PETSc.Options()
+    names = [f"{trial}{key}" for key in options]
+    try:
+        for name, value in zip(names, options.values(), strict=True):
+            database[name] = "" if value is None else value
+        check_petsc_options(trial)
+    except InputError as err:
+        raise InputError(f"petsc_options: {str(err).replace('-' + trial, '')}") from None
+    finally:
+        for name in names:
+            database.delValue(name)
 
 
 class ContactProblem:
@@ -145,20 +185,25 @@ class ContactProblem:
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
         contact_pairs: Sequence[ContactPair] | None = None,
+        sliding: str = "finite",
     ) -> None:
         self._model: ContactModel | None = None
         self._solver: SCDNewtonSolver | None = None
         if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
             raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
+        if isinstance(bcs, dolfinx.fem.DirichletBC | str | bytes) or not isinstance(bcs, Sequence):
+            raise InputError(f"bcs = {type(bcs).__name__}: give a list of dolfinx.fem.DirichletBC (or [])")
         self.settings = _settings(settings)
+        _check_petsc_options(petsc_options, petsc_options_prefix)
         if contact is None and not contact_pairs:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
-                                   form_compiler_options, jit_options, contact_pairs)
+                                   form_compiler_options, jit_options, contact_pairs, sliding)
         #: Wall time of building the model (form compilation and assembly) on this rank.
         self.model_time = time.perf_counter() - t0
         self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
+        self._petsc_options = dict(petsc_options or {})
         self.petsc_options_prefix = petsc_options_prefix
         #: The physical displacement of the last solve.
         self.u = dolfinx.fem.Function(self._model.V, name="displacement")
@@ -168,6 +213,8 @@ class ContactProblem:
         self.p: int = self._model.p
         self._obstacles = list(self._model.obstacles)
         self._step = 0
+        #: The ids of this problem's results (:meth:`report` refuses another problem's).
+        self._results: set[int] = set()
         self._previous: npt.NDArray[np.float64] | None = None
         self._previous_delta: npt.NDArray[np.float64] | None = None
         #: The obstacles as placed at the previous step (their rotations; None before the first step).
@@ -177,13 +224,17 @@ class ContactProblem:
     @property
     def model(self) -> ContactModel:
         """The algebraic model (A, l̃, d, l, contact nodes)."""
-        assert self._model is not None, "the problem was destroyed"
+        if self._model is None:
+            raise RuntimeError("ContactProblem: the problem was destroyed (destroy() or its with block ended): "
+                               "build a new one")
         return self._model
 
     @property
     def solver(self) -> SCDNewtonSolver:
         """The SCD semismooth* Newton solver (Newton matrix, KSP)."""
-        assert self._solver is not None, "the problem was destroyed"
+        if self._solver is None:
+            raise RuntimeError("ContactProblem: the problem was destroyed (destroy() or its with block ended): "
+                               "build a new one")
         return self._solver
 
     @property
@@ -218,7 +269,16 @@ class ContactProblem:
             and each contact pair, the reactions, the applied load, and every contact node (coordinates,
             normal, area, force, pressure, gap, state) gathered in global node order.
         """
-        return make_report(self.model, result, self._obstacles, reactions)
+        model = self.model
+        if not isinstance(result, SolveResult):
+            raise InputError(f"report: result = {_show(result)}: give the SolveResult of this problem's solve()")
+        if id(result) not in self._results:
+            raise InputError("report: the result is not one of this problem's solve() (a result of another problem "
+                             "describes other nodes)")
+        if reactions is not None and not isinstance(reactions, Mapping):
+            raise InputError(f"report: reactions = {_show(reactions)}: give a dict name -> DirichletBC of bcs (or "
+                             "node blocks)")
+        return make_report(model, result, self._obstacles, reactions)
 
     @property
     def A(self) -> PETSc.Mat:
@@ -233,6 +293,20 @@ class ContactProblem:
         self._solver = None
         self.settings = settings
         self._solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)
+        self._petsc_options = dict(petsc_options or {})
+
+    @property
+    def sliding(self) -> str:
+        """The sliding model: "finite" (contact evaluated in the deformed configuration) or "small"."""
+        return self.model.sliding
+
+    @property
+    def finite_sliding(self) -> bool:
+        """Whether the contact geometry depends on the displacement: finite sliding with contact pairs or an
+        obstacle that is not a plane (a plane's linearized gap is its gap at X, its frame constant)."""
+        model = self.model
+        return model.sliding == "finite" and (model.pairing is not None or len(self._obstacles) > 1 or
+                                             any(not o.affine for o in self._obstacles))
 
     # -- the load path ------------------------------------------------------------------------------
     @property
@@ -257,6 +331,7 @@ class ContactProblem:
         Raises:
             InputError: for an unknown obstacle, a displacement that is not a finite 3-vector or a bad rotation.
         """
+        self.model  # noqa: B018  (RuntimeError after destroy())
         names = [getattr(o, "name", None) for o in self._obstacles]
         if isinstance(obstacle, str):
             if obstacle not in names:
@@ -268,40 +343,64 @@ class ContactProblem:
         else:
             raise InputError(f"move: obstacle {obstacle!r} is neither a name nor an index below "
                              f"{len(self._obstacles)}")
-        moved = self._obstacles[index].moved(displacement)
+        obstacle = self._obstacles[index]
+        moved = obstacle.moved(_vector(displacement, "displacement", f"move: {obstacle.label}"))
         self._obstacles[index] = moved if isinstance(rotation, str) and rotation == "keep" else moved.rotated(rotation)
 
     def reset(self, u: dolfinx.fem.Function | None = None, *, step: int = 0,
-              obstacle_displacements: npt.ArrayLike | None = None) -> None:
+              obstacle_displacements: npt.ArrayLike | None = None,
+              obstacle_rotations: Sequence[Any] | None = None) -> None:
         """Forget the load path's history, or set it to a known previous step (collective with ``u``).
 
         Args:
             u: The (physical) displacement of the previous step (on any mesh, interpolated), or None for ũ₀ = 0.
             step: The number of that step (the next solve is step ``step + 1``).
             obstacle_displacements: δ of that step per obstacle, shape (number of obstacles, 3); None for 0.
+            obstacle_rotations: The rotation [angle_deg, axis, centre] (or None) of each obstacle at that step;
+                None for none. The next step's slip is measured from this placement, its rotation included.
         """
+        self.model  # noqa: B018  (RuntimeError after destroy())
         if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 0:
             raise InputError(f"reset: step {step!r} must be an integer >= 0")
         delta = None
         if obstacle_displacements is not None:
             delta = np.asarray(obstacle_displacements, dtype=np.float64)
+            if delta.size == 0 and not self._obstacles:
+                delta = delta.reshape(0, 3)
             if delta.shape != (len(self._obstacles), 3) or not np.all(np.isfinite(delta)):
                 raise InputError(f"reset: obstacle_displacements of shape {delta.shape}: need finite values of "
                                  f"shape ({len(self._obstacles)}, 3)")
-        self._previous = None if u is None else self.model.relative(interpolate_displacement(u, self.model.V))
+        placed = None
+        if obstacle_rotations is not None:
+            if isinstance(obstacle_rotations, str | bytes) or not isinstance(obstacle_rotations, Sequence) or \
+                    len(obstacle_rotations) != len(self._obstacles):
+                raise InputError(f"reset: obstacle_rotations = {obstacle_rotations!r}: give one rotation (or None) "
+                                 f"per obstacle ({len(self._obstacles)})")
+            deltas = delta if delta is not None else np.zeros((len(self._obstacles), 3))
+            placed = [o.moved(d).rotated(r) for o, d, r in zip(self._obstacles, deltas, obstacle_rotations, strict=True)]
+        self._previous = None if u is None else interpolate_displacement(u, self.model.V)
+        if self._previous is not None and not self.finite_sliding:  # the history in the model's unknown
+            self._previous = self.model.relative(self._previous)
         self._previous_delta = delta
-        self._previous_obstacles = None
+        self._previous_obstacles = placed
         self._step = int(step)
 
     def _place(self) -> None:
         """Re-assemble l̃ from the current loads and place the obstacles with the history's shift."""
         model = self.model
         model.assemble_load()
-        previous = None if self._previous is None else self._previous[model.contact.local_dofs]
+        previous = None if self._previous is None else self._history()[model.contact.local_dofs]
         rotating = any(getattr(o, "rotation", None) is not None
                        for o in [*self._obstacles, *(self._previous_obstacles or [])])
         model.place(self._obstacles, previous,
                     self._previous_obstacles if rotating and self._previous_obstacles else self._previous_delta)
+
+    def _history(self) -> npt.NDArray[np.float64]:
+        """The previous step's solution in the model's unknown (z = M⁻¹u for contact pairs; collective): finite
+        sliding keeps it physical and maps it with the current pairing (the slip against the master material
+        point beneath the node now)."""
+        assert self._previous is not None
+        return self.model.relative(self._previous) if self.finite_sliding else self._previous
 
     def _commit(self, result: SolveResult) -> None:
         """Make the converged ``result`` the history of the next step."""
@@ -325,7 +424,7 @@ class ContactProblem:
         if u0 is not None:
             start = model.relative(interpolate_displacement(u0, model.V))
         elif self._previous is not None:
-            start = self._previous.copy()
+            start = self._history().copy()
         else:
             self.last_start = self.start_rule()
             shift = model.shift.getArray(readonly=True)
@@ -393,29 +492,98 @@ class ContactProblem:
             SolverError: when the method does not converge; ``error.result`` holds the last iterate and
                 :attr:`u` its displacement.
         """
-        model, solver, settings = self.model, self.solver, self.settings
+        if self.finite_sliding:
+            return self._solve_finite(u0)
         self._place()
-        start = self.initial_displacement(u0)
+        result = self._solve_placed(self.initial_displacement(u0))
+        self._verify(result)
+        return self._finish(result, commit=result.converged), result
+
+    def _solve_placed(self, start: npt.NDArray[np.float64]) -> SolveResult:
+        """One SCD solve of the model as placed, from ``start`` (the predictor and the no-contact shortcut first
+        when set; collective). A SolverError keeps its last iterate as :attr:`u`."""
+        model, solver, settings = self.model, self.solver, self.settings
         if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
             result = solver.solve_linear()
             if model.p == 0:
                 self._log("no contact boundary: one linear solve")
-                self._verify(result)
-                return self._finish(result, commit=result.converged), result
+                return result
             if result.converged and solver.is_separated(result):
                 self._log("the linear solution does not reach the obstacle: it is the solution")
-                self._verify(result)
-                return self._finish(result, commit=True), result
+                return result
             self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
-            result = solver.solve(start)
+            return solver.solve(start)
         except SolverError as err:
             if err.result is not None:
                 err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
                 self._finish(err.result)
             raise
+
+    def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Any = None) -> None:
+        """Evaluate the contact geometry in X + u; rebuild the solver when the model's Ã changed (collective)."""
+        if self.model.configure(u, pairing):
+            self.solver.destroy()
+            self._solver = None
+            self._solver = SCDNewtonSolver(self.model, self.settings, self.petsc_options_prefix, self._petsc_options)
+            self.p = self.model.p
+
+    def _solve_finite(self, u0: dolfinx.fem.Function | None) -> tuple[dolfinx.fem.Function, SolveResult]:
+        """Finite sliding: iterate the geometry (see :mod:`fenics_coulomb.model.sliding`): solve with G(u⁽ᵐ⁾)
+        linearized about u⁽ᵐ⁾, from u⁽ᵐ⁾, until G(u⁽ᵐ⁺¹⁾) has the same contact nodes and stencil supports and its
+        linearization moves no node's gap or slip by more than the solve's accuracy (collective)."""
+        model = self.model
+        configuration = self._previous  # u⁽⁰⁾: the previous step's physical u (None: the reference X)
+        if configuration is not None or model.configuration is not None:
+            self._configure(configuration)
+        self._place()
+        result = self._solve_placed(self.initial_displacement(u0))
+        updates, newton, krylov = 0, result.iterations, result.krylov_iterations
+        solved: list[tuple[str, npt.NDArray[np.float64]]] = []  # (geometry, solution) of every solve
+        cycle_end = False
+        while True:
+            z = np.array(result.displacement, dtype=np.float64)
+            u = model.physical(z)
+            change = geometry_change(model, u, z, self._previous, ERROR_PER_RTOL * self.settings.reduction)
+            solved.append((change.old_signature, u))
+            logger.debug("finite sliding: solved in %s, new %s: %s", change.old_signature[:8], change.new_signature[:8],
+                         change.describe() if not change.settled else "settled")
+            if change.settled:
+                break
+            if cycle_end:
+                break
+            if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
+                amplitude = model.comm.allreduce(float(np.max(np.abs(u - solved[-2][1]), initial=0.0)), op=MPI.MAX)
+                h = model.comm.allreduce(float(np.min(model.node_size()[model.contact.blocks], initial=np.inf)),
+                                         op=MPI.MIN)
+                if amplitude <= CYCLE_TOLERANCE * h:
+                    if model.comm.rank == 0:
+                        logger.warning("finite sliding: %s, back and forth between two geometries whose solutions "
+                                       "differ by %.3g (%.2g of the smallest cell at the contact nodes): the one of "
+                                       "the smaller signature is kept", change.describe(), amplitude, amplitude / h)
+                    if change.old_signature < change.new_signature:
+                        break
+                    cycle_end = True  # one more solve, in the other geometry of the cycle
+            if updates == MAX_GEOMETRY_UPDATES:
+                result.geometry_updates = updates
+                result.converged, result.reason = False, "geometry"
+                result.checks = physics_residuals(model, z, balance=False)
+                self._finish(result)
+                raise SolverError(f"finite sliding: the contact geometry did not settle after {updates} updates "
+                                  f"({change.describe()})", "geometry", result)
+            updates += 1
+            self._configure(u, change.pairing)
+            self._place()
+            start = model.relative(u)
+            start[model.dirichlet_rows] = model.dirichlet_values
+            result = self._solve_placed(start)
+            newton, krylov = newton + result.iterations, krylov + result.krylov_iterations
+            if self.model.comm.rank == 0:
+                logger.info("finite sliding: geometry update %d (%s)", updates, change.describe())
+        result.geometry_updates = updates
+        result.iterations, result.krylov_iterations = newton, krylov  # over every geometry of the solve
         self._verify(result)
-        return self._finish(result, commit=True), result
+        return self._finish(result, commit=result.converged), result
 
     def _verify(self, result: SolveResult) -> None:
         """Let the physics checks decide a converged solve (collective): the residuals are kept in the result,
@@ -432,9 +600,11 @@ class ContactProblem:
             logger.info(message)
 
     def _finish(self, result: SolveResult, commit: bool = False) -> dolfinx.fem.Function:
+        self._results.add(id(result))
         result.timings["model"] = self.model_time
-        if commit:
-            self._commit(result)  # the history is kept in the model's unknown (z for contact pairs)
+        finite = self.finite_sliding
+        if commit and not finite:
+            self._commit(result)  # small sliding keeps the history in the model's unknown (z for contact pairs)
         if self.model.coupling.paired:
             result.relative_displacement = result.displacement
             result.displacement = self.model.physical(result.displacement)
@@ -446,6 +616,8 @@ class ContactProblem:
                                "surface: enlarge the pairs' search_distance, and make the smaller surface the "
                                "slave (mortar drops the slave nodes whose facets reach past the master's border)",
                                penetrating)
+        if commit and finite:
+            self._commit(result)  # finite sliding keeps the physical u (mapped by the next step's pairing)
         self.u.x.petsc_vec.array[:] = result.displacement
         self.u.x.scatter_forward()
         return self.u

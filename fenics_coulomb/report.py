@@ -37,7 +37,7 @@ import dolfinx.fem
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.errors import InputError
+from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.checks import boundary_reactions
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import contact_areas, pair_forces
@@ -48,6 +48,17 @@ from fenics_coulomb.scd.resolvent import OPEN, ContactState
 __all__ = ["ContactNodes", "ContactReport", "make_report", "reaction_groups"]
 
 Array = npt.NDArray[np.float64]
+
+
+def _finite_vector(value: Any, name: str) -> Array:
+    """``value`` as 3 finite numbers, or InputError naming it (contact_radius's arguments)."""
+    try:
+        vector = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        vector = np.zeros(0)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise InputError(f"contact_radius: {name} = {value!r}: must be 3 finite numbers")
+    return vector
 
 
 @dataclass(frozen=True)
@@ -119,6 +130,9 @@ class ContactReport:
             The radius (0 when no node is in contact). On a mesh it is a node position: it resolves the true
             radius to about one element.
         """
+        centre = _finite_vector(center, "center")
+        if normal is not None:
+            _finite_vector(normal, "normal")
         closed = self.nodes.closed
         if not np.any(closed):
             return 0.0
@@ -127,26 +141,57 @@ class ContactReport:
         if not np.isfinite(length) or length == 0.0:
             raise InputError(f"contact_radius: normal {normal!r} is not a non-zero finite vector")
         n = n / length
-        d = self.nodes.coordinates[closed] - np.asarray(center, dtype=np.float64)
+        d = self.nodes.coordinates[closed] - centre
         radial = d - np.outer(d @ n, n)
         return float(np.max(np.linalg.norm(radial, axis=1)))
 
 
 def reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, npt.NDArray[np.int32]]:
-    """Local DOF blocks (owned and ghost) of named Dirichlet conditions on V or on a sub-space of V.
+    """Local DOF blocks (owned and ghost) of named Dirichlet conditions on V or on a sub-space of V (collective: a
+    bad entry on any rank is an InputError on every rank).
 
     Args:
         V: The problem's vector space.
         bcs: name → ``dolfinx.fem.DirichletBC`` (on V, on ``V.sub(i)``) or an array of local node blocks.
     """
+    message = ""
+    groups: dict[str, npt.NDArray[np.int32]] = {}
+    try:
+        groups = _reaction_groups(V, bcs)
+    except InputError as err:
+        message = str(err)
+    check_all(V.mesh.comm, not message, message)
+    return groups
+
+
+def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, npt.NDArray[np.int32]]:
+    if not isinstance(bcs, Mapping):
+        raise InputError(f"reactions = {bcs!r}: give a dict name -> DirichletBC (or node blocks)")
     bs = V.dofmap.index_map_bs
+    nodes = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
     groups: dict[str, npt.NDArray[np.int32]] = {}
     for name, bc in bcs.items():
+        if not isinstance(name, str) or not name:
+            raise InputError(f"reactions: name {name!r} must be a non-empty string")
         if isinstance(bc, dolfinx.fem.DirichletBC):
+            space = bc.function_space
+            if getattr(space.mesh, "_cpp_object", space.mesh) is not getattr(V.mesh, "_cpp_object", V.mesh) or \
+                    space.dofmap.index_map.size_global != V.dofmap.index_map.size_global or \
+                    space.dofmap.index_map_bs != bs:
+                raise InputError(f"reactions[{name!r}]: a boundary condition of another function space (give one "
+                                 "of the problem's bcs, on V or V.sub(i))")
             dofs = np.asarray(bc.dof_indices()[0])  # unrolled DOF indices of V, for V and for V.sub(i) alike
             groups[str(name)] = np.unique(dofs // bs).astype(np.int32)
         else:
-            groups[str(name)] = np.unique(np.asarray(bc, dtype=np.int32))
+            try:
+                blocks = np.asarray(bc)
+            except (TypeError, ValueError):
+                blocks = np.zeros(0, dtype=object)
+            if blocks.ndim != 1 or (blocks.size and (blocks.dtype.kind not in "iu" or blocks.min() < 0
+                                                     or blocks.max() >= nodes)):
+                raise InputError(f"reactions[{name!r}] = {type(bc).__name__}: give a DirichletBC of bcs or an array "
+                                 f"of this rank's node blocks (integers in [0, {nodes}))")
+            groups[str(name)] = np.unique(blocks.astype(np.int32))
     return groups
 
 
@@ -157,6 +202,8 @@ def _gather(comm: MPI.Comm, local: np.ndarray, order: np.ndarray) -> np.ndarray:
 def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Obstacle],
                 reactions: Mapping[str, Any] | None = None) -> ContactReport:
     """The :class:`ContactReport` of ``result`` (collective). ``reactions``: name → DirichletBC or node blocks."""
+    if not isinstance(result, SolveResult):
+        raise InputError(f"report: result = {type(result).__name__}: give the SolveResult of the problem's solve()")
     comm = model.comm
     cmap = model.contact
     x = np.concatenate(comm.allgather(np.ascontiguousarray(cmap.coordinates)), axis=0).reshape(-1, 3)

@@ -9,6 +9,7 @@ per solve in ``solution.xdmf``. Each returns the exit status."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import time
 import xml.etree.ElementTree as ET
@@ -17,6 +18,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dolfinx.fem
+import numpy as np
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.errors import EXIT_DIVERGED
@@ -28,7 +30,7 @@ from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
 from fenics_coulomb.scenes.nested import NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels, start_from_coarse
 from fenics_coulomb.scenes.scene import Scene
-from fenics_coulomb.settings import START_RULES
+from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_for_accuracy
 
 __all__ = ["BYTES_PER_UNKNOWN", "BYTES_PER_RANK", "scene_from_args", "prepare_output", "run",
            "check_path_arguments", "run_load_path", "friction_text", "check_memory", "available_memory"]
@@ -51,13 +53,35 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
     if args.scene is not None and not args.scene.strip():
         raise InputError(f"--scene {args.scene!r}: give a scene file (TOML), or leave --scene out for the defaults")
     scene = Scene.from_toml(args.scene) if args.scene else Scene()
+    _check_accuracy_and_rtol(scene, args)
+    if args.rtol is not None and scene.solver.accuracy is not None:
+        scene = dataclasses.replace(scene, solver=dataclasses.replace(scene.solver, accuracy=None),
+                                    given=scene.given - {"accuracy"})  # the flag replaces the scene's accuracy
     return scene.override(
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
         max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
         accuracy=args.accuracy, adaptive_tol=args.adaptive_tol, matrix_free=args.matrix_free,
-        galerkin_coarse=args.galerkin_coarse,
+        galerkin_coarse=args.galerkin_coarse, sliding=getattr(args, "sliding", None),
     )
+
+
+def _check_accuracy_and_rtol(scene: Scene, args: argparse.Namespace) -> None:
+    """``accuracy`` sets the residual reduction itself (rtol = accuracy/ERROR_PER_RTOL): both given in one place
+    (the flags, or the scene's [solver]) is an InputError naming both; a flag replaces the scene's other one (said
+    in one line on rank 0)."""
+    rtol, accuracy = getattr(args, "rtol", None), getattr(args, "accuracy", None)
+    if rtol is not None and accuracy is not None:
+        raise InputError(f"--rtol {rtol:g} and --accuracy {accuracy:g}: give one (--accuracy sets the residual "
+                         f"reduction itself, rtol = accuracy/{ERROR_PER_RTOL:g})")
+    if {"rtol", "accuracy"} <= scene.given and scene.solver.accuracy is not None:
+        raise InputError(f"[solver] rtol = {scene.solver.rtol!r} and accuracy = {scene.solver.accuracy!r}: give one "
+                         f"(accuracy sets the residual reduction itself, rtol = accuracy/{ERROR_PER_RTOL:g})")
+    if accuracy is not None and "rtol" in scene.given:
+        logger.warning("--accuracy %g replaces the scene's rtol = %g (residual reduction %.3g)", accuracy,
+                       scene.solver.rtol, rtol_for_accuracy(accuracy) if accuracy > 0 else float("nan"))
+    elif rtol is not None and scene.solver.accuracy is not None:
+        logger.warning("--rtol %g replaces the scene's accuracy = %g", rtol, scene.solver.accuracy)
 
 
 def prepare_output(comm: MPI.Comm, out: str) -> ResultDirectory:
@@ -128,6 +152,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         print(
             f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
+            + (f"{result.geometry_updates} geometry update(s), " if result.geometry_updates else "") +
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
             f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
             flush=True,
@@ -212,8 +237,10 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 previous.x.petsc_vec.array[:] = read_displacement(Path(scene.start), problem.V,
                                                                   time=float(start_step))
                 previous.x.scatter_forward()
-                deltas = done[-1].obstacle_displacements or [(0.0, 0.0, 0.0)] * len(problem.obstacles)
-                problem.reset(previous, step=len(done), obstacle_displacements=deltas)
+                count = len(problem.obstacles)  # the scene's, or the paper's plane when it names none
+                deltas = np.asarray(done[-1].obstacle_displacements or np.zeros((count, 3)), dtype=np.float64)
+                problem.reset(previous, step=len(done), obstacle_displacements=deltas.reshape(count, 3),
+                              obstacle_rotations=done[-1].obstacle_rotations or [None] * count)  # step K's placement
                 todo = solves[len(done):]
                 logger.info("resuming after step %d of %s: solving steps %d..%d", start_step, scene.start,
                             start_step + 1, solves[-1].step)

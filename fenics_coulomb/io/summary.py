@@ -69,7 +69,8 @@ def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> No
 @rank0_file
 def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Comm) -> None:
     """One row per solve of a load path on rank 0 (``steps``: summary.json's "steps"): solve, time (the step
-    number), step, substep, load factor, converged, Newton and Krylov iterations, open/stick/slip, the total
+    number), step, substep, load factor, converged, Newton and Krylov iterations, the geometry updates of finite
+    sliding, open/stick/slip, the total
     contact force, the applied load's resultant, the reaction per Dirichlet boundary and δ per obstacle (x, y,
     z components each; a boundary group "a,b" is named "a+b"), wall time."""
     if comm.rank != 0 or not steps:
@@ -78,7 +79,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
     reactions = list(steps[0]["reactions"])
     obstacles = list(steps[0]["obstacle_displacements"])
     header = ["solve", "time", "step", "substep", "load_factor", "converged", "newton_iterations",
-              "krylov_iterations", "open", "stick", "slip",
+              "krylov_iterations", "geometry_updates", "open", "stick", "slip",
               *[f"contact_force_{c}" for c in xyz], *[f"applied_load_{c}" for c in xyz],
               *[f"reaction_{name.replace(',', '+')}_{c}" for name in reactions for c in xyz],
               *[f"delta_{name.replace(',', '+')}_{c}" for name in obstacles for c in xyz], "wall_time_s"]
@@ -87,7 +88,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
         counts = s["state_counts"]
         row = [s["index"], f"{s['time']:.17g}", s["step"], s["substep"], f"{s['load_factor']:.17g}",
                str(bool(s["converged"])).lower(), s["newton_iterations"], s["krylov_iterations"],
-               counts["open"], counts["stick"], counts["slip"],
+               s.get("geometry_updates", 0), counts["open"], counts["stick"], counts["slip"],
                *[f"{c:.17g}" for c in s["contact_force"]], *[f"{c:.17g}" for c in s["applied_load"]],
                *[f"{c:.17g}" for name in reactions for c in s["reactions"][name]],
                *[f"{c:.17g}" for name in obstacles for c in s["obstacle_displacements"][name]],

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
+from fenics_coulomb.errors import InputError
 from fenics_coulomb.io.results import ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
 from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
@@ -83,7 +84,25 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
                   plots: bool = False, reactions: Mapping[str, Any] | None = None,
                   extra: Mapping[str, Any] | None = None, comm: MPI.Comm | None = None) -> dict[str, Any]:
     """Write the result set of a solve to ``path`` as the command line does (collective); return summary.json's
-    data. See the module docstring; the arguments are those of :func:`write_result_set`."""
+    data. See the module docstring; the arguments are those of :func:`write_result_set`.
+
+    Raises:
+        InputError: for a path that is not a non-empty name, a ``problem`` that is not a ContactProblem or a
+            ``result`` that is not a SolveResult (before anything is written or communicated).
+    """
+    from fenics_coulomb.problem import ContactProblem
+
+    if not isinstance(path, str | Path) or not str(path).strip():
+        raise InputError(f"write_results: path = {path!r}: give the result directory's name")
+    if not isinstance(problem, ContactProblem):
+        raise InputError(f"write_results: problem = {type(problem).__name__}: give the ContactProblem that solved "
+                         "the result")
+    if not isinstance(result, SolveResult):
+        raise InputError(f"write_results: result = {type(result).__name__}: give the SolveResult of the problem's "
+                         "solve()")
+    if id(result) not in getattr(problem, "_results", {id(result)}):
+        raise InputError("write_results: the result is not one of this problem's solve() (a result of another "
+                         "problem describes other nodes)")
     out = ResultDirectory(comm or problem.model.comm, path)
     out.failed = not result.converged
     with out.writing() as tmp:

@@ -61,11 +61,15 @@ from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
 from fenics_coulomb.model.two_body import check_rigid_support, connected_bodies, coupling_matrix
 from fenics_coulomb.settings import COMMAND_PREFIX
 
-__all__ = ["validate_friction", "validate_arguments", "function_space", "ContactModel"]
+__all__ = ["SLIDING", "validate_friction", "validate_arguments", "function_space", "ContactModel"]
 
 logger = logging.getLogger(__name__)
 
 Friction = float | dolfinx.fem.Function
+
+#: The sliding models: "finite" evaluates the contact geometry in the deformed configuration X + u
+#: (:meth:`ContactModel.configure`), "small" once in the reference configuration X.
+SLIDING = ("finite", "small")
 
 
 def validate_friction(friction: float) -> None:
@@ -194,7 +198,10 @@ class ContactModel:
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
         contact_pairs: Sequence[ContactPair] | None = None,
+        sliding: str = "finite",
     ) -> None:
+        if sliding not in SLIDING:
+            raise InputError(f"sliding = {sliding!r}: must be one of {list(SLIDING)}")
         V = function_space(a)
         msh = V.mesh
         comm = msh.comm
@@ -212,6 +219,13 @@ class ContactModel:
         self.coupling: Coupling = IdentityCoupling()
         self._free_coupling: PETSc.Mat | None = None
         self._prefix = prefix
+        #: "finite" (the contact geometry follows the deformation, :meth:`configure`) or "small" (reference).
+        self.sliding = sliding
+        #: The configuration the contact geometry is evaluated in: the physical displacement u of every local
+        #: DOF (owned and ghost; None: the reference configuration X).
+        self.configuration: npt.NDArray[np.float64] | None = None
+        self._A_free: PETSc.Mat | None = None
+        self._ghosted: dolfinx.fem.Function | None = None
         obstacle_contact = None
         if pairs:
             bad = [q for q in pairs if not isinstance(q, ContactPair)]
@@ -236,8 +250,10 @@ class ContactModel:
             counts = comm.allreduce(np.array([facet_tags.find(m).size for m in self.markers], dtype=np.int64),
                                     op=MPI.SUM)
             missing = [m for m, c in zip(self.markers, counts, strict=True) if c == 0]
+            values = sorted(set().union(*comm.allgather({int(v) for v in np.unique(facet_tags.values)}))) \
+                if missing else []  # every rank's values (missing is global: all ranks gather or none)
             check_all(comm, not missing, f"contact: marker {missing[0] if missing else 0} is carried by no facet of "
-                      f"the facet tags (their values: {sorted({int(v) for v in np.unique(facet_tags.values)})})")
+                      f"the facet tags (their values: {values})")
         if isinstance(obstacles, Obstacle):
             obstacles = [obstacles]
         self.obstacles: list[Obstacle] = list(obstacles) if obstacles else ([] if pairs else [DEFAULT_PLANE])
@@ -299,41 +315,70 @@ class ContactModel:
     def _create_two_body(self, pairs: list[ContactPair], dirichlet: npt.NDArray[np.int32], prefix: str,
                          obstacle_contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None = None,
                          friction: Friction = 0.0) -> None:
-        """Ã = Mᵀ A_free M with the Dirichlet rows and columns of s I, the pairing and l̃_z
-        (:mod:`fenics_coulomb.model.two_body` derives it; collective). With rigid obstacles as well (their contact
-        boundary ``obstacle_contact``), a node that is both a paired slave node and an obstacle contact node
-        belongs to the one with the smaller |g| (ties: the pair); obstacle nodes keep z = u (no row of Φ)."""
+        """The bodies, their supports, A_free and the obstacles' contact nodes once; then the pairing of the
+        reference configuration (:meth:`_pair`; collective)."""
         V, comm = self.V, self.comm
-        excluded = np.unique(dirichlet // 3)
+        self._excluded = np.unique(dirichlet // 3)
         #: Body of every local DOF block (connected components of the mesh) and their number.
         self.body_of_block, self.num_bodies = connected_bodies(V)
         check_rigid_support(V, self.body_of_block, self.num_bodies, self.dirichlet_rows)
-        pairing = pair_surfaces(V, pairs, excluded)
-        obstacle_map = None
+        self._A_free = dolfinx.fem.petsc.assemble_matrix(self.a)
+        self._A_free.assemble()
+        self._A_free.setOptionsPrefix(f"{prefix}A_free_")
+        self._obstacle_map: ContactMap | None = None
         if obstacle_contact is not None:
             tags, markers = obstacle_contact
-            obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], excluded, self.obstacles)
-            check_not_overlapping(self.obstacles, obstacle_map.coordinates, comm=comm)
-            # the smaller |g| wins a node on both (ties: the pair)
-            both_p = np.isin(pairing.blocks, obstacle_map.blocks)
-            where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
-            lose = np.zeros(pairing.blocks.size, dtype=bool)
-            lose[np.flatnonzero(both_p)] = np.abs(obstacle_map.gap[where]) < np.abs(pairing.gap[both_p])
-            pairing = pairing.subset(~lose, comm)
+            self._obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], self._excluded, self.obstacles)
+            check_not_overlapping(self.obstacles, self._obstacle_map.coordinates, comm=comm)
+            self._obstacle_friction = self._friction_at_contact_nodes(friction, self._obstacle_map.blocks)
+        self._pair(self._merge(pair_surfaces(V, pairs, self._excluded), None))
+
+    def _merge(self, pairing: Pairing, u: npt.NDArray[np.float64] | None) -> Pairing:
+        """The pairing without the nodes that belong to a rigid obstacle: a node that is both a paired slave node
+        and an obstacle contact node belongs to the one with the smaller |g| in X + u (``u`` ghosted, None: X;
+        ties: the pair; collective)."""
+        obstacle_map = self._obstacle_map
+        if obstacle_map is None:
+            return pairing
+        x = obstacle_map.coordinates if u is None else obstacle_map.coordinates + u.reshape(-1, 3)[obstacle_map.blocks]
+        _, obstacle_gap, _, _ = closest_obstacle(self.obstacles, x)
+        both_p = np.isin(pairing.blocks, obstacle_map.blocks)
+        where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
+        lose = np.zeros(pairing.blocks.size, dtype=bool)
+        lose[np.flatnonzero(both_p)] = np.abs(obstacle_gap[where]) < np.abs(pairing.gap[both_p])
+        return pairing.subset(~lose, self.comm)
+
+    def _pair(self, pairing: Pairing) -> None:
+        """Make ``pairing`` (of the current configuration) the model's: the obstacles' contact nodes merged in (a
+        node that is both a paired slave node and an obstacle contact node belongs to the one with the smaller
+        |g|, ties: the pair; obstacle nodes keep z = u, no row of Φ), M = I + Φ, Ã = Mᵀ A_free M with the
+        Dirichlet rows and columns of s I (:mod:`fenics_coulomb.model.two_body` derives it), l̃_z and the
+        contact map (collective)."""
+        V, comm, prefix = self.V, self.comm, self._prefix
+        obstacle_map = self._obstacle_map
+        if obstacle_map is not None:
             keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
             obstacle_map = obstacle_map.subset(keep, comm)
+            obstacle_friction = self._obstacle_friction[keep]
         self.pairing = pairing
-        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix)
+        self.coupling.destroy()
+        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free)
+        if getattr(self, "A", None) is not None:
+            self.A.destroy()
         self.A = self.coupling.stiffness(self, prefix)
         r0 = V.dofmap.index_map.local_range[0]
         self.dirichlet_diagonal = self._scale_dirichlet_rows(self.dirichlet_rows)
-        self.load = self.A.createVecRight()
-        self.load.setOptionsPrefix(f"{prefix}load_")
+        if self.load is None:
+            self.load = self.A.createVecRight()
+            self.load.setOptionsPrefix(f"{prefix}load_")
         self.assemble_load()
         blocks = pairing.blocks
-        coordinates, gap, frames = pairing.coordinates, pairing.gap, pairing.frames
+        # the contact map keeps the reference coordinates (the pairing's are those of its configuration)
+        coordinates = V.tabulate_dof_coordinates()[blocks] if self.configuration is not None else pairing.coordinates
+        gap, frames = pairing.gap, pairing.frames
         index = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
         paired = np.ones(blocks.size, dtype=bool)
+        node_friction = pairing.friction
         if obstacle_map is not None:
             blocks = np.concatenate([blocks, obstacle_map.blocks])
             coordinates = np.concatenate([coordinates, obstacle_map.coordinates])
@@ -341,6 +386,7 @@ class ContactModel:
             frames = np.concatenate([frames, obstacle_map.frames])
             index = np.concatenate([index, obstacle_map.obstacle_index])
             paired = np.concatenate([paired, np.zeros(obstacle_map.size, dtype=bool)])
+            node_friction = np.concatenate([node_friction, obstacle_friction])
         order = np.argsort(blocks, kind="stable")
         blocks = blocks[order].astype(np.int32)
         offsets = np.arange(3, dtype=np.int32)
@@ -352,11 +398,74 @@ class ContactModel:
             num_global=comm.allreduce(int(blocks.size), op=MPI.SUM))
         #: Which contact nodes are paired slave nodes (the others belong to rigid obstacles).
         self.paired = paired[order]
-        node_friction = np.zeros(blocks.size)
-        if obstacle_map is not None:  # the problem's coefficient (or field) on the obstacles' nodes
-            node_friction[:] = self._friction_at_contact_nodes(friction)
-        node_friction[self.paired] = pairing.friction  # both in ascending block order
-        self.friction = np.ascontiguousarray(node_friction)
+        self.friction = np.ascontiguousarray(np.asarray(node_friction, dtype=np.float64)[order])
+        self.p = self.contact.num_global
+        if self._free_coupling is not None:
+            self._free_coupling.destroy()
+            self._free_coupling = None
+
+    # -- the configuration (finite sliding) --------------------------------------------------------
+    def _at_blocks(self, blocks: npt.NDArray[np.int32]) -> npt.NDArray[np.float64]:
+        """The configuration's displacement at local DOF blocks, shape (m, 3) (0 in the reference one)."""
+        if self.configuration is None:
+            return np.zeros((np.size(blocks), 3))
+        return self.configuration.reshape(-1, 3)[blocks]
+
+    def node_size(self) -> npt.NDArray[np.float64]:
+        """The largest diameter of the cells at each local DOF block (owned and ghost), computed once."""
+        if getattr(self, "_node_size", None) is None:
+            msh = self.V.mesh
+            tdim = msh.topology.dim
+            imap = msh.topology.index_map(tdim)
+            cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+            h = msh.h(tdim, cells)
+            size = np.zeros(self.V.dofmap.index_map.size_local + self.V.dofmap.index_map.num_ghosts)
+            dofs = self.V.dofmap.list
+            np.maximum.at(size, dofs.ravel(), np.repeat(h, dofs.shape[1]))
+            self._node_size = size
+        return self._node_size
+
+    def ghosted(self, u: npt.ArrayLike) -> npt.NDArray[np.float64]:
+        """The owned DOF values ``u`` with their ghosts (collective)."""
+        if self._ghosted is None:
+            self._ghosted = dolfinx.fem.Function(self.V)
+        f = self._ghosted
+        n = 3 * self.V.dofmap.index_map.size_local
+        f.x.array[:n] = np.asarray(u, dtype=np.float64).reshape(-1)[:n]
+        f.x.scatter_forward()
+        return np.array(f.x.array, dtype=np.float64)
+
+    def pair_in(self, u: npt.ArrayLike | None) -> Pairing | None:
+        """The pairing of the configuration X + u (``u`` the physical displacement of the owned DOFs; None:
+        the reference configuration), or None without contact pairs (collective)."""
+        if self.pairing is None:
+            return None
+        if u is None:
+            return self._merge(pair_surfaces(self.V, self.pairs, self._excluded), None)
+        ug = self.ghosted(u)
+        x = self.V.tabulate_dof_coordinates() + ug.reshape(-1, 3)
+        return self._merge(pair_surfaces(self.V, self.pairs, self._excluded, coordinates=x), ug)
+
+    def configure(self, u: npt.ArrayLike | None, pairing: Pairing | None = None) -> bool:
+        """Evaluate the contact geometry in the configuration X + u from now on (finite sliding; collective).
+
+        The obstacles' gaps, normals and frames follow at the next :meth:`place`; contact pairs are paired again
+        in X + u (``pairing``, if already computed by :meth:`pair_in` for the same ``u``) and M, Ã, l̃ and the
+        contact map rebuilt.
+
+        Args:
+            u: The physical displacement of the owned DOFs; None for the reference configuration.
+            pairing: The pairing of X + u, when known.
+
+        Returns:
+            Whether Ã and the contact nodes were rebuilt (contact pairs): a solver built on the old ones must be
+            rebuilt.
+        """
+        self.configuration = None if u is None else self.ghosted(u)
+        if self.pairing is None:
+            return False
+        self._pair(pairing if pairing is not None else self.pair_in(u))
+        return True
 
     def near_nullspace(self) -> PETSc.NullSpace:
         """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""
@@ -382,9 +491,15 @@ class ContactModel:
             self._free_coupling = coupling_matrix(self.V, free["blocks"], free["master_blocks"], free["weights"],
                                                   f"{self._prefix}free_")
         x, y = self._free_coupling.createVecs()
-        x.array[:] = u
-        self._free_coupling.mult(x, y)  # (I + Φ_free) u
-        w = (2.0 * np.asarray(u) - y.getArray(readonly=True)).reshape(-1, 3)[free["blocks"]]
+
+        def w_of(v: npt.ArrayLike) -> npt.NDArray[np.float64]:
+            x.array[:] = np.asarray(v, dtype=np.float64)[:x.getLocalSize()]
+            self._free_coupling.mult(x, y)  # (I + Φ_free) v
+            return (2.0 * x.getArray(readonly=True) - y.getArray(readonly=True)).reshape(-1, 3)[free["blocks"]]
+
+        w = w_of(u)
+        if self.configuration is not None:  # free["gap"] is g(X + u_c): linearized about the configuration
+            w = w - w_of(self.configuration)
         x.destroy()
         y.destroy()
         gap = free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
@@ -443,37 +558,61 @@ class ContactModel:
         """
         obstacles = list(obstacles)
         self.check_motion(obstacles, previous_obstacle_displacements)
-        if self.pairing is not None:
-            self._place_pairs(obstacles, previous_displacement, previous_obstacle_displacements)
-            return
         if len(obstacles) != len(self.obstacles) or any(
                 o._at_rest() != p._at_rest() for o, p in zip(obstacles, self.obstacles)):
             raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")
         self.obstacles = obstacles
-        cmap = self.contact
-        index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates.reshape(-1, 3))
-        # round-off below the surface (e.g. from mesh generators) counts as touching
-        gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
-        cmap.obstacle_index = index
-        cmap.gap = np.ascontiguousarray(gap)
-        cmap.frames = np.ascontiguousarray(frames)
-        delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
-        #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
-        self.obstacle_displacement = delta[index]
-        offset = self.obstacle_displacement
         previous_obstacles = _previous_placements(obstacles, previous_obstacle_displacements)
-        if previous_obstacles is not None:  # a rotation: each node's material point of its obstacle moves apart
-            offset = np.zeros((index.size, 3))
-            x = cmap.coordinates.reshape(-1, 3)
-            for j, (now, before) in enumerate(zip(obstacles, previous_obstacles, strict=True)):
-                mine = index == j
-                if np.any(mine):
-                    offset[mine] = now.motion(before, before.closest_point(x[mine]))
-        elif previous_obstacle_displacements is not None:
-            previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
-            offset = offset - previous[index]
+        if previous_obstacle_displacements is not None and len(previous_obstacle_displacements) and \
+                isinstance(previous_obstacle_displacements[0], Obstacle):
+            previous_obstacle_displacements = [o.displacement for o in previous_obstacle_displacements]
+        cmap = self.contact
+        finite = self.configuration is not None
+        paired = self.paired if self.pairing is not None else np.zeros(cmap.size, dtype=bool)
+        rigid = np.flatnonzero(~paired)
+        offset = np.zeros((cmap.size, 3))
+        self.obstacle_displacement = np.zeros((cmap.size, 3))
+        if rigid.size:
+            X = cmap.coordinates[rigid]
+            u = self._at_blocks(cmap.blocks[rigid])
+            index, gap, _, frames = closest_obstacle(obstacles, X + u if finite else X)
+            # round-off below the surface (e.g. from mesh generators) counts as touching
+            gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
+            if finite:  # linearized about the configuration: g(X + u_c) + n·(u − u_c)
+                gap = gap - np.einsum("ij,ij->i", frames[:, :, 2], u)
+                for j, obstacle in enumerate(obstacles):
+                    mine = index == j
+                    if obstacle.affine and np.any(mine):  # g(X + u_c) − n·u_c = g(X) exactly, frames constant
+                        g0, _, frames[mine] = obstacle.evaluate(X[mine])
+                        gap[mine] = np.where((g0 < 0.0) & (g0 > -1e-12 * self._size), 0.0, g0)
+            cmap.obstacle_index[rigid], cmap.gap[rigid], cmap.frames[rigid] = index, gap, frames
+            delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
+            #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
+            self.obstacle_displacement[rigid] = delta[index]
+            offset[rigid] = delta[index]
+            if previous_obstacles is not None:  # a rotation: each node's material point of its obstacle
+                x = X if not (finite and previous_displacement is not None) else \
+                    X + np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)[rigid]
+                moved = np.zeros((rigid.size, 3))
+                for j, (now, before) in enumerate(zip(obstacles, previous_obstacles, strict=True)):
+                    mine = index == j
+                    if np.any(mine):
+                        moved[mine] = now.motion(before, before.closest_point(x[mine]))
+                offset[rigid] = moved
+            elif previous_obstacle_displacements is not None:
+                previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
+                offset[rigid] -= previous[index]
+        if self.pairing is not None:
+            # the paired nodes' gaps: the pairing's, linearized about the configuration in the unknown w = z_s
+            gap = self.pairing.gap
+            if finite:
+                w = self.coupling.relative(self.configuration[:3 * self.V.dofmap.index_map.size_local])
+                gap = gap - np.einsum("ij,ij->i", cmap.frames[paired][:, :, 2], w[cmap.local_dofs[paired]])
+            cmap.gap[paired] = gap
         if previous_displacement is not None:
             offset = offset + np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
+        #: The tangential offset o of every contact node (the slip is T(ũ − o)), shape (m, 3).
+        self.offset = offset
         #: The constant part sⁱ = (−T o, g) of the local block vⁱ = Rᵢᵀũⁱ + sⁱ, shape (m, 3).
         self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
         self.shift.set(0.0)
@@ -484,85 +623,60 @@ class ContactModel:
 
     def check_motion(self, obstacles: Sequence[Obstacle],
                      previous_displacements: npt.ArrayLike | Sequence[Obstacle] | None) -> None:
-        """InputError on every rank when an obstacle's core (a sphere's centre, a cylinder's axis) lies inside
-        the body at its placement, or passes through the body on its straight way from the previous placement
-        (``previous_displacements`` per obstacle, None for the scene position) — a buried obstacle, or one
-        moved across the body within one step, which the contact nodes, all on one side, would not see
-        (collective)."""
+        """InputError on every rank (collective) for obstacles whose placement the contact nodes cannot see:
+
+        * at the first placement, an obstacle at its scene position with the whole body inside it (a plane or an
+          open surface whose solid side is the body's side; :func:`~fenics_coulomb.model.obstacles.check_solid_side`);
+        * an obstacle whose core (a sphere's centre, a cylinder's axis, the deepest part of a closed surface) lies
+          inside the body at its placement, or passes through the body on its rigid motion — translation and
+          rotation (:func:`~fenics_coulomb.model.obstacles.core_path`) — from the previous placement
+          (``previous_displacements``: the previous obstacles, their δ, or None for the scene position): a buried
+          obstacle, or one moved or turned across the body within one step, which the contact nodes, all on one
+          side, would not see.
+        """
+        from fenics_coulomb.model.obstacles import check_solid_side, rotation_text
+
+        if getattr(self, "_scene_obstacles", None) is None:
+            self._scene_obstacles = [o.moved(np.zeros(3)) for o in obstacles]
+            check_solid_side(obstacles, self.V.mesh.geometry.x, self.comm, self._size)
         if self._locator is None:
             return
         loc = self._locator
-        if previous_displacements is not None and len(previous_displacements) and \
-                isinstance(previous_displacements[0], Obstacle):
-            previous_displacements = [o.displacement for o in previous_displacements]  # type: ignore[union-attr]
-        start = np.zeros((len(obstacles), 3)) if previous_displacements is None else \
-            np.asarray(previous_displacements, dtype=np.float64).reshape(-1, 3)
-        for k, obstacle in enumerate(obstacles):
-            end = np.asarray(obstacle.displacement, dtype=np.float64)
-            points = core_path(obstacle, start[k], end, loc.lo, loc.hi, 0.5 * loc.spacing)
+        if previous_displacements is None:
+            before = list(self._scene_obstacles)
+        elif len(previous_displacements) and isinstance(previous_displacements[0], Obstacle):
+            before = list(previous_displacements)  # type: ignore[arg-type]
+        else:
+            deltas = np.asarray(previous_displacements, dtype=np.float64).reshape(-1, 3)
+            before = [o.moved(d).rotated(None) for o, d in zip(obstacles, deltas, strict=True)]
+        for k, (obstacle, previous) in enumerate(zip(obstacles, before, strict=True)):
+            points, t = core_path(previous, obstacle, loc.lo, loc.hi, 0.5 * loc.spacing)
             if not points.size:
                 continue
             hit = loc.first_inside(points)
             if hit < 0:
                 continue
-            core = "centre" if obstacle.kind == "sphere" else "axis"
+            core = {"sphere": "centre", "cylinder": "axis"}.get(obstacle.kind, "deepest part")
             where = "(" + ", ".join(f"{c:.6g}" for c in points[hit]) + ")"
-            if np.any(start[k] != end):
+            moved = previous.displacement != obstacle.displacement or \
+                getattr(previous, "rotation", None) != getattr(obstacle, "rotation", None)
+            if moved and t[hit] < 1.0:
+                turned = "" if getattr(previous, "rotation", None) == getattr(obstacle, "rotation", None) else \
+                    f" and from rotation {rotation_text(previous)} to {rotation_text(obstacle)}"
                 what = (f"its {core} would pass through the body at {where} on its way from displacement "
-                        f"{start[k].tolist()} to {end.tolist()}: move it around the body, not through it")
+                        f"{list(previous.displacement)} to {list(obstacle.displacement)}{turned}: move it around "
+                        "the body, not through it, or in smaller steps")
             else:
-                what = (f"its {core} lies inside the body at {where} (displacement {end.tolist()}): an obstacle "
-                        "buried in the body, or indenting it by more than its radius")
+                what = (f"its {core} lies inside the body at {where} (displacement {list(obstacle.displacement)}): "
+                        "an obstacle buried in the body, or indenting it too deep")
             raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
 
-    def _place_pairs(self, obstacles: list[Obstacle], previous_displacement: npt.NDArray[np.float64] | None,
-                     previous_obstacle_displacements: npt.ArrayLike | Sequence[Obstacle] | None) -> None:
-        """The shift with contact pairs: the paired nodes' frames and gaps are fixed by the pairing (tangential
-        offset w_{k−1}); rigid obstacles' nodes as in :meth:`place` (offset ũ_{k−1} + δ_k − δ_{k−1}, or with a
-        rotation the motion of each node's material point of its obstacle)."""
-        previous_obstacles = _previous_placements(obstacles, previous_obstacle_displacements)
-        if previous_obstacle_displacements is not None and len(previous_obstacle_displacements) and \
-                isinstance(previous_obstacle_displacements[0], Obstacle):
-            previous_obstacle_displacements = [o.displacement for o in previous_obstacle_displacements]
-        cmap = self.contact
-        rigid = np.flatnonzero(~self.paired)
-        offset = np.zeros((cmap.size, 3))
-        self.obstacle_displacement = np.zeros((cmap.size, 3))
-        if rigid.size or self.obstacles:
-            if len(obstacles) != len(self.obstacles) or any(
-                    o._at_rest() != p._at_rest() for o, p in zip(obstacles, self.obstacles)):
-                raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")
-            self.obstacles = obstacles
-        if rigid.size:
-            index, gap, _, frames = closest_obstacle(obstacles, cmap.coordinates[rigid])
-            gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
-            cmap.obstacle_index[rigid], cmap.gap[rigid], cmap.frames[rigid] = index, gap, frames
-            delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
-            self.obstacle_displacement[rigid] = delta[index]
-            offset[rigid] = delta[index]
-            if previous_obstacles is not None:  # a rotation: each node's material point of its obstacle
-                x = cmap.coordinates[rigid]
-                moved = np.zeros((rigid.size, 3))
-                for j, (now, before) in enumerate(zip(obstacles, previous_obstacles, strict=True)):
-                    mine = index == j
-                    if np.any(mine):
-                        moved[mine] = now.motion(before, before.closest_point(x[mine]))
-                offset[rigid] = moved
-            elif previous_obstacle_displacements is not None:
-                previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
-                offset[rigid] -= previous[index]
-        if previous_displacement is not None:
-            offset += np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
-        self.local_shift = local_shift(cmap.frames, cmap.gap, offset)
-        self.shift.set(0.0)
-        self.shift.array[cmap.local_dofs] = to_global(cmap.frames, self.local_shift)
-        self.A.mult(self.shift, self.rhs)
-        self.rhs.axpy(1.0, self.load)
-
-    def _friction_at_contact_nodes(self, friction: Friction) -> float | npt.NDArray[np.float64]:
-        """F as a number, or its values at the owned contact nodes for a field (validated on all ranks)."""
+    def _friction_at_contact_nodes(self, friction: Friction, blocks: npt.NDArray[np.int32] | None = None
+                                   ) -> float | npt.NDArray[np.float64]:
+        """F as a number, or its values at the owned contact nodes (``blocks``, default the contact map's) for a
+        field (validated on all ranks)."""
         if not isinstance(friction, dolfinx.fem.Function):
-            return float(friction)
+            return float(friction) if blocks is None else np.full(np.size(blocks), float(friction))
         S = dolfinx.fem.functionspace(self.V.mesh, ("Lagrange", 1))
         values = dolfinx.fem.Function(S)
         values.interpolate(friction)
@@ -570,7 +684,8 @@ class ContactModel:
         scalars = S.dofmap.list.ravel()
         to_scalar = np.full(self.V.dofmap.index_map.size_local + self.V.dofmap.index_map.num_ghosts, -1, np.int32)
         to_scalar[blocks] = scalars
-        F = np.ascontiguousarray(values.x.array[to_scalar[self.contact.blocks]], dtype=np.float64)
+        F = np.ascontiguousarray(values.x.array[to_scalar[self.contact.blocks if blocks is None else blocks]],
+                                 dtype=np.float64)
         bad = ~(np.isfinite(F) & (F >= 0.0))
         check_all(self.comm, not np.any(bad), f"friction field value {F[bad][0] if np.any(bad) else 0.0!r} at "
                   "a contact node: must be finite and >= 0")
@@ -606,3 +721,6 @@ class ContactModel:
             if obj is not None:
                 obj.destroy()
         self.coupling.destroy()
+        if self._A_free is not None:
+            self._A_free.destroy()
+            self._A_free = None

@@ -120,20 +120,23 @@ class PairCoupling(Coupling):
     paired = True
 
     def __init__(self, V: dolfinx.fem.FunctionSpace, pairing: Pairing, body_of_block: npt.NDArray[np.int64],
-                 num_bodies: int, prefix: str) -> None:
+                 num_bodies: int, prefix: str, A_free: PETSc.Mat | None = None) -> None:
         self.pairing = pairing
         self.body_of_block = body_of_block
         self.num_bodies = num_bodies
         #: M = I + Φ.
         self.M: PETSc.Mat = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix)
-        #: The stiffness without boundary conditions (both bodies).
-        self.A_free: PETSc.Mat | None = None
+        #: The stiffness without boundary conditions (both bodies): given (then its owner destroys it) or
+        #: assembled by :meth:`stiffness`.
+        self.A_free: PETSc.Mat | None = A_free
+        self._owns_free = A_free is None
 
     def stiffness(self, model: ContactModel, prefix: str) -> PETSc.Mat:
         """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity."""
-        self.A_free = dolfinx.fem.petsc.assemble_matrix(model.a)
-        self.A_free.assemble()
-        self.A_free.setOptionsPrefix(f"{prefix}A_free_")
+        if self.A_free is None:
+            self.A_free = dolfinx.fem.petsc.assemble_matrix(model.a)
+            self.A_free.assemble()
+            self.A_free.setOptionsPrefix(f"{prefix}A_free_")
         A = self.A_free.ptap(self.M)
         A.setOptionsPrefix(f"{prefix}A_")
         r0 = model.V.dofmap.index_map.local_range[0]
@@ -188,7 +191,7 @@ class PairCoupling(Coupling):
         return body_rigid_modes(V, self.body_of_block, self.num_bodies, self.M)
 
     def destroy(self) -> None:
-        for obj in (self.M, self.A_free):
+        for obj in (self.M, self.A_free if self._owns_free else None):
             if obj is not None:
                 obj.destroy()
         self.A_free = None

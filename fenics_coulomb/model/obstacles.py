@@ -34,7 +34,8 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.frames import _E, _NOISE, _perpendicular, frames_from_normals
 
 __all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "closest_obstacle",
-           "find_overlap", "check_not_overlapping", "core_path", "obstacle_from_dict", "obstacles_from_list"]
+           "find_overlap", "check_not_overlapping", "check_solid_side", "core_path", "motion_placements",
+           "rotation_text", "obstacle_from_dict", "obstacles_from_list"]
 
 Array = npt.NDArray[np.float64]
 Vector = tuple[float, float, float]
@@ -149,6 +150,11 @@ class Obstacle:
     keys: ClassVar[tuple[str, ...]] = ()
     #: The key of the scene position that δ translates.
     position_key: ClassVar[str] = "point"
+    #: Whether :meth:`core` depends on the box it is asked for (a cylinder's axis across the body).
+    box_core: ClassVar[bool] = False
+    #: Whether the gap is affine in the position and the frame constant (a plane): then g(X + u) − n·u = g(X),
+    #: and finite sliding evaluates it at X, bit for bit the small-sliding model.
+    affine: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         name = getattr(self, "name", None)
@@ -286,6 +292,7 @@ class Plane(Obstacle):
 
     kind: ClassVar[str] = "plane"
     keys: ClassVar[tuple[str, ...]] = ("point", "normal")
+    affine: ClassVar[bool] = True
 
     def _gap_normal(self, x: Array) -> tuple[Array, Array]:
         nu = np.asarray(self.normal)
@@ -334,6 +341,7 @@ class Cylinder(Obstacle):
 
     kind: ClassVar[str] = "cylinder"
     keys: ClassVar[tuple[str, ...]] = ("point", "axis", "radius")
+    box_core: ClassVar[bool] = True
 
     def _gap_normal(self, x: Array) -> tuple[Array, Array]:
         a = np.asarray(self.axis)
@@ -442,16 +450,159 @@ def check_not_overlapping(obstacles: Sequence[Obstacle], x: npt.ArrayLike, tol: 
         raise InputError(worst[1])
 
 
-def core_path(obstacle: Obstacle, start: npt.ArrayLike, end: npt.ArrayLike, lo: Array, hi: Array,
-              spacing: float, limit: int = 20_000) -> Array:
-    """The cores (:meth:`Obstacle.core`) of ``obstacle`` along its straight motion from displacement ``start`` to
-    ``end``, sampled every ``spacing`` (at most about ``limit`` points), shape (k, 3)."""
-    start, end = np.asarray(start, dtype=np.float64), np.asarray(end, dtype=np.float64)
-    axis_samples = max(2, min(int(np.ceil(np.linalg.norm(hi - lo) / spacing)) + 1, 200))
-    steps = max(1, min(int(np.ceil(np.linalg.norm(end - start) / spacing)), max(1, limit // axis_samples)))
-    points = [obstacle.moved(start + t * (end - start)).placed_core(lo, hi, axis_samples)
-              for t in np.linspace(0.0, 1.0, steps + 1)]
-    return np.concatenate(points) if points else np.zeros((0, 3))
+def _rotations(axis: Array, angles: Array) -> Array:
+    """Rodrigues' matrices about the unit ``axis`` by ``angles`` (radians), shape (n, 3, 3)."""
+    K = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return (np.eye(3) + np.sin(angles)[:, None, None] * K + (1.0 - np.cos(angles))[:, None, None] * (K @ K))
+
+
+def _axis_angle(R: Array) -> tuple[Array, float]:
+    """The unit axis and the angle in [0, π] of a rotation matrix."""
+    angle = float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    if angle < 1e-12:
+        return np.array([0.0, 0.0, 1.0]), 0.0
+    if np.pi - angle < 1e-6:  # a half turn: R + I = 2 a aᵀ
+        B = R + np.eye(3)
+        column = B[:, int(np.argmax(np.diag(B)))]
+        return column / np.linalg.norm(column), angle
+    return w / np.linalg.norm(w), angle
+
+
+def motion_placements(before: Obstacle, after: Obstacle) -> tuple[Any, float, Array, Array, Array]:
+    """The rigid motion from ``before``'s placement to ``after``'s as a path y ↦ R(t)(y − p) + p + e(t), t in
+    [0, 1]: (placements(t) → (R (n, 3, 3), c (n, 3)) with c = p − R p + e, the angle turned (radians), the pivot
+    p, e(0), e(1)). Rotations about one axis and centre (or none on one side) blend their angles and translations
+    linearly, as a load path's substeps do (p the centre, e = δ); otherwise the relative rotation R₁R₀ᵀ is turned
+    at a constant rate about the after placement's centre p while e moves on a straight line."""
+    rb, ra = getattr(before, "rotation", None), getattr(after, "rotation", None)
+    d0 = np.asarray(before.displacement, dtype=np.float64)
+    d1 = np.asarray(after.displacement, dtype=np.float64)
+    same = rb is None or ra is None or (np.allclose(rb[1], ra[1], rtol=0.0, atol=1e-12)
+                                        and np.allclose(rb[2], ra[2], rtol=1e-12, atol=1e-300))
+    if same:
+        given = ra if ra is not None else rb
+        axis = np.asarray(given[1] if given else (0.0, 0.0, 1.0), dtype=np.float64)
+        pivot = np.asarray(given[2] if given else (0.0, 0.0, 0.0), dtype=np.float64)
+        a0, a1 = math.radians(rb[0]) if rb else 0.0, math.radians(ra[0]) if ra else 0.0
+        e0, e1 = d0, d1
+
+        def placements(t: Array) -> tuple[Array, Array]:
+            R = _rotations(axis, a0 + t * (a1 - a0))
+            return R, pivot - R @ pivot + e0 + t[:, None] * (e1 - e0)
+
+        return placements, abs(a1 - a0), pivot, e0, e1
+    R0, c0 = before.placement()
+    R1, c1 = after.placement()
+    axis, angle = _axis_angle(R1 @ R0.T)
+    pivot = np.asarray(ra[2], dtype=np.float64)
+    e0, e1 = c0 - pivot + R0 @ pivot, c1 - pivot + R1 @ pivot
+
+    def placements(t: Array) -> tuple[Array, Array]:  # noqa: F811 (one of the two paths)
+        R = _rotations(axis, t * angle) @ R0
+        return R, pivot - R @ pivot + e0 + t[:, None] * (e1 - e0)
+
+    return placements, angle, pivot, e0, e1
+
+
+def rotation_text(obstacle: Obstacle) -> str:
+    """An obstacle's rotation for messages: "none" or "[angle, axis, centre]"."""
+    rotation = getattr(obstacle, "rotation", None)
+    return "none" if rotation is None else f"[{rotation[0]:g}, {list(rotation[1])}, {list(rotation[2])}]"
+
+
+def _box_distance(points: Array, lo: Array, hi: Array) -> Array:
+    """The distance of each point (..., 3) from the box [lo, hi] (0 inside)."""
+    return np.linalg.norm(np.maximum(np.maximum(lo - points, points - hi), 0.0), axis=-1)
+
+
+def core_path(before: Obstacle, after: Obstacle, lo: Array, hi: Array, spacing: float,
+              limit: int = 200_000) -> tuple[Array, Array]:
+    """The cores (:meth:`Obstacle.core`) of an obstacle along its rigid motion from ``before`` to ``after``
+    (:func:`motion_placements`: the translation and the rotation), sampled so that no core point moves more than
+    ``spacing`` between two samples while it is near the body's box [lo, hi] — far from the box the path is
+    skipped, so a long move costs no more than a short one: (points (k, 3), their path parameters t (k,)).
+
+    Sampling: a core point moves at most S = |Δθ|·r + |Δc| over the path (r its largest distance from the pivot);
+    a sample t stands for the part of the path within h of it, and is refined (16 times finer) only when some core
+    point lies within S·h of the box; it stops at S·h <= ``spacing`` (at most about ``limit`` points).
+    """
+    rest = after._at_rest()
+    placements, angle, pivot, e0, e1 = motion_placements(before, after)
+    corners = np.array([[a, b, d] for a in (lo[0], hi[0]) for b in (lo[1], hi[1]) for d in (lo[2], hi[2])])
+    diagonal = float(np.linalg.norm(hi - lo))
+    axis_samples = max(2, min(int(np.ceil(diagonal / max(spacing, 1e-300))) + 1, 200))
+
+    def cores(t: Array) -> Array:
+        R, c = placements(t)
+        if not rest.box_core:
+            return np.einsum("nij,kj->nki", R, rest.core(lo, hi, axis_samples)) + c[:, None, :]
+        out = []
+        for Rn, cn in zip(R, c, strict=True):  # the core across the body's box seen from the obstacle at rest
+            back = (corners - cn) @ Rn
+            out.append(rest.core(back.min(axis=0), back.max(axis=0), axis_samples) @ Rn.T + cn)
+        return np.stack(out)
+
+    ends = cores(np.array([0.0, 1.0]))
+    if not ends.size:
+        return np.zeros((0, 3)), np.zeros(0)
+    # a core point R(t)(q − p) + p + e(t) moves at most |Δθ|·|q − p| + |e₁ − e₀|
+    reach = max(float(np.linalg.norm(ends[0] - pivot - e0, axis=-1).max()),
+                float(np.linalg.norm(ends[1] - pivot - e1, axis=-1).max()))
+    if rest.box_core:  # the part of an unbounded core that meets the box: within the box's reach of it
+        reach = max(reach, float(np.linalg.norm(corners - pivot - e0, axis=-1).max()),
+                    float(np.linalg.norm(corners - pivot - e1, axis=-1).max())) + diagonal
+    speed = angle * reach + float(np.linalg.norm(e1 - e0))
+    if speed <= spacing:
+        t = np.array([0.0, 1.0])
+        return ends.reshape(-1, 3), np.repeat(t, ends.shape[1])
+    t, h = np.linspace(0.0, 1.0, 17), 1.0 / 16.0
+    while True:
+        points = cores(t)
+        if speed * h <= spacing or t.size * points.shape[1] * 33 > limit:
+            return points.reshape(-1, 3), np.repeat(t, points.shape[1])
+        near = _box_distance(points, lo, hi).min(axis=1) <= speed * h
+        t = np.unique(np.clip((t[near][:, None] + h * np.linspace(-1.0, 1.0, 33)).ravel(), 0.0, 1.0))
+        h /= 16.0
+        if not t.size:
+            return np.zeros((0, 3)), np.zeros(0)
+
+
+def check_solid_side(obstacles: Sequence[Obstacle], x: npt.ArrayLike, comm: Any, size: float) -> None:
+    """InputError on every rank when the whole body lies inside an obstacle at its scene position (δ = 0): every
+    node x (this rank's, shape (m, 3)) at g <= 1e-9·``size`` — a plane or an open surface whose solid side was
+    given as the body's side, or a solid that swallows the body — which would solve to "no contact" (collective;
+    a deterministic sample of the nodes is tested first, all of them only when the whole sample is inside)."""
+    x = _points(x)
+    tol = 1e-9 * size
+    for k, obstacle in enumerate(obstacles):
+        placed = obstacle.at_scene_position()
+        sample = x[:: max(1, x.shape[0] // 2000)]
+        outside = bool(sample.size and np.any(placed.signed_distance(sample) > tol))
+        if comm.allreduce(outside, op=_mpi_lor()):
+            continue
+        g = placed.signed_distance(x) if x.size else np.zeros(0)
+        outside = bool(np.any(g > tol))
+        deepest = float(-g.min(initial=0.0))
+        if comm.allreduce(outside, op=_mpi_lor()) or comm.allreduce(deepest, op=_mpi_max()) <= tol:
+            continue
+        if obstacle.kind == "plane":
+            how = (f"its normal {list(obstacle.normal)} must point from the obstacle toward the body (the solid is "  # type: ignore[attr-defined]
+                   "the side it points away from): flip it")
+        elif obstacle.kind == "surface":
+            side = getattr(obstacle, "side", "outward")
+            how = (f"side = {side!r} makes the body's side solid: use side = "
+                   f"{'inward' if side == 'outward' else 'outward'!r} or reorient the triangles")
+        else:
+            how = "the body lies inside it: move or shrink it"
+        raise InputError(f"obstacle {k + 1} ({obstacle.label}): every node of the body lies inside the obstacle at "
+                         f"its scene position (the body is on its solid side, no contact could form); {how}")
+
+
+def _mpi_lor() -> Any:
+    from mpi4py import MPI
+
+    return MPI.LOR
 
 
 def _mpi_max() -> Any:

@@ -39,12 +39,14 @@ from typing import ClassVar
 
 import numpy as np
 import numpy.typing as npt
+from scipy.ndimage import distance_transform_edt
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import _CHECKS, OBSTACLE_TYPES, Obstacle, Rotation
 from fenics_coulomb.model.pairing import _norm, _pair_nodes, _Surface
 
-__all__ = ["SIDES", "Surface", "read_triangles"]
+__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "Source", "Surface", "file_source", "inside_closed", "read_triangles",
+           "surface_core"]
 
 Array = npt.NDArray[np.float64]
 
@@ -85,13 +87,20 @@ def _read_stl(path: Path) -> Array:
 
 
 def _read_msh(path: Path) -> Array:
+    """The 3-node triangles of a gmsh file, read in a model of its own: a gmsh session the caller opened is left
+    as it was (its current model and terminal option; finalized only when this function initialized gmsh)."""
     import gmsh
 
-    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    own = not gmsh.isInitialized()
+    if own:
+        gmsh.initialize(["-noenv"], readConfigFiles=False)
+    terminal = gmsh.option.getNumber("General.Terminal")
+    previous = gmsh.model.getCurrent() if not own else ""
     try:
         gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add(f"fenics_coulomb surface {path}")
         try:
-            gmsh.open(str(path))
+            gmsh.merge(str(path))
         except Exception as err:  # gmsh raises a bare Exception with its log's last line
             raise InputError(f"surface {path}: gmsh cannot read it ({err})") from None
         tags, coords, _ = gmsh.model.mesh.getNodes()
@@ -101,20 +110,50 @@ def _read_msh(path: Path) -> Array:
         x = coords.reshape(-1, 3)
         return x[index[nodes.astype(np.int64)]].reshape(-1, 3, 3)
     finally:
-        gmsh.finalize()
+        if own:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            if previous:
+                gmsh.model.setCurrent(previous)
+            gmsh.option.setNumber("General.Terminal", terminal)
 
 
-@functools.lru_cache(maxsize=16)
-def read_triangles(file: str) -> tuple[Array, npt.NDArray[np.int64]]:
-    """The checked triangles of a surface file: (vertex coordinates (k, 3, 3), merged vertex numbers (k, 3)).
+#: A surface file as read: (absolute path, modification time in ns, size in bytes). The triangles are cached by it,
+#: so a file rewritten in place, or another file of the same relative name after a change of directory, is read
+#: anew, and an obstacle keeps the geometry it was created with.
+Source = tuple[str, int, int]
 
-    Raises:
-        InputError: Unreadable, empty, non-finite, degenerate or inconsistently oriented (see the module doc).
-    """
+
+def file_source(file: str) -> Source:
+    """The :data:`Source` of a surface file now (InputError when there is no such file)."""
     path = Path(file)
     if not path.is_file():
         raise InputError(f"surface {file}: no such file")
-    suffix = path.suffix.lower()
+    stat = path.stat()
+    return str(path.resolve()), int(stat.st_mtime_ns), int(stat.st_size)
+
+
+def read_triangles(file: str, source: Source | None = None) -> tuple[Array, npt.NDArray[np.int64]]:
+    """The checked triangles of a surface file: (vertex coordinates (k, 3, 3), merged vertex numbers (k, 3)).
+
+    Args:
+        file: The file's name as given (in messages).
+        source: The file as read earlier (:func:`file_source`); None for the file as it is now.
+
+    Raises:
+        InputError: Unreadable, empty, non-finite, degenerate or inconsistently oriented (see the module doc), or
+            changed on disk since ``source`` and no longer cached.
+    """
+    return _read_triangles(file, file_source(file) if source is None else source)
+
+
+@functools.lru_cache(maxsize=16)
+def _read_triangles(file: str, source: Source) -> tuple[Array, npt.NDArray[np.int64]]:
+    if file_source(source[0]) != source:
+        raise InputError(f"surface {file}: the file changed on disk after the obstacle was created from it")
+    path = Path(source[0])
+    suffix = Path(file).suffix.lower()
     if suffix == ".stl":
         X = _read_stl(path)
     elif suffix == ".msh":
@@ -172,6 +211,8 @@ class Surface(Obstacle):
     displacement: tuple[float, float, float] = (0.0, 0.0, 0.0)
     name: str | None = None
     rotation: Rotation | None = None
+    #: The file as read on creation (:data:`Source`; kept by :meth:`moved` and :meth:`rotated`): None reads it now.
+    source: Source | None = dataclasses.field(default=None, repr=False)
 
     kind: ClassVar[str] = "surface"
     keys: ClassVar[tuple[str, ...]] = ("file", "side")
@@ -179,7 +220,13 @@ class Surface(Obstacle):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        read_triangles(self.file)  # checked on creation: bad input fails before any collective call
+        source = self.source
+        if source is None:
+            source = file_source(self.file)
+        elif not (isinstance(source, tuple) and len(source) == 3 and isinstance(source[0], str)):
+            raise InputError(f"{self.label}: source = {source!r}: leave it out (it records the file as read)")
+        object.__setattr__(self, "source", source)
+        read_triangles(self.file, source)  # checked on creation: bad input fails before any collective call
 
     @property
     def placed(self) -> tuple[float, float, float]:
@@ -189,9 +236,20 @@ class Surface(Obstacle):
     def at_scene_position(self) -> Surface:
         return dataclasses.replace(self, displacement=(0.0, 0.0, 0.0))
 
+    @property
+    def closed(self) -> bool:
+        """Whether the triangles close a bounded solid on the solid side (:func:`surface_core` is not empty)."""
+        return bool(surface_core(self.file, self.source, self.side).size)
+
+    def core(self, lo: Array, hi: Array, samples: int) -> Array:
+        """The deepest points of a bounded solid (:func:`surface_core`) translated by δ; none for an open surface or
+        the unbounded side of a closed one (a cavity, like a plane's half-space, has no core a body could
+        swallow)."""
+        return surface_core(self.file, self.source, self.side) + np.asarray(self.displacement, dtype=np.float64)
+
     @functools.cached_property
     def _surface(self) -> tuple[_Surface, Array, npt.NDArray[np.intp]]:
-        X, V = read_triangles(self.file)
+        X, V = read_triangles(self.file, self.source)
         sign = np.full(X.shape[0], 1.0 if self.side == "outward" else -1.0)
         size = _norm(X - X.mean(axis=1)[:, None]).max(axis=1) * 2.0  # the facet's diameter bound h
         order = np.lexsort(np.sort(V, axis=1).T[::-1])
@@ -212,6 +270,92 @@ class Surface(Obstacle):
         dn = _norm(d[free])
         n[free] = np.where(dn[:, None] > 0, d[free] / np.where(dn > 0, dn, 1.0)[:, None], n[free])
         return np.einsum("ij,ij->i", d, n), n
+
+
+#: The grid of :func:`surface_core`: points per axis of the solid's bounding box.
+CORE_GRID = 32
+#: The core of a bounded solid: its points at least this fraction of its largest depth inside (a ball: the ball of
+#: radius R/4 about its centre; a slab: its middle quarter). A solid indenting the body deeper than 3/4 of its
+#: largest inscribed radius is rejected as buried (an analytic sphere: deeper than R).
+CORE_DEPTH = 0.75
+#: At most this many core points (every k-th of the grid's, in grid order): the motion check tests each along the
+#: obstacle's path.
+CORE_POINTS = 64
+
+
+def _crossings(X: Array, xy: Array) -> tuple[npt.NDArray[np.intp], Array]:
+    """The crossings of the vertical lines through ``xy`` (m, 2) with the triangles X (k, 3, 3): (line index, height)
+    per crossing (barycentric test in the projection on x₁x₂, vectorized in blocks; triangles parallel to e₃ are
+    never crossed)."""
+    a, b, c = X[:, 0], X[:, 1], X[:, 2]
+    det = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    keep = det != 0.0
+    a, b, c, det = a[keep], b[keep], c[keep], det[keep]
+    lines, heights = [], []
+    block = max(1, 500_000 // max(a.shape[0], 1))
+    for start in range(0, xy.shape[0], block):
+        p = xy[start:start + block, None, :]
+        l1 = ((p[..., 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (p[..., 1] - a[:, 1])) / det
+        l2 = ((b[:, 0] - a[:, 0]) * (p[..., 1] - a[:, 1]) - (p[..., 0] - a[:, 0]) * (b[:, 1] - a[:, 1])) / det
+        l0 = 1.0 - l1 - l2
+        line, tri = np.nonzero((l0 >= 0.0) & (l1 >= 0.0) & (l2 >= 0.0))
+        lines.append(line + start)
+        heights.append(l0[line, tri] * a[tri, 2] + l1[line, tri] * b[tri, 2] + l2[line, tri] * c[tri, 2])
+    return np.concatenate(lines), np.concatenate(heights)
+
+
+def inside_closed(X: Array, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """Which ``points`` (m, 3) lie inside the closed triangulation X (k, 3, 3): an odd number of crossings of the
+    ray from the point in the direction +e₃ (points in general position: a ray through an edge or a vertex would
+    count the crossing twice)."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    line, z = _crossings(X, points[:, :2])
+    above = z > points[line, 2]
+    return np.bincount(line[above], minlength=points.shape[0]) % 2 == 1
+
+
+def _inside_grid(X: Array, axes: list[Array]) -> npt.NDArray[np.bool_]:
+    """:func:`inside_closed` for the grid of ``axes`` (x₁, x₂, x₃ values), shape (n₁, n₂, n₃): the crossings are
+    found once per vertical line and counted above each height by a cumulative sum."""
+    xy = np.stack(np.meshgrid(axes[0], axes[1], indexing="ij"), axis=-1).reshape(-1, 2)
+    line, z = _crossings(X, xy)
+    levels = axes[2]
+    below = np.searchsorted(levels, z, side="left")  # the levels 0 .. below − 1 lie under the crossing
+    counts = np.zeros((xy.shape[0], levels.size + 1), dtype=np.int64)
+    np.add.at(counts, (line, np.zeros_like(line)), 1)
+    np.add.at(counts, (line, below), -1)
+    inside = np.cumsum(counts, axis=1)[:, :-1] % 2 == 1
+    return inside.reshape(axes[0].size, axes[1].size, levels.size)
+
+
+@functools.lru_cache(maxsize=16)
+def surface_core(file: str, source: Source, side: str) -> Array:
+    """The core of a surface obstacle at rest, shape (k, 3): when its triangles are closed (every edge shared by two
+    triangles) and the solid side is the bounded one (the signed volume Σ det(v₀, v₁, v₂)/6 positive for
+    ``outward``, negative for ``inward``), the points of a :data:`CORE_GRID`³ grid over its bounding box that lie
+    inside (:func:`inside_closed`) at least :data:`CORE_DEPTH` of the deepest one's distance from the triangles (the
+    deepest included); otherwise no point. The grid is shifted off the box by irrational fractions of its step, so
+    no ray meets an edge of a mesh generator's round coordinates."""
+    X, V = read_triangles(file, source)
+    undirected = np.sort(np.concatenate([V[:, [0, 1]], V[:, [1, 2]], V[:, [2, 0]]]), axis=1)
+    _, counts = np.unique(undirected, axis=0, return_counts=True)
+    volume = float(np.sum(np.linalg.det(X))) / 6.0
+    if np.any(counts != 2) or volume == 0.0 or (volume > 0.0) != (side == "outward"):
+        return np.zeros((0, 3))
+    lo, hi = X.reshape(-1, 3).min(axis=0), X.reshape(-1, 3).max(axis=0)
+    step = (hi - lo) / CORE_GRID
+    axes = [lo[i] + step[i] * (np.arange(CORE_GRID) + shift) for i, shift in enumerate((0.5 / np.sqrt(2.0),
+                                                                                       0.5 / np.sqrt(3.0),
+                                                                                       0.5 / np.sqrt(5.0)))]
+    inside = _inside_grid(X, axes)
+    if not np.any(inside):
+        return np.zeros((0, 3))
+    # the depth: the distance to the nearest grid point outside (within a grid step of the distance to the
+    # triangles), padded so the box's border counts as outside
+    depth = distance_transform_edt(np.pad(inside, 1), sampling=step)[1:-1, 1:-1, 1:-1]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    core = grid[inside & (depth >= CORE_DEPTH * depth.max())]
+    return core[:: -(-core.shape[0] // CORE_POINTS)]  # every k-th in grid order: at most CORE_POINTS
 
 
 def _check_file(value: object, owner: str) -> str:

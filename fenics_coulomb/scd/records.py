@@ -78,6 +78,8 @@ class SolveResult:
         relative_displacement: Contact pairs: the solver's unknown z (w_s on the slave contact nodes), owned
             DOFs; None for one body.
         master_force: Contact pairs: the reaction on the master nodes f_j = −Σ_s φ_sj f_s, owned DOFs.
+        geometry_updates: Finite sliding: how often the contact geometry was evaluated again in the deformed
+            configuration and the problem solved again (0: the first geometry held).
     """
 
     u: Array
@@ -108,6 +110,7 @@ class SolveResult:
     checks: dict[str, Any] = field(default_factory=dict)
     relative_displacement: Array | None = None
     master_force: Array | None = None
+    geometry_updates: int = 0
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes (collective)."""
@@ -138,4 +141,5 @@ class SolveResult:
             "preconditioner_history": [dict(h) for h in self.pc_history],
             "timings_s": timings,
             "ranks": comm.size,
+            "geometry_updates": self.geometry_updates,
         }

@@ -228,10 +228,12 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
         contact = (body.facet_tags, [body.tag(name) for name in body.contact]) if scene.obstacles else None
         problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
                                  obstacles=scene.obstacles or None, contact_pairs=pairs, settings=settings,
-                                 petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
+                                 petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options,
+                                 sliding=scene.contact.sliding)
     else:
         contact = (body.facet_tags, [body.tag(name) for name in body.contact])
         problem = ContactProblem(a, L, bcs=bcs, contact=contact, friction=friction,
                                  obstacles=scene.obstacles or None, settings=settings,
-                                 petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options)
+                                 petsc_options_prefix=petsc_options_prefix, petsc_options=petsc_options,
+                                 sliding=scene.contact.sliding)
     return Built(body, (a, L), bcs, problem, mesh_time, groups, loads)

@@ -16,6 +16,15 @@ from fenics_coulomb.scenes.partition import create_partitioner
 __all__ = ["read_gmsh", "read_gmsh_tags"]
 
 
+def _number_nodes_continuously(gmsh: object) -> None:
+    """Renumber the nodes (and elements) 1..n when the file's numbers have gaps, which MSH 2.2 and 4 allow and
+    DOLFINx's reader does not (it assumes the tags 1..n); a file numbered 1..n is left as it is (bit for bit)."""
+    tags = np.asarray(gmsh.model.mesh.getNodes()[0], dtype=np.int64)  # type: ignore[attr-defined]
+    if tags.size and (tags.min() != 1 or tags.max() != tags.size or np.unique(tags).size != tags.size):
+        gmsh.model.mesh.renumberNodes()  # type: ignore[attr-defined]
+        gmsh.model.mesh.renumberElements()  # type: ignore[attr-defined]
+
+
 def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
     """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, facet tags)."""
     msh, _, facet_tags = read_gmsh_tags(path, comm)
@@ -35,6 +44,8 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
             gmsh.merge(path)
             if not gmsh.model.getEntities(3):
                 message = f"mesh file {path!r} holds no volume (3D) entities"
+            else:
+                _number_nodes_continuously(gmsh)
         except Exception as err:  # gmsh raises plain Exceptions
             message = f"mesh file {path!r} cannot be read by gmsh: {err}"
         if message:

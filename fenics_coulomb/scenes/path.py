@@ -333,6 +333,8 @@ class StepRecord:
     residual_history: list[float] = field(default_factory=list)
     #: Each obstacle's rotation [angle_deg, [ax, ay, az], [cx, cy, cz]] at this solve (None: not rotated).
     obstacle_rotations: dict[str, Any] = field(default_factory=dict)
+    #: Finite sliding: the geometry updates of this solve (:mod:`fenics_coulomb.model.sliding`).
+    geometry_updates: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """The record as plain data (summary.json "steps")."""
@@ -340,7 +342,8 @@ class StepRecord:
             "index": self.index, "time": self.time, "step": self.step, "substep": self.substep,
             "substeps": self.substeps, "load_factor": self.load_factor, "converged": self.converged,
             "reason": self.reason, "newton_iterations": self.newton_iterations,
-            "krylov_iterations": self.krylov_iterations, "state_counts": dict(self.counts),
+            "krylov_iterations": self.krylov_iterations, "geometry_updates": self.geometry_updates,
+            "state_counts": dict(self.counts),
             "contact_force": self.contact_force, "applied_load": self.applied_load, "reactions": self.reactions,
             "obstacle_displacements": self.obstacle_displacements, "obstacle_rotations": self.obstacle_rotations,
             "wall_time_s": self.wall_time_s,
@@ -411,10 +414,12 @@ def run_path(
             newton_iterations=int(result.iterations), krylov_iterations=int(result.krylov_iterations),
             counts=dict(counts), contact_force=total_contact_force(model, result.contact_force),
             applied_load=[float(c) for c in model.total_load()],
-            reactions=boundary_reactions(model, result.displacement, groups, result.master_force),
+            reactions=boundary_reactions(model, result.displacement, groups, result.master_force,
+                                         result.contact_force),
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
             obstacle_rotations={name: _plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
-            wall_time_s=wall, residual_history=[float(r) for r in result.residual_history])
+            wall_time_s=wall, residual_history=[float(r) for r in result.residual_history],
+            geometry_updates=int(result.geometry_updates))
         records.append(record)
         if solve.substeps == 1:
             where = f"step {solve.step}/{last_step} (load factor {solve.load_factor:.4g})"
@@ -424,10 +429,11 @@ def run_path(
         elapsed += wall
         left = len(solves) - i - 1
         eta = f", about {elapsed / (i + 1) * left:.1f} s left" if left and not failure else ""
-        logger.info("solve %d/%d, %s: %s, %d Newton / %d Krylov iterations, open/stick/slip %d/%d/%d, contact "
+        updates = f", {record.geometry_updates} geometry update(s)" if record.geometry_updates else ""
+        logger.info("solve %d/%d, %s: %s, %d Newton / %d Krylov iterations%s, open/stick/slip %d/%d/%d, contact "
                     "force (%s), %.2f s%s", i + 1, len(solves), where,
                     "converged" if not failure else f"NOT converged ({failure})",
-                    record.newton_iterations, record.krylov_iterations, counts["open"], counts["stick"],
+                    record.newton_iterations, record.krylov_iterations, updates, counts["open"], counts["stick"],
                     counts["slip"], ", ".join(f"{c:.6g}" for c in record.contact_force), wall, eta)
         if on_solve is not None:
             on_solve(solve, record, result)

@@ -72,7 +72,7 @@ import numpy as np
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model import surface as _surface  # noqa: F401  (registers [[obstacle]] type = "surface")
-from fenics_coulomb.model.contact_model import validate_friction
+from fenics_coulomb.model.contact_model import SLIDING, validate_friction
 from fenics_coulomb.model.materials import Material
 from fenics_coulomb.model.obstacles import Obstacle, _rotation, obstacles_from_list
 from fenics_coulomb.scd.preconditioner import NEARLY_INCOMPRESSIBLE_POISSON
@@ -82,7 +82,7 @@ from fenics_coulomb.settings import START_RULES, SolverSettings
 
 __all__ = ["KINDS", "NEARLY_INCOMPRESSIBLE_RTOL", "MAX_SCENE_BYTES", "YOUNG_RANGE", "GAMMA_SCALE_RANGE", "MAX_LOAD", "MAX_LEV", "check_kind",
            "OPTIONAL", "check_kinds", "read_scene_text", "check_gap_values",
-           "BodySection", "MaterialSection", "FrictionSection", "LoadSection", "MAX_PATH_SOLVES", "PathStep",
+           "BodySection", "MaterialSection", "FrictionSection", "ContactSection", "LoadSection", "MAX_PATH_SOLVES", "PathStep",
            "check_table", "path_steps_from_toml", "PairSection", "pairs_from_toml", "FLAGS", "SECTIONS", "Scene"]
 
 
@@ -107,6 +107,7 @@ KINDS: dict[str, dict[str, str]] = {
     "boundaries": {"*": "int"},
     "material": {"young": "number", "poisson": "number"},
     "friction": {"coefficient": "number"},
+    "contact": {"sliding": "str"},
     "load": {"case": "str", "scale": "number", "body_force": "vector"},
     "tractions": {"*": "traction"},
     "prescribed": {"*": "vector"},
@@ -303,6 +304,19 @@ class FrictionSection:
 
 
 @dataclass
+class ContactSection:
+    """``[contact]``: the sliding model, "finite" (the contact geometry follows the deformation) or "small"."""
+
+    sliding: str = "finite"
+
+    def validate(self) -> None:
+        """Raise InputError naming the first bad value."""
+        check_kinds("contact", self)
+        if self.sliding not in SLIDING:
+            raise InputError(f"[contact] sliding = {self.sliding!r}: must be one of {', '.join(SLIDING)}")
+
+
+@dataclass
 class LoadSection:
     """``[load]``: a load case of Section 7 (or None when ``[tractions]`` is given), its scale and a body force."""
 
@@ -424,11 +438,12 @@ NEARLY_INCOMPRESSIBLE_RTOL = 1e-8
 FLAGS: dict[str, tuple[str | None, str]] = {
     "lev": ("body", "lev"), "gap": ("body", "gap"), "load": ("load", "case"), "load_scale": ("load", "scale"),
     "young": ("material", "young"), "poisson": ("material", "poisson"), "friction": ("friction", "coefficient"),
-    "start": (None, "start"),
+    "start": (None, "start"), "sliding": ("contact", "sliding"),
     **{name: ("solver", name) for name in SolverSettings.__dataclass_fields__ if name != "start"},
 }
 
 SECTIONS: dict[str, Any] = {"body": BodySection, "material": MaterialSection, "friction": FrictionSection,
+                            "contact": ContactSection,
                             "load": LoadSection, "solver": SolverSettings, "boundaries": None, "tractions": None,
                             "obstacle": list, "prescribed": None, "roller": None, "path": list, "bodies": None,
                             "contact_pair": list}
@@ -443,6 +458,7 @@ class Scene:
     boundaries: dict[str, int] = field(default_factory=dict)
     material: MaterialSection = field(default_factory=MaterialSection)
     friction: FrictionSection = field(default_factory=FrictionSection)
+    contact: ContactSection = field(default_factory=ContactSection)
     load: LoadSection = field(default_factory=LoadSection)
     tractions: dict[str, list[float]] | None = None
     solver: SolverSettings = field(default_factory=SolverSettings)
@@ -542,6 +558,7 @@ class Scene:
                 name=body.get("name") or path.stem, body=BodySection(**body), boundaries=sections.get("boundaries", {}),
                 material=MaterialSection(**sections.get("material", {})),
                 friction=FrictionSection(**sections.get("friction", {})), load=LoadSection(**load),
+                contact=ContactSection(**sections.get("contact", {})),
                 tractions=sections.get("tractions"), solver=SolverSettings(**sections.get("solver", {})),
                 start=start, given=frozenset(data.get("solver", {})) if isinstance(data.get("solver"), dict)
                 else frozenset(), obstacles=sections.get("obstacle", []), prescribed=sections.get("prescribed", {}),
@@ -558,7 +575,7 @@ class Scene:
         scene = dataclasses.replace(
             self, body=dataclasses.replace(self.body), material=dataclasses.replace(self.material),
             friction=dataclasses.replace(self.friction), load=dataclasses.replace(self.load),
-            solver=dataclasses.replace(self.solver))
+            contact=dataclasses.replace(self.contact), solver=dataclasses.replace(self.solver))
         for key, value in flags.items():
             if value is None:
                 continue
@@ -608,6 +625,7 @@ class Scene:
         self.material.validate()
         self._validate_bodies(names, where)
         self.friction.validate()
+        self.contact.validate()
         self.load.validate()
         if self.tractions is not None and not isinstance(self.tractions, dict):
             raise InputError(f"tractions = {self.tractions!r}: must be a table of names = [3 numbers]")

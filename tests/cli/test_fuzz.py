@@ -33,4 +33,13 @@ def test_fuzz_case(case, earlier, tmp_path):
 def test_the_generated_cases_cover_every_kind():
     kinds = {c.name.split("-", 1)[1] for c in CASES}
     assert kinds == {"flag_bad", "flag_good", "petsc_bad", "petsc_good", "scene_bad", "scene_good", "out_bad",
-                     "mixed", "diverge"}
+                     "mixed", "diverge", "hostile"}
+
+
+@pytest.mark.parametrize("index", range(len(fuzz.hostile_cases())))
+def test_hostile_case(index, earlier, tmp_path):
+    """Every hostile case (obstacles the contact nodes cannot see, rtol given twice, a loose accuracy): exit 2 in
+    one line or exit 3, never exit 0."""
+    argv, files = fuzz.hostile_cases()[index]
+    status, problems = fuzz.run_case(fuzz.Case(f"hostile-{index}", list(argv), dict(files)), tmp_path, earlier)
+    assert not problems and status in (2, 3), (argv, status, problems)

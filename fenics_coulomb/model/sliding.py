@@ -1,0 +1,242 @@
+r"""Finite sliding: when the contact geometry of a configuration has settled.
+
+Small strain and small rotations stay (A assembled once); the contact geometry G(u) — the contact nodes, the
+node-to-surface stencils or the dual-mortar data of every pair, the obstacles' closest points, gaps, normals and
+frames — is evaluated with both surfaces at x = X + u (:meth:`ContactModel.configure
+<fenics_coulomb.model.contact_model.ContactModel.configure>`). A solve linearizes G about a configuration u⁽ᵐ⁾:
+
+    pairs       g_j(X + u⁽ᵐ⁾) + n_j·(w_j − w_j⁽ᵐ⁾),   w_j = u_s − Σ_l Φ_jl u_l   (the unknown z on slave node j),
+    obstacles   g_i(X + u⁽ᵐ⁾) + n_i·(u_i − u_i⁽ᵐ⁾),
+
+i.e. the model's constant gap is g(X + u⁽ᵐ⁾) − n·w⁽ᵐ⁾ (for a plane exactly g(X): its gap is affine in x and its
+frame constant, so a plane needs no update). The slip of a step is T_j[(u_s − u_s^{k−1}) − Σ_l Φ_jl (u_l −
+u_l^{k−1})] with the stencil of the step's own geometry: the relative motion against the master material point
+beneath the node (:meth:`ContactProblem._history <fenics_coulomb.problem.ContactProblem._history>` maps the
+previous step's physical u with the current Φ).
+
+**The geometry iteration.** u⁽⁰⁾ is the previous step's converged u (the reference configuration for a static
+solve); u⁽ᵐ⁺¹⁾ solves the problem with G(u⁽ᵐ⁾) linearized about u⁽ᵐ⁾, started from u⁽ᵐ⁾. It stops when G(u⁽ᵐ⁺¹⁾)
+
+1. has the same contact nodes and stencil supports (the master nodes with |Φ_jl| > ε/h_j of every node, h_j the
+   largest cell diameter at node j: a weight that moves the stencil's point by less than the accuracy ε is no
+   support — a node converging onto a master edge would otherwise flip between the facets on both sides
+   forever; for an obstacle node its obstacle), and
+2. differs from G(u⁽ᵐ⁾)'s linearization at u⁽ᵐ⁺¹⁾ by at most ε = e·‖u⁽ᵐ⁺¹⁾‖_∞ in every node's constraint
+   data: Δ_j = ((g_j^new − g_j^lin)² + |P_j^new s_j^new − P_j^old s_j^old|²)^{1/2}, with g^lin the linearized gap at
+   u⁽ᵐ⁺¹⁾, s the step's relative displacement increment through the node's stencil and P = I − n nᵀ the tangential
+   projection (basis-free: the friction law is isotropic).
+
+Why ε. Solving again changes only these data, by Δ at most. The solution of the contact problem depends on its
+gap and slip data as a projection does on the constraint set it projects onto: shifting the set by Δ moves the
+solution by at most Δ in the constrained components (non-expansive in the energy norm; the elastic fill-in
+decays from there), so another solve could move u by ≲ max Δ ≤ e‖u‖_∞ with e the solve's own relative
+displacement accuracy, e = ERROR_PER_RTOL·rtol (:data:`fenics_coulomb.settings.ERROR_PER_RTOL`: twice the
+largest ratio measured in docs/tradeoff, the bound ``--accuracy`` uses). At most :data:`MAX_GEOMETRY_UPDATES`
+updates; then the solve fails (exit 3) naming the nodes whose pairing keeps changing.
+
+**Nodes on a master edge.** The node-to-surface rules are discontinuous where a slave node's closest point crosses
+a master edge with a kink: the constraint's normal jumps from one facet's to the other's, and with it the direction
+of the contact force; a node beside such an edge is projected onto facet A, its solution moves it over facet B,
+whose solution moves it back (measured on the slid blocks of tests/problems/test_finite_sliding.py: 2 of 30
+nodes, weights 4e-5 on the far vertex, the two solutions 0.75e-5 to 1.5e-5 apart, 0.3-0.6e-4 of a cell). The exact fixed point lies on
+the edge, where neither facet's rule applies. Such a 2-cycle — the new geometry is the one solved with two updates
+before — ends the iteration when its two solutions differ by at most :data:`CYCLE_TOLERANCE`·h (h the smallest
+cell diameter at the contact nodes: a position error of a thousandth of an element, far below the
+discretization's; the amplitude is a local slip across the edge and does not scale with |u|): of its two
+geometries the one with the smaller signature (a digest of the contact nodes and supports, the same on every
+rank and partition) is solved once more and kept, so the answer does not depend on the path that led to the cycle;
+a warning names the nodes and the amplitude. A wider cycle fails as above.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.model.obstacles import closest_obstacle
+from fenics_coulomb.model.two_body import coupling_matrix
+
+if TYPE_CHECKING:  # pragma: no cover
+    from fenics_coulomb.model.contact_model import ContactModel
+    from fenics_coulomb.model.pairing import Pairing
+
+__all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "GeometryChange", "supports", "geometry_change"]
+
+Array = npt.NDArray[np.float64]
+
+#: The most geometry updates of one solve (finite sliding).
+MAX_GEOMETRY_UPDATES = 10
+
+#: A 2-cycle of the geometry (nodes flipping across a master edge) is accepted when its two solutions differ by at
+#: most this × the smallest cell diameter at the contact nodes (see "Nodes on a master edge").
+CYCLE_TOLERANCE = 1e-3
+
+
+@dataclass
+class GeometryChange:
+    """How G(u⁽ᵐ⁺¹⁾) differs from the geometry a solve used (the same on every rank).
+
+    Attributes:
+        settled: Same nodes and supports, and ``discrepancy`` <= ``tolerance``: no update needed.
+        changed: The number of contact nodes that gained, lost or changed their partner (nodes or obstacle).
+        discrepancy: The largest Δ_j over the nodes that kept their partner.
+        tolerance: ε = e·‖u‖_∞.
+        where: Current positions of up to three changed nodes (or of the node of the largest Δ_j).
+        pairing: The pairing of X + u⁽ᵐ⁺¹⁾ (contact pairs; None for obstacles only), to adopt for the next solve.
+    """
+
+    settled: bool
+    changed: int
+    discrepancy: float
+    tolerance: float
+    where: list[tuple[float, float, float]] = field(default_factory=list)
+    pairing: Pairing | None = None
+    #: The contact nodes and supports of the geometry solved with and of the new one (equal on every rank).
+    old_signature: str = ""
+    new_signature: str = ""
+
+    def describe(self) -> str:
+        """One line for logs and errors."""
+        at = ", ".join("(" + ", ".join(f"{c:.6g}" for c in x) + ")" for x in self.where)
+        if self.changed:
+            return f"{self.changed} contact node(s) changed partner, e.g. at {at}"
+        return f"largest change of a gap or slip {self.discrepancy:.3g} > {self.tolerance:.3g} at {at}"
+
+
+def supports(master_blocks: npt.NDArray[np.int64], weights: Array, threshold: Array | float = 0.0
+             ) -> npt.NDArray[np.int64]:
+    """Each node's stencil support as a sorted row (−1 padding): the master nodes with |Φ_jl| > ``threshold``
+    (per node, or one value)."""
+    mb = np.where(np.abs(weights) > np.reshape(threshold, (-1, 1)), master_blocks, -1)
+    return -np.sort(-mb, axis=1) if mb.size else mb.reshape(mb.shape[0], -1)
+
+
+def _same_supports(a: npt.NDArray[np.int64], b: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+    width = max(a.shape[1], b.shape[1], 1)
+    pa = np.full((a.shape[0], width), -1, np.int64)
+    pb = np.full((b.shape[0], width), -1, np.int64)
+    pa[:, :a.shape[1]], pb[:, :b.shape[1]] = a, b
+    return np.all(pa == pb, axis=1)
+
+
+def _tangential(n: Array, v: Array) -> Array:
+    return v - np.einsum("ij,ij->i", n, v)[:, None] * n
+
+
+def _signature(comm: MPI.Comm, nodes: npt.NDArray[np.int64], rows: npt.NDArray[np.int64]) -> str:
+    """A digest of the contact nodes (GLOBAL block indices) and their rows (obstacle index, or the sorted support's
+    global master blocks, −1 padded), the same on every rank and for every partition (collective)."""
+    data = np.column_stack([np.asarray(nodes, np.int64).reshape(-1, 1), np.asarray(rows, np.int64).reshape(len(nodes), -1)])
+    width = comm.allreduce(data.shape[1], op=MPI.MAX)
+    padded = np.full((data.shape[0], width), -1, np.int64)
+    padded[:, :data.shape[1]] = data
+    everyone = np.concatenate(comm.allgather(padded))
+    everyone = everyone[np.lexsort(everyone.T[::-1])]
+    return hashlib.sha256(everyone.tobytes()).hexdigest()
+
+
+def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
+    everyone = np.concatenate(comm.allgather(np.asarray(x, dtype=np.float64).reshape(-1, 3)[:3]))
+    order = np.lexsort(everyone.T[::-1]) if everyone.size else np.zeros(0, np.intp)
+    return [tuple(float(c) for c in everyone[i]) for i in order[:3]]
+
+
+def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float
+                    ) -> GeometryChange:
+    """Compare the contact geometry of X + u with the linearization the solve used (collective).
+
+    Args:
+        model: The contact model as it was solved (configured and placed).
+        u: The solution's physical displacement, owned DOFs.
+        z: The solution in the model's unknown (z = M⁻¹u; u for one body), owned DOFs.
+        previous: The previous step's physical displacement (owned DOFs), None for 0.
+        accuracy: The solve's relative displacement accuracy e (ε = e·‖u‖_∞).
+    """
+    comm = model.comm
+    cmap = model.contact
+    ug = model.ghosted(u)
+    U = ug.reshape(-1, 3)
+    scale = comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
+    tolerance = accuracy * scale
+    paired = model.paired if model.pairing is not None else np.zeros(cmap.size, dtype=bool)
+    rigid = np.flatnonzero(~paired)
+    delta = np.zeros(cmap.size)
+    moved = np.zeros(cmap.size, dtype=bool)
+    x_now = cmap.coordinates + U[cmap.blocks]
+    index = np.zeros(0, np.intp)
+    if rigid.size:
+        uc = U[cmap.blocks[rigid]]
+        index, g, n, _ = closest_obstacle(model.obstacles, x_now[rigid])
+        moved[rigid] = index != cmap.obstacle_index[rigid]
+        n_old = cmap.frames[rigid][:, :, 2]
+        linear = cmap.gap[rigid] + np.einsum("ij,ij->i", n_old, uc)
+        v = uc - model.offset[rigid]
+        dt = _tangential(n, v) - _tangential(n_old, v)
+        delta[rigid] = np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt))
+    pairing: Pairing | None = None
+    gained_at = np.zeros((0, 3))
+    r0 = model.V.dofmap.index_map.local_range[0]
+    old_nodes, new_nodes = [cmap.blocks[rigid] + r0], [cmap.blocks[rigid] + r0]
+    old_rows, new_rows = [cmap.obstacle_index[rigid].reshape(-1, 1)], [index.reshape(-1, 1)]
+    if model.pairing is not None:
+        pairing = model.pair_in(u)
+        old = model.pairing
+        sel = np.flatnonzero(paired)
+        local_same = bool(np.array_equal(old.blocks, pairing.blocks))
+        same_nodes = comm.allreduce(local_same, op=MPI.LAND)
+        threshold = tolerance / model.node_size()[old.blocks]
+        old_support = supports(old.master_blocks, old.weights, threshold)
+        new_support = supports(pairing.master_blocks, pairing.weights,
+                               tolerance / model.node_size()[pairing.blocks])
+        old_nodes.append(old.blocks + r0)
+        new_nodes.append(pairing.blocks + r0)
+        old_rows.append(old_support)
+        new_rows.append(new_support)
+        if local_same:
+            moved[sel] = ~_same_supports(old_support, new_support)
+        else:
+            moved[sel] = ~np.isin(old.blocks, pairing.blocks)
+            gained = np.setdiff1d(pairing.blocks, old.blocks)
+            gained_at = model.V.tabulate_dof_coordinates()[gained] + U[gained]
+        step = u if previous is None else u - np.asarray(previous, dtype=np.float64)
+        n_old = cmap.frames[sel][:, :, 2]
+        dofs = cmap.local_dofs[sel]
+        linear = cmap.gap[sel] + np.einsum("ij,ij->i", n_old, np.asarray(z).reshape(-1)[dofs])
+        s_old = model.coupling.relative(step)[dofs]
+        if same_nodes:  # every rank: the coupling matrix of the new stencils is collective
+            size_local = model.V.dofmap.index_map.size_local
+            M = coupling_matrix(model.V, pairing.blocks, pairing.master_blocks, pairing.weights,
+                                f"{model._prefix}geometry_")
+            x, y = M.createVecs()
+            x.array[:] = step[:3 * size_local]
+            M.mult(x, y)
+            s_new = (2.0 * step - y.getArray(readonly=True))[dofs]
+            for obj in (x, y, M):
+                obj.destroy()
+            dt = _tangential(pairing.frames[:, :, 2], s_new) - _tangential(n_old, s_old)
+            delta[sel] = np.sqrt((pairing.gap - linear) ** 2 + np.einsum("ij,ij->i", dt, dt))
+    delta[moved] = 0.0
+    changed = comm.allreduce(int(np.sum(moved)) + int(gained_at.shape[0]), op=MPI.SUM)
+    discrepancy = comm.allreduce(float(np.max(delta, initial=0.0)), op=MPI.MAX)
+    if changed:
+        where = _gather_where(comm, np.concatenate([x_now[moved], gained_at]))
+    else:
+        mine = delta.size and float(delta.max()) == discrepancy and discrepancy > 0.0
+        where = _gather_where(comm, x_now[np.argmax(delta)][None, :] if mine else np.zeros((0, 3)))
+    settled = changed == 0 and discrepancy <= tolerance
+
+    def signature(nodes: list[npt.NDArray[np.int64]], rows: list[npt.NDArray[np.int64]]) -> str:
+        width = max(r.shape[1] for r in rows)
+        wide = [np.pad(r, ((0, 0), (0, width - r.shape[1])), constant_values=-1) for r in rows]
+        # obstacle rows and pair rows apart: an obstacle index 0 is not a master block 0
+        kind = [np.full((n.size, 1), k, np.int64) for k, n in enumerate(nodes)]
+        return _signature(comm, np.concatenate(nodes), np.column_stack([np.concatenate(kind), np.concatenate(wide)]))
+
+    return GeometryChange(settled, changed, discrepancy, tolerance, where, pairing, signature(old_nodes, old_rows),
+                          signature(new_nodes, new_rows))

@@ -1,0 +1,102 @@
+"""Finite sliding: the contact geometry follows the deformation (benchmarks/sliding.py, docs/sliding).
+
+A block slid off its partner's edge along a load path equals the static press of the mesh built at the slid place
+(the same contact nodes, pair force and u), and so does the slide prescribed in one static solve; a frictional drag
+keeps every slipping node on the cone; a block pushed over a rigid bump never penetrates it (small sliding does);
+scenes where nothing slides and planes run bit for bit the small-sliding model. On 1 and 2 ranks."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from sliding import SLIDE, SlidingBlocks, bump, drag, slide_off  # noqa: E402
+
+SMALL = {"n_lower": (8, 4, 2), "n_upper": (6, 3, 2)}
+
+
+@pytest.mark.parametrize("method", ["mortar", "node-to-surface"])
+def test_slide_off_the_edge_equals_the_static_press_of_the_slid_mesh(method):
+    row = slide_off(MPI.COMM_WORLD, method, **SMALL)
+    assert row["position"] < 1e-12  # the meshes are the same at the slid place
+    assert row["path_nodes"] == row["static_nodes"] == row["one_nodes"]
+    assert np.abs(row["path_force"] - row["static_force"]).max() <= 1e-6 * abs(row["static_force"][2])
+    assert np.abs(row["one_force"] - row["static_force"]).max() <= 1e-6 * abs(row["static_force"][2])
+    assert row["path_u"] <= 1e-6 * row["u_scale"] and row["one_u"] <= 1e-6 * row["u_scale"]
+    # small sliding keeps every slave node in contact and overestimates the force (the stale reference geometry)
+    assert row["small_nodes"] > row["static_nodes"]
+    assert row["small_force"][2] > 1.2 * row["static_force"][2]
+    assert max(row["updates"][1:-1]) >= 1  # the slide re-pairs
+
+
+def test_drag_every_slipping_node_on_the_cone():
+    rows = drag(MPI.COMM_WORLD, friction=0.3, substeps=4, **SMALL)
+    sliding = [r for r in rows if r["slip"] == r["nodes"]]
+    assert len(sliding) >= 3
+    for r in sliding:
+        assert abs(r["sum_t"] - r["F_sum_p"]) <= 1e-8 * r["F_sum_p"]
+        # the tangential tractions slip in nearly one direction: |Σ t_j| close to Σ |t_j| (not equal: the slip
+        # increments of the nodes differ where the block rides toward the edge; docs/sliding)
+        assert 0.95 * r["sum_t"] <= r["t_sum"] <= r["sum_t"] * (1 + 1e-12)
+    assert rows[-1]["nodes"] < rows[0]["nodes"]  # the block has slid partly off its partner
+
+
+@pytest.mark.parametrize("kind", ["cylinder", "stl"])
+def test_a_block_pushed_over_a_bump_never_penetrates_it(kind, tmp_path_factory):
+    directory = Path(MPI.COMM_WORLD.bcast(str(tmp_path_factory.mktemp("bump")) if MPI.COMM_WORLD.rank == 0 else None))
+    finite = bump(MPI.COMM_WORLD, "finite", kind, directory, steps=4)
+    small = bump(MPI.COMM_WORLD, "small", kind, directory, steps=4)
+    assert finite["min_distance"] >= -1e-8 * 0.6
+    assert small["min_distance"] < -1e-2  # the reference geometry does not see the bump under the slid nodes
+    assert max(finite["updates"]) >= 1 and max(small["updates"]) == 0
+
+
+def test_a_plane_needs_no_geometry_update_and_runs_bit_for_bit():
+    """The paper's cuboid over its plane: the plane's gap is affine and its frame constant, so finite sliding is
+    the small-sliding model, bit for bit, on a load path too."""
+    from fenics_coulomb.scenes.builder import build_problem
+    from fenics_coulomb.scenes.path import plan
+    from fenics_coulomb.scenes.scene import Scene
+
+    root = Path(__file__).resolve().parents[2]
+    prints = {}
+    for sliding in ("finite", "small"):
+        scene = Scene.from_toml(root / "demos/scenes/d3_L2_path.toml").override(sliding=sliding, lev=2)
+        built = build_problem(scene, MPI.COMM_WORLD, petsc_options_prefix=f"plane_{sliding}_")
+        problem = built.problem
+        values = []
+        for solve in plan(scene)[:3]:
+            built.loads.apply(solve.start, solve.end, solve.weight)
+            _, result = problem.solve()
+            assert result.geometry_updates == 0
+            values.append(problem.u.x.array.copy())
+        prints[sliding] = values
+        problem.destroy()
+    for a, b in zip(prints["finite"], prints["small"], strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_slide_is_the_same_on_one_and_two_ranks_and_on_a_rerun():
+    """Both runs of the slid static press give the same bits; its result does not depend on the partition."""
+    comm = MPI.COMM_WORLD
+    states = []
+    for _ in range(2):
+        blocks = SlidingBlocks(comm, 0.5, method="mortar", prefix="slide_rerun_", **SMALL)
+        blocks.solve(SLIDE)
+        states.append(blocks.state(SLIDE))
+        blocks.destroy()
+    assert np.array_equal(states[0], states[1])
+    single = None
+    if comm.rank == 0:
+        blocks = SlidingBlocks(MPI.COMM_SELF, 0.5, method="mortar", prefix="slide_self_", **SMALL)
+        blocks.solve(SLIDE)
+        single = blocks.state(SLIDE)
+        blocks.destroy()
+    single = comm.bcast(single, root=0)
+    assert np.abs(single - states[0]).max() <= 1e-10
