@@ -18,11 +18,14 @@ Definitions (the same as summary.json's and the XDMF fields'):
 * the contact force on the body at a node is the solver's −Rᵢ zⁱ (Cartesian); ``normal_force`` its normal
   part λ ≥ 0, ``pressure`` = λ / area with ``area`` = ∫ φᵢ ds over the contact boundary (the lumped facet area);
 * ``obstacle_forces[name]`` = Σ of the contact forces on the nodes that touch that obstacle (the force the
-  obstacle exerts on the body); ``pair_forces`` = the force on each body per contact pair from the residuals
-  (:func:`fenics_coulomb.model.forces.pair_forces`);
-* ``reactions[name]`` = Σ over the boundary's nodes of K ũ − l̃⁰ assembled without boundary conditions: the
-  force the support exerts on the body (:func:`fenics_coulomb.model.checks.boundary_reactions`);
-* equilibrium: Σ reactions + Σ obstacle forces + applied load = 0 up to the stopping tolerance.
+  obstacle exerts on the body); ``pair_forces`` = the force each contact pair exerts on its slave body and, from
+  that pair's own stencil, on its master body (:func:`fenics_coulomb.model.forces.pair_forces`);
+* ``reactions[name]`` = Σ over the DOFs the support holds (its components only: a condition on ``V.sub(i)`` or
+  a roller has none in the components it leaves free) of K ũ − l̃⁰ assembled without boundary conditions, minus
+  the contact forces acting on those DOFs: the force the support exerts on the body
+  (:func:`fenics_coulomb.model.checks.boundary_reactions`);
+* equilibrium: Σ reactions + Σ obstacle forces + applied load = 0 up to the stopping tolerance (the pairs'
+  forces are internal: each pair's force on its master body is minus its force on its slave body).
 """
 
 from __future__ import annotations
@@ -146,16 +149,21 @@ class ContactReport:
         return float(np.max(np.linalg.norm(radial, axis=1)))
 
 
-def reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, npt.NDArray[np.int32]]:
-    """Local DOF blocks (owned and ghost) of named Dirichlet conditions on V or on a sub-space of V (collective: a
-    bad entry on any rank is an InputError on every rank).
+def reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, Any]:
+    """The named supports of ``bcs``, checked, as :func:`~fenics_coulomb.model.checks.boundary_reactions` takes
+    them (collective: a bad entry on any rank is an InputError on every rank).
 
     Args:
         V: The problem's vector space.
-        bcs: name → ``dolfinx.fem.DirichletBC`` (on V, on ``V.sub(i)``) or an array of local node blocks.
+        bcs: name → a ``dolfinx.fem.DirichletBC`` (on V or on ``V.sub(i)``: its reaction has the components the
+            condition holds) or an array of local node blocks (owned and ghost: the components of those nodes
+            the problem's conditions hold).
+
+    Returns:
+        name → the DirichletBC itself, or the node blocks as a sorted int32 array.
     """
     message = ""
-    groups: dict[str, npt.NDArray[np.int32]] = {}
+    groups: dict[str, Any] = {}
     try:
         groups = _reaction_groups(V, bcs)
     except InputError as err:
@@ -164,12 +172,12 @@ def reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dic
     return groups
 
 
-def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, npt.NDArray[np.int32]]:
+def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(bcs, Mapping):
         raise InputError(f"reactions = {bcs!r}: give a dict name -> DirichletBC (or node blocks)")
     bs = V.dofmap.index_map_bs
     nodes = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
-    groups: dict[str, npt.NDArray[np.int32]] = {}
+    groups: dict[str, Any] = {}
     for name, bc in bcs.items():
         if not isinstance(name, str) or not name:
             raise InputError(f"reactions: name {name!r} must be a non-empty string")
@@ -180,8 +188,7 @@ def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> di
                     space.dofmap.index_map_bs != bs:
                 raise InputError(f"reactions[{name!r}]: a boundary condition of another function space (give one "
                                  "of the problem's bcs, on V or V.sub(i))")
-            dofs = np.asarray(bc.dof_indices()[0])  # unrolled DOF indices of V, for V and for V.sub(i) alike
-            groups[str(name)] = np.unique(dofs // bs).astype(np.int32)
+            groups[str(name)] = bc  # the DOFs it holds: its components only (a condition on V.sub(i))
         else:
             try:
                 blocks = np.asarray(bc)
@@ -236,11 +243,12 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
         name = getattr(obstacle, "name", None) or f"{obstacle.kind} {i + 1}"
         per_obstacle[name] = nodes.force[nodes.obstacle == i].sum(axis=0)
     groups = reaction_groups(model.V, reactions or {})
-    support = boundary_reactions(model, result.displacement, groups, result.master_force) if groups else {}
+    support = boundary_reactions(model, result.displacement, groups, result.master_force,
+                                 result.contact_force) if groups else {}
     return ContactReport(
         total_force=nodes.force.sum(axis=0),
         obstacle_forces=per_obstacle,
-        pair_forces=pair_forces(model, result) if model.coupling.paired else [],
+        pair_forces=pair_forces(model, result, model.pairs) if model.coupling.paired else [],
         reactions={name: np.asarray(v) for name, v in support.items()},
         applied_load=np.asarray(model.total_load(), dtype=np.float64),
         nodes=nodes,

@@ -68,7 +68,7 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
         files += write_figures(directory, model, result, label)
     data = summary(model, result, dict(extra or {}))
     data["reactions"] = boundary_reactions(model, result.displacement, reaction_groups(model.V, reactions or {}),
-                                           result.master_force)
+                                           result.master_force, result.contact_force)
     data["contact_force"] = total_contact_force(model, result.contact_force)
     data["applied_load"] = [float(c) for c in model.total_load()]
     for key, value in (timings or {}).items():

@@ -20,6 +20,9 @@ thresholds do not depend on units:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -29,11 +32,13 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
+from fenics_coulomb.errors import check_all
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.frames import to_local
 
 __all__ = ["FORCE_FLOOR", "residual", "unconstrained_residual", "physics_residuals", "PHYSICS_TOL",
-           "PHYSICS_PER_RTOL", "PHYSICS_LOOSEST", "DECISIVE_CHECKS", "physics_failure", "boundary_reactions", "total_contact_force"]
+           "PHYSICS_PER_RTOL", "PHYSICS_LOOSEST", "DECISIVE_CHECKS", "physics_failure", "boundary_reactions",
+           "constrained_mask", "support_dofs", "total_contact_force"]
 
 
 #: Forces below this fraction of (largest diagonal of A) × (displacement scale) count as round-off in the relative
@@ -60,7 +65,11 @@ def residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.
 
 def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """K ũ − l̃⁰ per owned node (shape (owned nodes, 3)), assembled with UFL WITHOUT boundary conditions: the
-    force the supports and the obstacles exert on the body, node by node (collective)."""
+    force the supports and the obstacles exert on the body, node by node (collective).
+
+    Both vectors are completed on their owners (each its own reverse ghost scatter) before they are subtracted:
+    the owned part of a ghosted vector does not hold the other ranks' contributions to a node on a partition
+    boundary."""
     uh = dolfinx.fem.Function(model.V)
     uh.x.petsc_vec.array[:] = displacement
     uh.x.scatter_forward()
@@ -68,8 +77,9 @@ def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.flo
     # dx(body) with cell tags in a and the default L's plain dx), which one form cannot combine
     b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.action(model.a_ufl, uh)))
     load = dolfinx.fem.petsc.assemble_vector(model.L)
+    for vec in (b, load):
+        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     b.axpy(-1.0, load)
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
     full = b.getArray(readonly=True).reshape(-1, 3).copy()
     b.destroy()
     load.destroy()
@@ -180,29 +190,96 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
     return ""
 
 
-def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64],
-                       groups: dict[str, npt.NDArray[np.int32]],
-                       master_force: npt.NDArray[np.float64] | None = None) -> dict[str, list[float]]:
-    """The reaction force the support exerts on the body per Dirichlet boundary (collective, same on all ranks).
+def constrained_mask(model: ContactModel) -> npt.NDArray[np.bool_]:
+    """Which owned DOFs (unrolled, shape (owned nodes, 3)) a boundary condition of the problem holds."""
+    size_local = model.V.dofmap.index_map.size_local
+    mask = np.zeros(3 * size_local, dtype=bool)
+    mask[model.dirichlet_rows] = True
+    return mask.reshape(-1, 3)
 
-    At a node, K ũ − l̃⁰ (the stiffness and load assembled WITHOUT boundary conditions) is the sum of the
-    external forces not in l̃⁰: the support's reaction and the contact force the node receives. Contact nodes
-    never carry a Dirichlet component, but with two bodies a prescribed MASTER node receives the contact force
-    f_j = −Σ_s φ_sj f_s of the slave nodes paired with it; the support carries it: its reaction is
-    K ũ − l̃⁰ − f_j (a driven master body moved rigidly has K ũ − l̃⁰ = 0 and its support the whole contact
-    force). ``groups`` maps a boundary name to its local DOF blocks (owned and ghost; only owned ones are
-    summed); ``master_force`` is the result's master reaction (owned DOFs; None for one body).
+
+def support_dofs(model: ContactModel, support: Any, name: str = "") -> npt.NDArray[np.int32]:
+    """The owned DOFs (unrolled local indices, ascending) whose reactions make up one support's reaction.
+
+    Args:
+        model: The solved model.
+        support: A ``dolfinx.fem.DirichletBC`` of the problem (on V or on a sub-space ``V.sub(i)``: the
+            components it holds) or an integer array of local DOF blocks (nodes: the components of those nodes
+            that the problem's boundary conditions hold).
+        name: The support's name (for the error message).
+
+    Raises:
+        InputError: (on every rank) a boundary condition that holds a DOF the problem does not hold (a condition
+            of another problem or mesh), or a node block out of range.
+    """
+    size_local = model.V.dofmap.index_map.size_local
+    num_blocks = size_local + model.V.dofmap.index_map.num_ghosts
+    held = constrained_mask(model)
+    if isinstance(support, dolfinx.fem.DirichletBC):
+        dofs = np.asarray(support.dof_indices()[0], dtype=np.int64)  # unrolled: V's DOFs for V.sub(i) too
+        owned = dofs[dofs < 3 * size_local]
+        ok = bool(np.all((dofs >= 0) & (dofs < 3 * num_blocks))) and bool(np.all(held.ravel()[owned]))
+        check_all(model.comm, ok, f"reactions[{name!r}]: a DirichletBC that is not one of the problem's boundary "
+                  "conditions (it holds DOFs the problem does not hold)")
+        return np.unique(owned).astype(np.int32)
+    try:
+        blocks = np.asarray(support)
+    except (TypeError, ValueError):  # a ragged sequence
+        blocks = np.asarray(None, dtype=object)
+    ok = blocks.ndim == 1 and (blocks.size == 0 or (np.issubdtype(blocks.dtype, np.integer)
+                                                     and int(blocks.min()) >= 0 and int(blocks.max()) < num_blocks))
+    what = f"an array of shape {blocks.shape} and dtype {blocks.dtype}" if blocks.dtype != object else \
+        f"a {type(support).__name__}"
+    check_all(model.comm, ok, f"reactions[{name!r}]: {what} is neither a DirichletBC of the problem nor an array "
+              f"of local node blocks in [0, {num_blocks})")
+    blocks = np.unique(blocks.astype(np.int64))
+    blocks = blocks[blocks < size_local]
+    dofs = (3 * blocks[:, None] + np.arange(3)).ravel()
+    return dofs[held.ravel()[dofs]].astype(np.int32)
+
+
+def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64], groups: Mapping[str, Any],
+                       master_force: npt.NDArray[np.float64] | None = None,
+                       contact_force: npt.NDArray[np.float64] | None = None) -> dict[str, list[float]]:
+    """The reaction force each support exerts on the body (collective, same on all ranks).
+
+    At a DOF, r = K ũ − l̃⁰ (the stiffness and load assembled WITHOUT boundary conditions) is the sum of the
+    external forces not in l̃⁰: a support's reaction where a boundary condition holds the DOF, the contact force
+    of an obstacle or of a pair's other body where the node is a contact node, and, with two bodies, the force
+    f_l = −Σ_j Φ_jl f_j a master node receives from the slave nodes paired with it. The reaction of a support
+    is therefore r − f_contact − f_master summed over the DOFs the support HOLDS, component by component: a
+    condition on ``V.sub(0)`` (or a roller) has no reaction in the components it leaves free, and a node held in
+    x by one support and in y by another gives each its own component. A driven master body moved rigidly has
+    r = 0 on its nodes and its support carries the whole contact force (−f_master).
+
+    A DOF named by several groups counts once, in the first group (in ``groups`` order) that names it, so that
+    Σ reactions + Σ contact forces of the obstacles + applied load = 0 holds for any set of groups that covers
+    the supports.
+
+    Args:
+        model: The solved model.
+        displacement: The physical displacement ũ (owned DOFs).
+        groups: name → support (:func:`support_dofs`: a DirichletBC or local node blocks).
+        master_force: Two bodies: the result's master reaction (owned DOFs; None for one body).
+        contact_force: The result's contact force per owned contact node, shape (m, 3) (None: taken as 0, right
+            while no contact node has a constrained component).
     """
     comm = model.V.mesh.comm
     full = unconstrained_residual(model, displacement)
     if master_force is not None:
         full -= np.asarray(master_force, dtype=np.float64).reshape(-1, 3)[: full.shape[0]]
-    size_local = model.V.dofmap.index_map.size_local
+    if contact_force is not None and model.contact.size:
+        np.subtract.at(full, model.contact.blocks, np.asarray(contact_force, dtype=np.float64).reshape(-1, 3))
+    flat = full.ravel()
+    taken = np.zeros(flat.size, dtype=bool)
     out: dict[str, list[float]] = {}
-    for name, blocks in groups.items():
-        owned = blocks[blocks < size_local]
-        total = comm.allreduce(full[owned].sum(axis=0), op=MPI.SUM)
-        out[name] = [float(c) for c in total]
+    for name, support in groups.items():
+        dofs = support_dofs(model, support, str(name))
+        dofs = dofs[~taken[dofs]]
+        taken[dofs] = True
+        local = np.zeros(3)
+        np.add.at(local, dofs % 3, flat[dofs])
+        out[str(name)] = [float(c) for c in comm.allreduce(local, op=MPI.SUM)]
     return out
 
 

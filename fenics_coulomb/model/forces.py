@@ -67,32 +67,39 @@ def _lumped_areas(model: ContactModel) -> npt.NDArray[np.float64]:
 
 def pair_forces(model: ContactModel, result: SolveResult,
                 pairs: Sequence[Any] | None = None) -> list[dict[str, Any]]:
-    """Per contact pair, the total force on each body from that body's own residual (collective; the same list
-    on all ranks; empty for one body).
+    """Per contact pair, the total force it exerts on its slave body and on its master body (collective; the
+    same list on all ranks; empty for one body).
 
-    The residual K u − l̃⁰ of the physical displacement u, assembled WITHOUT boundary conditions
-    (:func:`fenics_coulomb.model.checks.unconstrained_residual`), is the force the other body and the supports exert
-    on each node. Summed over the pair's slave contact nodes it is the force on the slave body; summed over
-    the master nodes of the facets the pair's contact nodes use (the stencils φ_sj) it is the force on the
-    master body. Equilibrium (Σ_j φ_sj = 1) makes them equal and opposite; on a supported (Dirichlet) master
-    node the residual also holds the support's reaction, so the contact force f_j = −Σ_s φ_sj f_s it receives is
-    taken there instead (counted in ``prescribed_nodes``); a master node shared by several pairs' stencils
-    counts for each of them.
+    The contact nodes of a problem are the pairs' slave nodes and, with rigid obstacles as well, the obstacles'
+    contact nodes; a pair's slave nodes j are those of the pairing with its index, and f_j is the solver's
+    contact force on them. The force on the slave body is Σ_j f_j. The force on the master body comes from THIS
+    pair's stencil only: the master node l receives f_l = −Σ_{j in pair} Φ_jl f_j, so
+    Σ_l f_l = −Σ_j (Σ_l Φ_jl) f_j. A master node shared by several pairs' stencils counts each pair's share
+    once, and the master forces of the pairs on one body add up to what its supports carry (with the obstacles
+    and the load). ``balance`` = ‖slave + master‖ / ‖slave‖ measures the stencil's row sums Σ_l Φ_jl = 1 (round-off
+    when every pair's stencil passes its whole force on).
+
+    ``slave_equilibrium`` checks the pair's force against the slave body's own residual r = K u − l̃⁰ assembled
+    WITHOUT boundary conditions (:func:`fenics_coulomb.model.checks.unconstrained_residual`): at a slave node,
+    r − f_master (f_master: what the node receives as a master node of other pairs, usually 0) is the contact
+    force the solve balanced there (in a component a boundary condition holds, the residual holds the support's
+    reaction too, and f_j is taken); ‖Σ_j (r_j − f_master,j) − Σ_j f_j‖ / ‖Σ_j f_j‖ is the equilibrium of the
+    slave nodes, at the level of the solve's tolerance.
 
     Args:
         model: The model of a solve with contact pairs.
-        result: Its result (``displacement`` = the physical u).
+        result: Its result (``displacement`` = the physical u, ``contact_force`` per contact node,
+            ``master_force`` = the master nodes' reaction to all pairs, on the owned DOFs).
         pairs: The :class:`~fenics_coulomb.model.pairing.ContactPair` s in the order given to the problem, for
-            their names and tags (optional).
+            their names and tags (default: the model's).
 
     Returns:
-        One dict per pair: ``pair`` (index), ``name``, ``slave``/``master`` tags and ``method`` (when ``pairs``
-        is given),
-        ``contact_nodes``, ``master_nodes``, ``prescribed_nodes``, ``force_on_slave_body`` and
-        ``force_on_master_body`` (3-vectors from the residuals), ``contact_force`` (Σ of the solver's force
-        on the slave contact nodes) and ``balance`` = ‖slave + master‖ / ‖slave‖.
+        One dict per pair: ``pair`` (index), ``name``, ``slave``/``master`` tags and ``method``,
+        ``contact_nodes``, ``master_nodes`` (the master nodes of the pair's stencils), ``prescribed_nodes`` (of
+        those, the ones with a constrained component), ``force_on_slave_body`` and ``force_on_master_body``
+        (3-vectors), ``contact_force`` (= ``force_on_slave_body``), ``balance`` and ``slave_equilibrium``.
     """
-    from fenics_coulomb.model.checks import unconstrained_residual
+    from fenics_coulomb.model.checks import constrained_mask, unconstrained_residual
 
     pairing = model.pairing
     if pairing is None:
@@ -102,26 +109,28 @@ def pair_forces(model: ContactModel, result: SolveResult,
     n, r0 = imap.size_local, int(imap.local_range[0])
     pairs = list(pairs if pairs is not None else getattr(model, "pairs", None) or [])
     count = max(len(pairs), comm.allreduce(int(pairing.pair_index.max(initial=-1)) + 1, op=MPI.MAX))
-    full = unconstrained_residual(model, result.displacement)
-    prescribed = np.zeros(n, dtype=bool)
-    prescribed[model.dirichlet_rows // 3] = True
-    force = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)
-    # what each master node receives from the contact: the residual on a free node; on a prescribed one the
-    # residual also holds the support's reaction, so there the contact force f_j = −Σ_s φ_sj f_s itself
-    received = full.copy()
+    # the pairing's nodes among the contact nodes (obstacle nodes are the others), both in ascending block order
+    paired = np.flatnonzero(np.asarray(model.paired, dtype=bool))
+    assert np.array_equal(model.contact.blocks[paired], pairing.blocks), "pairing and contact map disagree"
+    force = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)[paired]
+    held = constrained_mask(model)
+    received = np.zeros((n, 3))
     if getattr(result, "master_force", None) is not None:
-        master_force = np.asarray(result.master_force, dtype=np.float64).reshape(-1, 3)[:n]
-        received[prescribed] = master_force[prescribed]
+        received = np.asarray(result.master_force, dtype=np.float64).reshape(-1, 3)[:n]
+    residual = unconstrained_residual(model, result.displacement) - received
+    from_residual = np.where(held[pairing.blocks], force, residual[pairing.blocks])
+    # −Σ_l Φ_jl f_j per slave node j (the weights are 0 on the stencil's padding)
+    on_master_nodes = -pairing.weights.sum(axis=1)[:, None] * force
     out: list[dict[str, Any]] = []
     for k in range(count):
         mine = pairing.pair_index == k
-        slave = pairing.blocks[mine]
         stencil = pairing.master_blocks[mine]
         used = np.unique(stencil[stencil >= 0])
         used = np.unique(np.concatenate(comm.allgather(used))).astype(np.int64)
         master = (used[(used >= r0) & (used < r0 + n)] - r0).astype(np.int32)
-        local = np.concatenate([full[slave].sum(axis=0), received[master].sum(axis=0), force[mine].sum(axis=0),
-                                [slave.size, master.size, prescribed[slave].sum() + prescribed[master].sum()]])
+        local = np.concatenate([force[mine].sum(axis=0), on_master_nodes[mine].sum(axis=0),
+                                from_residual[mine].sum(axis=0),
+                                [np.count_nonzero(mine), master.size, np.count_nonzero(held[master].any(axis=1))]])
         total = np.asarray(comm.allreduce(local, op=MPI.SUM))
         on_slave, on_master = total[0:3], total[3:6]
         scale = float(np.linalg.norm(on_slave))
@@ -138,9 +147,9 @@ def pair_forces(model: ContactModel, result: SolveResult,
             "prescribed_nodes": int(total[11]),
             "force_on_slave_body": [float(c) for c in on_slave],
             "force_on_master_body": [float(c) for c in on_master],
-            "contact_force": [float(c) for c in total[6:9]],
+            "contact_force": [float(c) for c in on_slave],
             "balance": float(np.linalg.norm(on_slave + on_master) / scale) if scale > 0 else 0.0,
+            "slave_equilibrium": float(np.linalg.norm(total[6:9] - on_slave) / scale) if scale > 0 else 0.0,
         })
         out.append(entry)
     return out
-

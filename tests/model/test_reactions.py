@@ -7,7 +7,8 @@ the master nodes was left out), the two reactions must cancel, and the force on 
 opposite of the force on the slave body. Hand check of the magnitude: the upper block (E = 70, ν = 0.3,
 0.5 × 0.5 × 0.25) compressed by δ between a clamped top and a frictional bottom is stiffer than in uniaxial
 stress (E A δ / H) and softer than in uniaxial strain (M A δ / H, M the P-wave modulus; 10 % for the coarse
-mesh's stiffness)."""
+mesh's stiffness). Both reactions equal an assembly of our own (tests/model/reaction_reference.py): K u − l over
+the held DOFs, minus the contact force on the lower block's master nodes."""
 
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ import dolfinx
 import dolfinx.fem
 import numpy as np
 import pytest
+from reaction_reference import assembled_reactions, held_dofs
 from test_two_body import SLAVE, UPPER_TOP, elasticity
 
 from fenics_coulomb import ContactPair, ContactProblem
@@ -46,12 +48,20 @@ def test_a_driven_master_bodys_support_carries_the_contact_force(friction):
         _, result = problem.solve()
         assert result.converged
         report = problem.report(result, reactions={"lower": drive, "top": clamp})
+        # our own assembly: K u − l over the held DOFs, minus the contact force the slave nodes exert on the
+        # lower block's (prescribed) master nodes
+        n = V.dofmap.index_map.size_local
+        ours = assembled_reactions(elasticity(V, E, NU), None, result.displacement,
+                                   {"lower": held_dofs(V, lower), "top": held_dofs(V, top)}, MPI.COMM_WORLD,
+                                   minus=np.asarray(result.master_force).reshape(-1, 3)[:n])
     r_lower, r_top = report.reactions["lower"], report.reactions["top"]
     (forces,) = report.pair_forces
     on_slave, on_master = np.array(forces["force_on_slave_body"]), np.array(forces["force_on_master_body"])
     # the slave (upper) block is pushed up, the master (lower) one down; the lower support pushes up
     assert on_slave[2] > 0 and np.allclose(on_master, -on_slave, rtol=1e-8, atol=1e-12)
     assert np.allclose(r_lower, on_slave, rtol=1e-8, atol=1e-12)
+    for name in ("lower", "top"):
+        assert np.allclose(report.reactions[name], ours[name], rtol=0, atol=1e-10 * np.linalg.norm(r_lower)), name
     assert np.allclose(r_lower + r_top + report.applied_load, 0.0, atol=1e-8 * np.linalg.norm(r_lower))
     M = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
     assert E * AREA * DELTA / HEIGHT <= r_lower[2] <= 1.1 * M * AREA * DELTA / HEIGHT, r_lower
