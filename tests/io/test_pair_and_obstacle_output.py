@@ -123,11 +123,10 @@ def test_the_command_writes_a_pair_and_an_obstacle(mesh_file, floor):
     assert np.linalg.norm(total) <= 1e-7 * np.linalg.norm(slave)
 
 
-@pytest.mark.parametrize("floor", sorted(FLOORS))
-def test_report_and_write_results_with_a_pair_and_an_obstacle(mesh_file, mpi_tmp_path, floor):
-    """The API on the same scene: report() balances per body and in total; write_results() writes the same
-    reactions and pair forces."""
-    built = build_problem(Scene.from_toml(scene_file(mesh_file, floor)))
+def test_report_and_write_results_with_a_pair_and_an_obstacle(mesh_file, mpi_tmp_path):
+    """The API on the same scene (the floor touching): report() balances per body and in total; write_results()
+    writes the same reactions and pair forces."""
+    built = build_problem(Scene.from_toml(scene_file(mesh_file, "touching")))
     with built.problem as problem:
         _, result = problem.solve()
         assert result.converged
@@ -138,7 +137,7 @@ def test_report_and_write_results_with_a_pair_and_an_obstacle(mesh_file, mpi_tmp
     floor_force = report.obstacle_forces["floor"]
     sides, flat = report.reactions["block_sides"], report.reactions["flat"]
     scale = np.linalg.norm(slave)
-    assert slave[2] > 0 and (floor_force[2] > 0) == (floor == "touching")
+    assert slave[2] > 0 and floor_force[2] > 0 and pair["slave_equilibrium"] < 1e-7
     assert np.linalg.norm(slave + flat) <= 1e-7 * scale  # the hemisphere: the pair's push and its support
     assert np.linalg.norm(master + floor_force + sides) <= 1e-7 * scale  # the block
     assert np.linalg.norm(sides + flat + floor_force + report.applied_load) <= 1e-7 * scale
