@@ -20,6 +20,7 @@ test-mpi:
 # container/run itself, from the host: paths outside the repository, interrupts leave no process behind
 test-host:
 	tests/host/interrupts.sh
+	tests/host/container_paths.sh
 
 env:
 	$(RUN) python3 -c "import dolfinx, petsc4py; print('DOLFINx', dolfinx.__version__)"
