@@ -3,8 +3,8 @@
 A reaction is K u − l (K and l assembled without boundary conditions; minus the contact forces acting on the
 same DOFs) summed over the DOFs the support HOLDS, component by component. Checked for a condition on
 ``V.sub(i)`` (one component, prescribed non-zero), rollers (``V.sub(i)`` held at 0, in the API and as a
-scene's ``[roller]``), clamped and prescribed-vector supports, supports named by node blocks, a DOF named by two
-groups, and a condition of another problem (refused). The reference (tests/model/reaction_reference.py) uses
+scene's ``[roller]``, also in path.csv along a load path), clamped and prescribed-vector supports, supports named
+by node blocks, a DOF named by two groups, and a condition of another problem (refused). The reference (tests/model/reaction_reference.py) uses
 DOLFINx's assembled matrix, not the library's residual.
 
 The statics a user checks: a block on a rigid plane under gravity, held in plane strain by rollers on its two
@@ -207,3 +207,32 @@ def test_scene_rollers_in_summary_json(mpi_tmp_path):
     assert abs(reactions["left"][0]) > 1e-3 * scale and abs(reactions["right"][2]) > 1e-6 * scale
     total = sum(reactions.values()) + np.asarray(data["contact_force"]) + np.asarray(data["applied_load"])
     assert np.linalg.norm(total) <= 1e-8 * scale
+
+
+def test_scene_rollers_along_a_load_path(mpi_tmp_path):
+    """The same scene on the command line in two steps (``--steps 2``): every row of path.csv has the rollers'
+    reactions in their own components only, and each step balances (supports + floor + load = 0); the last
+    step's reactions are summary.json's."""
+    import csv
+
+    from fenics_coulomb.cli import main
+
+    comm = MPI.COMM_WORLD
+    path, out = mpi_tmp_path / "rollers.toml", mpi_tmp_path / "path"
+    if comm.rank == 0:
+        path.write_text(SCENE)
+    comm.barrier()
+    assert main(["--scene", str(path), "--out", str(out), "--steps", "2", "--no-plots", "--quiet"]) == 0
+    comm.barrier()
+    rows = list(csv.DictReader((out / "path.csv").read_text().splitlines()))
+    data = json.loads((out / "summary.json").read_text())
+    assert len(rows) == 2
+    for row in rows:
+        reactions = {name: np.array([float(row[f"reaction_{name}_{c}"]) for c in "xyz"])
+                     for name in ("top", *ROLLERS)}
+        for name, held in ROLLERS.items():
+            assert np.all(np.delete(reactions[name], held) == 0.0), name
+        contact = np.array([float(row[f"contact_force_{c}"]) for c in "xyz"])
+        scale = np.linalg.norm(reactions["top"])
+        assert np.linalg.norm(sum(reactions.values()) + contact) <= 1e-8 * scale  # no applied load
+    assert [float(rows[-1][f"reaction_left_{c}"]) for c in "xyz"] == data["reactions"]["left"]
