@@ -24,7 +24,8 @@ from mpi4py import MPI
 
 from fenics_coulomb.errors import OutputError
 
-__all__ = ["ResultDirectory", "abandon_results", "rank0_file", "RESULT_FILES", "FAILED_SUFFIX"]
+__all__ = ["ResultDirectory", "abandon_results", "rank0_file", "room_for", "RESULT_FILES", "FAILED_SUFFIX",
+           "HDF5_OVERHEAD", "HDF5_OVERHEAD_PER_DATASET"]
 
 
 class ResultDirectory:
@@ -240,6 +241,32 @@ def _split_owner(rest: str) -> tuple[str, str]:
     if len(parts) != 3:
         return "", ""
     return parts[0], parts[1]
+
+
+#: Room kept for an HDF5 file's own metadata besides its data: a base and a share per dataset (bytes).
+HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET = 256 * 1024, 16 * 1024
+
+
+def room_for(file: Path, nbytes: int) -> str:
+    """"" when ``file`` can grow by ``nbytes`` — within the process's file-size limit (RLIMIT_FSIZE, from its
+    current size) and the free space of its file system — else the reason as the system would give it ("File too
+    large", "No space left on device"). HDF5 must never meet either while writing: it then crashes when it closes
+    the broken dataset (a segmentation fault, exit 59, the partial set left behind); checked first, the write
+    fails in one line with the earlier results kept."""
+    import errno
+    import resource
+
+    size = file.stat().st_size if file.exists() else 0
+    soft, _ = resource.getrlimit(resource.RLIMIT_FSIZE)
+    if soft != resource.RLIM_INFINITY and size + nbytes > soft:
+        return os.strerror(errno.EFBIG)
+    try:
+        stat = os.statvfs(file.parent)
+    except OSError as err:
+        return err.strerror or str(err)
+    if nbytes > stat.f_bavail * stat.f_frsize:
+        return os.strerror(errno.ENOSPC)
+    return ""
 
 
 def _io_reason(err: BaseException) -> str:

@@ -62,7 +62,7 @@ import ufl
 
 from fenics_coulomb.errors import OutputError
 from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions
-from fenics_coulomb.io.results import _io_reason, rank0_file
+from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.problem import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
@@ -410,6 +410,12 @@ def _write_slabs(comm: MPI.Comm, path: Path, slabs: list[tuple[str, np.ndarray, 
     """
     import h5py
 
+    # room for the whole write first (HDF5 crashes when it meets a file-size limit or a full disk mid-write)
+    total = comm.allreduce(sum(int(local.nbytes) for _, local, _, _ in slabs), op=MPI.SUM)
+    short = [f for f in comm.allgather(room_for(path, total + HDF5_OVERHEAD + HDF5_OVERHEAD_PER_DATASET * len(slabs)))
+             if f]
+    if short:
+        raise OutputError(f"the results could not be written ({path.name}: {short[0]}); the earlier results are kept")
     if h5py.get_config().mpi:  # pragma: no cover - Debian's default h5py is serial
         with h5py.File(path, "w" if create else "a", driver="mpio", comm=comm) as h5:
             for name, local, rows, offset in slabs:

@@ -423,3 +423,26 @@ def test_a_msh_file_with_gaps_in_its_node_numbers_is_read(mpi_tmp_path):
         results.append(json.loads((mpi_tmp_path / name / "summary.json").read_text()))
     assert results[0]["contact_force"][2] > 0.0
     assert np.allclose(results[0]["contact_force"], results[1]["contact_force"], rtol=0, atol=1e-9)
+
+
+# -- a full disk while writing -------------------------------------------------------------------------------
+def test_a_full_disk_before_the_hdf5_write_is_exit_4_in_one_line(mpi_tmp_path, capsys, monkeypatch):
+    """HDF5 meeting a full disk or a file-size limit mid-write crashed when it closed the broken dataset (SIGSEGV,
+    exit 59) and left .NAME.partial-*: the room is checked before HDF5 writes (the real limit:
+    tests/cli/test_reliability.py's RLIMIT_FSIZE run). Here the file system reports one free block on every rank."""
+    out = mpi_tmp_path / "out"
+    assert run("--lev", "0", "--out", str(out)) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    real = os.statvfs
+
+    class Full:
+        def __init__(self, path):
+            stat = real(path)
+            self.f_frsize, self.f_bavail = stat.f_frsize, 1
+
+    monkeypatch.setattr(os, "statvfs", Full)
+    capsys.readouterr()
+    assert run("--lev", "1", "--out", str(out)) == 4
+    one_line(capsys, "solution.h5: No space left on device", "earlier results are kept")
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in mpi_tmp_path.iterdir()) == ["out"]
