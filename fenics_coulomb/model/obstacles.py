@@ -517,7 +517,7 @@ def _box_distance(points: Array, lo: Array, hi: Array) -> Array:
 
 
 def core_path(before: Obstacle, after: Obstacle, lo: Array, hi: Array, spacing: float,
-              limit: int = 200_000) -> tuple[Array, Array]:
+              limit: int = 1_000_000) -> tuple[Array, Array]:
     """The cores (:meth:`Obstacle.core`) of an obstacle along its rigid motion from ``before`` to ``after``
     (:func:`motion_placements`: the translation and the rotation), sampled so that no core point moves more than
     ``spacing`` between two samples while it is near the body's box [lo, hi] — far from the box the path is
@@ -559,9 +559,11 @@ def core_path(before: Obstacle, after: Obstacle, lo: Array, hi: Array, spacing: 
     t, h = np.linspace(0.0, 1.0, 17), 1.0 / 16.0
     while True:
         points = cores(t)
-        if speed * h <= spacing or t.size * points.shape[1] * 33 > limit:
+        if speed * h <= spacing:
             return points.reshape(-1, 3), np.repeat(t, points.shape[1])
         near = _box_distance(points, lo, hi).min(axis=1) <= speed * h
+        if np.count_nonzero(near) * 33 * points.shape[1] > limit:  # no finer: the samples so far
+            return points.reshape(-1, 3), np.repeat(t, points.shape[1])
         t = np.unique(np.clip((t[near][:, None] + h * np.linspace(-1.0, 1.0, 33)).ravel(), 0.0, 1.0))
         h /= 16.0
         if not t.size:

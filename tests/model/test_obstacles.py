@@ -401,3 +401,62 @@ def test_local_shift_is_the_slip_of_a_moved_obstacle():
         assert np.allclose(v[:, k], np.einsum("ia,ia->i", R[:, :, k], u - o))
     assert np.allclose(to_global(R, to_local(R, u)), u)
     assert np.array_equal(local_shift(R, g)[:, :2], np.zeros((m, 2)))
+
+
+# -- the motion check's samples ------------------------------------------------------------------------------
+def test_motion_placements_start_and_end_at_the_two_placements():
+    from fenics_coulomb.model.obstacles import motion_placements
+
+    before = Sphere(center=(1.0, 0.5, 1.5), radius=0.3, displacement=(0.1, 0.0, 0.0))
+    cases = [  # one axis and centre (blended angle), none before, and two different axes (relative rotation)
+        (before.rotated([10.0, [0, 1, 0], [1, 0.5, 0.5]]), before.moved([0.2, 0.0, -0.1]).rotated([70.0, [0, 1, 0], [1, 0.5, 0.5]])),
+        (before, before.rotated([-30.0, [1, 0, 0], [0, 0, 0]])),
+        (before.rotated([20.0, [0, 0, 1], [0, 0, 0]]), before.moved([0.0, 0.3, 0.0]).rotated([45.0, [1, 1, 0], [1, 0, 0]])),
+    ]
+    for a, b in cases:
+        placements, angle, _, _, _ = motion_placements(a, b)
+        R, c = placements(np.array([0.0, 0.5, 1.0]))
+        for k, obstacle in ((0, a), (2, b)):
+            Rk, ck = obstacle.placement()
+            assert np.allclose(R[k], Rk, atol=1e-13) and np.allclose(c[k], ck, atol=1e-13)
+        assert np.allclose(np.einsum("nij,nkj->nik", R, R), np.eye(3), atol=1e-13)  # rotations throughout
+        assert angle > 0.0
+
+
+def test_core_path_finds_a_long_move_and_a_half_turn_through_the_box():
+    """A sphere's centre moved 2000 across the unit box, or turned half a turn about a point inside it: a sample
+    lands in the box (the old sampling stepped over it), and a far move costs no more samples than a short one."""
+    from fenics_coulomb.model.obstacles import core_path
+
+    lo, hi, spacing = np.zeros(3), np.ones(3), 0.05
+    ball = Sphere(center=(0.5, 0.5, 1000.0), radius=0.1)
+    points, t = core_path(ball, ball.moved([0.0, 0.0, -2000.0]), lo, hi, spacing)
+    inside = np.all((points >= lo) & (points <= hi), axis=1)
+    assert inside.any() and points.shape[0] < 2000
+    gaps = np.diff(np.sort(points[np.abs(points[:, 2] - 0.5) < 2.0, 2]))
+    assert gaps.max() <= spacing * (1 + 1e-9)
+    above = Sphere(center=(0.5, 0.5, 1.1), radius=0.1)  # turned about the box's centre: inside for 33.6-56.4 and
+    points, t = core_path(above, above.rotated([180.0, [0, 1, 0], [0.5, 0.5, 0.5]]), lo, hi, spacing)  # 123.6-146.4°
+    inside = np.all((points >= lo) & (points <= hi), axis=1)
+    angle = 180.0 * t[inside]
+    assert inside.any() and np.all((np.abs(angle - 45.0) <= 11.5) | (np.abs(angle - 135.0) <= 11.5))
+    assert np.allclose(points[-1], [0.5, 0.5, -0.1])  # the end placement: below the box
+    steady, _ = core_path(above, above, lo, hi, spacing)
+    assert np.allclose(steady, [[0.5, 0.5, 1.1]] * 2)
+
+
+def test_inside_closed_is_the_ball_away_from_its_facets(tmp_path):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
+    from surfaces import icosphere
+
+    from fenics_coulomb.model.surface import inside_closed
+
+    X = icosphere(0.5, (1.0, 0.5, 1.5), level=3)
+    rng = np.random.default_rng(5)
+    x = rng.uniform([0.4, -0.1, 0.9], [1.6, 1.1, 2.1], size=(3000, 3))
+    r = np.linalg.norm(x - [1.0, 0.5, 1.5], axis=1)
+    clear = np.abs(r - 0.5) > 0.01  # the level-3 facets lie within 0.005 of the sphere
+    assert np.array_equal(inside_closed(X, x[clear]), r[clear] < 0.5)
