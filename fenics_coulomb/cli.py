@@ -99,7 +99,7 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
     p.add_argument("--tol", type=float, help=f"relative GMRES residual per Newton step (default {d.solver.tol})")
     p.add_argument("--rtol", type=float, help=f"stop at |y| <= rtol |y0| (default {d.solver.rtol})")
     p.add_argument("--accuracy", type=float,
-                   help="relative displacement error to reach instead of --rtol (e.g. 1e-6); "
+                   help="relative displacement error to reach instead of --rtol (e.g. 1e-6; not both); "
                    "mapped to rtol by the measured speed-accuracy table (docs/tradeoff)")
     p.add_argument("--adaptive-tol", action=argparse.BooleanOptionalAction, default=None,
                    help="safeguarded Eisenstat-Walker forcing terms <= --tol (superlinear tail, fewer Newton "
