@@ -23,6 +23,18 @@ Vertices: the file's vertices are merged when they coincide to 1e-12 of the boun
 repeats them per triangle); the merged numbering (lexicographic in the coordinates) fixes the tie rule, so the
 result does not depend on the file's vertex order or on the ranks.
 
+Core: a closed triangulation whose solid side is the bounded one (:func:`surface_core`) has a core — its points
+at least 3/4 of its largest depth inside — which the body must never contain: a surface buried in the body, or
+moved or turned through it within one step, is refused like a sphere whose centre is
+(:meth:`~fenics_coulomb.model.contact_model.ContactModel.check_motion`). An open surface, or a closed one whose
+solid is the outside (a cavity), has none; one whose solid side holds the whole body is refused
+(:func:`~fenics_coulomb.model.obstacles.check_solid_side`).
+
+File identity: the triangles are cached by the file's absolute path, modification time and size
+(:data:`Source`, recorded on creation and kept by every moved or rotated copy), never by its name: a file rewritten
+in place, or another file of the same relative name after a change of directory, is read anew, and an obstacle
+keeps the geometry it was created with.
+
 Bad input — an unreadable or empty file, a non-finite coordinate, a degenerate triangle (area below 1e-12 of
 the squared diagonal), an inconsistent orientation — is an :class:`~fenics_coulomb.errors.InputError` naming
 the file and the triangle (1-based, in the file's order).
