@@ -116,7 +116,7 @@ def _stl(triangles: object) -> str:
 
 
 def hostile_cases() -> list[tuple[list[str], dict[str, str]]]:
-    """Obstacles the contact nodes cannot see, a loose accuracy and rtol given twice (issue 33): (argv, files) —
+    """Obstacles the contact nodes cannot see, a loose accuracy and rtol given twice: (argv, files) —
     each must end with exit 2 in one line or exit 3, never exit 0 with a wrong answer."""
     sys.path.insert(0, str(ROOT / "meshes"))
     from surfaces import icosphere, rectangle
