@@ -139,9 +139,10 @@ def slide_off(comm: MPI.Comm, method: str, **kw: Any) -> dict[str, Any]:
     row["one_u"] = float(np.abs(one.state(SLIDE)[:, 3:] - ref[:, 3:]).max())
     row["u_scale"] = float(np.abs(ref[:, 3:]).max())
     small = SlidingBlocks(comm, 0.5, method=method, sliding="small", prefix="slide_small_", **kw)
-    for k in range(5):
-        last = small.solve(SLIDE * k / 4)
+    slides = [small.solve(SLIDE * k / 4) for k in range(5)]
+    last = slides[-1]
     row["small_nodes"], row["small_force"] = last["nodes"], last["force"]
+    row["small_slide"] = [s["result"].largest_slide["slide_per_size"] for s in slides]
     for blocks in (with_path, one, static, small):
         blocks.destroy()
     return row

@@ -44,7 +44,8 @@ from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairing import ContactPair
-from fenics_coulomb.model.sliding import CYCLE_TOLERANCE, MAX_GEOMETRY_UPDATES, geometry_change
+from fenics_coulomb.model.sliding import (CYCLE_TOLERANCE, MAX_GEOMETRY_UPDATES, SMALL_SLIDE_WARNING, geometry_change,
+                                          largest_slide)
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
@@ -497,7 +498,22 @@ class ContactProblem:
         self._place()
         result = self._solve_placed(self.initial_displacement(u0))
         self._verify(result)
+        if self.sliding == "small" and result.converged:
+            self._measure_slide(result)
         return self._finish(result, commit=result.converged), result
+
+    def _measure_slide(self, result: SolveResult) -> None:
+        """Small sliding says when it breaks: the largest slide of a contact node against its partner in units of
+        the partner's size (:func:`~fenics_coulomb.model.sliding.largest_slide`), kept in the result and a
+        warning above :data:`~fenics_coulomb.model.sliding.SMALL_SLIDE_WARNING` (collective)."""
+        model = self.model
+        z = np.asarray(result.displacement, dtype=np.float64)
+        ratio, where = largest_slide(model, model.physical(z), z)
+        result.largest_slide = {"slide_per_size": ratio, "node": where}
+        if ratio > SMALL_SLIDE_WARNING and model.comm.rank == 0:
+            logger.warning("small sliding: the contact node at (%s) has slid %.3g times its partner's size against "
+                           "its partner; the reference configuration's contact geometry no longer describes it: use "
+                           "sliding = \"finite\"", ", ".join(f"{c:.6g}" for c in where), ratio)
 
     def _solve_placed(self, start: npt.NDArray[np.float64]) -> SolveResult:
         """One SCD solve of the model as placed, from ``start`` (the predictor and the no-contact shortcut first

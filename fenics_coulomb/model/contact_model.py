@@ -39,6 +39,7 @@ the one concept of an assembled contact model with its validation. The coupling 
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from collections.abc import Sequence
 
@@ -360,6 +361,8 @@ class ContactModel:
             keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
             obstacle_map = obstacle_map.subset(keep, comm)
             obstacle_friction = self._obstacle_friction[keep]
+        if self.configuration is not None:  # the pairing of X + u keeps the nodes' reference coordinates X
+            pairing = dataclasses.replace(pairing, coordinates=V.tabulate_dof_coordinates()[pairing.blocks])
         self.pairing = pairing
         self.coupling.destroy()
         self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free)
@@ -373,8 +376,7 @@ class ContactModel:
             self.load.setOptionsPrefix(f"{prefix}load_")
         self.assemble_load()
         blocks = pairing.blocks
-        # the contact map keeps the reference coordinates (the pairing's are those of its configuration)
-        coordinates = V.tabulate_dof_coordinates()[blocks] if self.configuration is not None else pairing.coordinates
+        coordinates = pairing.coordinates
         gap, frames = pairing.gap, pairing.frames
         index = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
         paired = np.ones(blocks.size, dtype=bool)
@@ -680,10 +682,10 @@ class ContactModel:
         S = dolfinx.fem.functionspace(self.V.mesh, ("Lagrange", 1))
         values = dolfinx.fem.Function(S)
         values.interpolate(friction)
-        blocks = self.V.dofmap.list.ravel()
+        cell_blocks = self.V.dofmap.list.ravel()
         scalars = S.dofmap.list.ravel()
         to_scalar = np.full(self.V.dofmap.index_map.size_local + self.V.dofmap.index_map.num_ghosts, -1, np.int32)
-        to_scalar[blocks] = scalars
+        to_scalar[cell_blocks] = scalars
         F = np.ascontiguousarray(values.x.array[to_scalar[self.contact.blocks if blocks is None else blocks]],
                                  dtype=np.float64)
         bad = ~(np.isfinite(F) & (F >= 0.0))

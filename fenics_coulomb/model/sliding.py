@@ -66,12 +66,15 @@ if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
     from fenics_coulomb.model.pairing import Pairing
 
-__all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "GeometryChange", "supports", "geometry_change"]
+__all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "largest_slide", "GeometryChange", "supports", "geometry_change"]
 
 Array = npt.NDArray[np.float64]
 
 #: The most geometry updates of one solve (finite sliding).
 MAX_GEOMETRY_UPDATES = 10
+
+#: Small sliding warns when a contact node has slid farther than this many partner sizes (:func:`largest_slide`).
+SMALL_SLIDE_WARNING = 0.5
 
 #: A 2-cycle of the geometry (nodes flipping across a master edge) is accepted when its two solutions differ by at
 #: most this × the smallest cell diameter at the contact nodes (see "Nodes on a master edge").
@@ -114,7 +117,7 @@ def supports(master_blocks: npt.NDArray[np.int64], weights: Array, threshold: Ar
     """Each node's stencil support as a sorted row (−1 padding): the master nodes with |Φ_jl| > ``threshold``
     (per node, or one value)."""
     mb = np.where(np.abs(weights) > np.reshape(threshold, (-1, 1)), master_blocks, -1)
-    return -np.sort(-mb, axis=1) if mb.size else mb.reshape(mb.shape[0], -1)
+    return -np.sort(-mb, axis=1) if mb.size else mb
 
 
 def _same_supports(a: npt.NDArray[np.int64], b: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
@@ -132,7 +135,8 @@ def _tangential(n: Array, v: Array) -> Array:
 def _signature(comm: MPI.Comm, nodes: npt.NDArray[np.int64], rows: npt.NDArray[np.int64]) -> str:
     """A digest of the contact nodes (GLOBAL block indices) and their rows (obstacle index, or the sorted support's
     global master blocks, −1 padded), the same on every rank and for every partition (collective)."""
-    data = np.column_stack([np.asarray(nodes, np.int64).reshape(-1, 1), np.asarray(rows, np.int64).reshape(len(nodes), -1)])
+    rows = np.asarray(rows, np.int64)
+    data = np.column_stack([np.asarray(nodes, np.int64).reshape(-1, 1), rows.reshape(len(nodes), rows.shape[-1])])
     width = comm.allreduce(data.shape[1], op=MPI.MAX)
     padded = np.full((data.shape[0], width), -1, np.int64)
     padded[:, :data.shape[1]] = data
@@ -240,3 +244,32 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
 
     return GeometryChange(settled, changed, discrepancy, tolerance, where, pairing, signature(old_nodes, old_rows),
                           signature(new_nodes, new_rows))
+
+
+def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[float]]:
+    """Small sliding: the largest slide of a contact node against its partner, in units of the partner's size, and
+    that node's reference position (collective; the same on every rank).
+
+    A paired node's slide is its total relative tangential displacement against the master material point beneath
+    it, |P w| with w = u_s − Σ_l Φ_jl u_l (the unknown z on the node) and P = I − n nᵀ, over the largest cell
+    diameter at the node (the master facets beneath are of the pair's mesh size); an obstacle node's is its
+    tangential displacement against the obstacle's translation, |P(u − δ)|, over the obstacle's radius (sphere,
+    cylinder) or the cell diameter (a triangulated surface); a plane has no size (no warning).
+    """
+    comm = model.comm
+    cmap = model.contact
+    paired = model.paired if model.pairing is not None else np.zeros(cmap.size, dtype=bool)
+    n = cmap.normals
+    v = np.asarray(z, dtype=np.float64).reshape(-1)[cmap.local_dofs] - np.where(
+        paired[:, None], 0.0, getattr(model, "obstacle_displacement", np.zeros((cmap.size, 3))))
+    slide = np.linalg.norm(_tangential(n, v), axis=1) if cmap.size else np.zeros(0)
+    size = model.node_size()[cmap.blocks].copy()
+    for j, obstacle in enumerate(model.obstacles):
+        mine = ~paired & (cmap.obstacle_index == j)
+        radius = getattr(obstacle, "radius", None)
+        size[mine] = np.inf if obstacle.affine else (float(radius) if radius is not None else size[mine])
+    ratio = slide / size
+    local = (float(ratio.max()), list(map(float, cmap.coordinates[int(np.argmax(ratio))]))) if ratio.size \
+        else (0.0, [])
+    best = max(comm.allgather(local), key=lambda r: r[0])
+    return best

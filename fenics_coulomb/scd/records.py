@@ -80,6 +80,8 @@ class SolveResult:
         master_force: Contact pairs: the reaction on the master nodes f_j = −Σ_s φ_sj f_s, owned DOFs.
         geometry_updates: Finite sliding: how often the contact geometry was evaluated again in the deformed
             configuration and the problem solved again (0: the first geometry held).
+        largest_slide: Small sliding: the largest slide of a contact node against its partner in partner sizes and
+            that node (:func:`fenics_coulomb.model.sliding.largest_slide`); empty for finite sliding.
     """
 
     u: Array
@@ -111,6 +113,7 @@ class SolveResult:
     relative_displacement: Array | None = None
     master_force: Array | None = None
     geometry_updates: int = 0
+    largest_slide: dict[str, Any] = field(default_factory=dict)
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes (collective)."""
@@ -142,4 +145,5 @@ class SolveResult:
             "timings_s": timings,
             "ranks": comm.size,
             "geometry_updates": self.geometry_updates,
+            **({"small_sliding": dict(self.largest_slide)} if self.largest_slide else {}),
         }

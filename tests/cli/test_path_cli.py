@@ -329,4 +329,5 @@ def test_drag_path_hysteresis(mpi_tmp_path):
     scale = abs(forces["0.3"][2.0][0])
     assert back < forward and forward - back > 1e-2 * scale
     free = forces["0"]
-    assert abs(free[2.5][0] - free[3.5][0]) <= 1e-8 * abs(free[2.0][0])
+    # reversible to the solve's accuracy: finite sliding's geometry iteration stops within 8·rtol (rtol 1e-7 here)
+    assert abs(free[2.5][0] - free[3.5][0]) <= 8e-7 * abs(free[2.0][0])

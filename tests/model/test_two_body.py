@@ -169,7 +169,8 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
 
     V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_SELF, lower=(5, 3, 2), upper=(4, 4, 3))
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction, method="node-to-surface")
-    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="bf_") as problem:
+    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="bf_",
+                        sliding="small") as problem:  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
         uh, result = problem.solve()
         assert result.converged
         assert_physics(problem, result)
@@ -214,8 +215,10 @@ def test_swapping_slave_and_master_on_matching_meshes(friction):
     a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
     for slave, master in ((SLAVE, MASTER), (MASTER, SLAVE)):
         pair = ContactPair(ft, slave=slave, master=master, friction=friction, search_distance=0.05)
+        # the swap is an identity of the reference-configuration model: in the deformed one the equal footprints'
+        # borders slide past each other differently
         with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT,
-                            petsc_options_prefix="swap_") as problem:
+                            petsc_options_prefix="swap_", sliding="small") as problem:
             _, result = problem.solve()
             assert result.converged and problem.p == 15  # every node of the 5 × 3 interface
             assert_physics(problem, result, f"slave {slave}")
@@ -287,7 +290,8 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
     plane = Plane(point=[0.0, 0.0, -1.00003], normal=[0.0, 0.0, 1.0], name="floor")
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction, method="node-to-surface")
     with ContactProblem(a, None, bcs, contact=(ft, [LOWER_BOTTOM]), obstacles=[plane], friction=friction,
-                        contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mixed_") as problem:
+                        contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mixed_",
+                        sliding="small") as problem:  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
         _, result = problem.solve()
         assert result.converged
         assert_physics(problem, result)

@@ -52,7 +52,10 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
     comm = MPI.COMM_WORLD
     V, ft, a, bcs, _ = pressed_blocks(comm, top=(0.0015, 0.0, -0.004), lower=(4, 3, 2), upper=(4, 3, 2))
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3)
-    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="tbout_") as problem:
+    # small sliding: the written tractions are per area of the surface the pairing measured, here the reference
+    # one, so their integral over it is the total force (finite sliding measures the deformed surface)
+    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="tbout_",
+                        sliding="small") as problem:
         _, result = problem.solve()
         assert result.converged and result.counts["stick"] + result.counts["slip"] > 0
         model = problem.model
@@ -70,8 +73,11 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
         assert np.allclose(u_all, np.concatenate(comm.allgather(problem.u.x.array[: 3 * n].reshape(-1, 3))))
         residual = unconstrained_residual(model, result.displacement)
         pairing = model.pairing
+        # the gap's constant part: the pairing's g(X + u_c) linearized about the configuration, g − n·w(u_c)
+        # (finite sliding; the pairing's own gap with small sliding)
+        gap_constant = model.contact.gap[model.paired]
         stencil, weights, gap0, normals, force, xs = _gather_rows(
-            comm, pairing.master_blocks, pairing.weights, pairing.gap, pairing.frames[:, :, 2], result.contact_force,
+            comm, pairing.master_blocks, pairing.weights, gap_constant, pairing.frames[:, :, 2], result.contact_force,
             pairing.coordinates)
         slave_blocks = pairing.blocks.astype(np.int64) + r0
         (slave_global,) = _gather_rows(comm, slave_blocks)

@@ -33,6 +33,8 @@ def test_slide_off_the_edge_equals_the_static_press_of_the_slid_mesh(method):
     assert row["small_nodes"] > row["static_nodes"]
     assert row["small_force"][2] > 1.2 * row["static_force"][2]
     assert max(row["updates"][1:-1]) >= 1  # the slide re-pairs
+    # small sliding says when it breaks: the press slides nothing, the slid state more than half a cell
+    assert row["small_slide"][0] < 0.1 and row["small_slide"][-1] > 2.0
 
 
 def test_drag_every_slipping_node_on_the_cone():

@@ -293,8 +293,10 @@ def test_an_stl_roller_rolls_then_skids(mpi_tmp_path):
     from fenics_coulomb.cli import main
 
     out = mpi_tmp_path / "stl_rolling"
+    # small sliding: the total force's ratio bound below assumes normals symmetric about the vertical over the patch;
+    # with finite sliding the skidding patch is asymmetric and its normals add an x force (0.6 % of F·P measured)
     assert main(["--scene", str(ROOT / "demos" / "scenes" / "stl_roller_rolling.toml"), "--out", str(out),
-                 "--quiet", "--no-plots"]) == 0
+                 "--quiet", "--no-plots", "--sliding", "small"]) == 0
     steps = json.loads((out / "summary.json").read_text())["steps"]
     counts = [s["state_counts"] for s in steps]
     force = np.array([s["contact_force"] for s in steps])
