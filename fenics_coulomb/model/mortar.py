@@ -44,14 +44,17 @@ quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex
   normal n_c = the facet's outward unit normal at its centre. The vertices of e and of each candidate master
   facet are projected orthogonally onto P_e (2D coordinates in an orthonormal basis of P_e), both polygons
   oriented counter-clockwise; a projected quadrilateral that is not convex is an InputError. The master
-  polygon is clipped by the slave polygon (Sutherland–Hodgman), each clip polygon triangulated as the fan of its
-  edges from its vertex mean, each triangle integrated with the symmetric 7-point Gauss rule of degree 5. The
-  mean leaves out duplicate vertices (within CENTRE_TOL = 1e-6 × r_e of the previous one: a master vertex on
-  the line of a slave edge comes out of the clipping twice) and collinear ones (within 1e-6 r_e of the line
-  through their neighbours), so it is the vertex mean of the clip polygon as a geometric figure and moves
-  continuously with the meshes: grids that share grid lines and the same grids offset by 1e-9 give the same
-  fan. The fan still runs over every edge of the clip polygon, so the integrals are over exactly the clip
-  polygon (an edge of zero length adds a triangle of zero area). A point p of P_e maps back
+  polygon is clipped by the slave polygon (Sutherland–Hodgman). Each clip polygon loses its duplicate vertices
+  (within CLEAN_TOL = 1e-6 × r_e of the previous one: a master vertex on the line of a slave edge comes out of
+  the clipping twice) and its collinear ones (within 1e-6 r_e of the line through their neighbours); one left
+  with fewer than 3 vertices (a sliver, an edge where two facets touch) is dropped. The rest is triangulated
+  as the fan of its edges from its vertex mean, each triangle integrated with the symmetric 7-point Gauss rule
+  of degree 5. So the triangles move continuously with the meshes: grids that share grid lines and the same
+  grids offset by 1e-9 give the same triangles up to 1e-9 (where the 7-point rule is not exact — a
+  non-parallelogram or warped facet — a vertex kept or not would change the result by the rule's error,
+  1e-7 – 1e-5 of D_j, instead). The cleaning moves the integration domain by at most 1e-6 r_e × its
+  perimeter, and only where a vertex lies that close to collinear (aligned meshes: by their offset from exact
+  alignment); the coverage below uses the clip polygons before cleaning. A point p of P_e maps back
   to reference coordinates on e and on the master facet by inverting their projections onto P_e (linear for
   triangles, 20 Newton steps from the centre for the bilinear map of a quadrilateral); ds on e = dA / |n_c · n_e(ξ)|.
 * D_j = Σ ∫ ψ_j N_j^s ds, M_jl = Σ ∫ ψ_j N_l^m ds, g̃_j = Σ ∫ ψ_j g ds over the segments of the facets containing
@@ -109,8 +112,8 @@ from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["CENTRE_TOL", "COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "clip", "dual_coefficients",
-           "facet_map", "facet_normals", "mortar_nodes", "nodal_normals", "polygon_area", "polygon_centre",
+__all__ = ["CLEAN_TOL", "COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "clip", "dual_coefficients",
+           "facet_map", "facet_normals", "mortar_nodes", "nodal_normals", "polygon_area", "clean_polygon",
            "shape_functions"]
 
 Array = npt.NDArray[np.float64]
@@ -118,9 +121,9 @@ Array = npt.NDArray[np.float64]
 #: Full coverage of a slave facet: its clip polygons' areas sum to at least (1 − COVERAGE_TOL) × its projected
 #: area (derivation in the module docstring).
 COVERAGE_TOL = 1e-6
-#: A clip polygon's fan centre leaves out vertices within CENTRE_TOL × the slave facet's size of their
+#: Before triangulation a clip polygon loses the vertices within CLEAN_TOL × the slave facet's size of their
 #: predecessor (duplicates) or of the line through their neighbours (collinear).
-CENTRE_TOL = 1e-6
+CLEAN_TOL = 1e-6
 #: Stencil entries |Φ_jl| at most this are dropped (zero-area slivers).
 DROP_TOL = 1e-12
 #: Clipping: a point within CLIP_TOL × the slave facet's size of an edge's inside counts as inside.
@@ -335,13 +338,14 @@ def clip(subject: Array, count: npt.NDArray[np.intp], clipper: Array, tol: Array
     return P, n
 
 
-def polygon_centre(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Array, npt.NDArray[np.intp]]:
-    """The vertex mean of each clip polygon without its duplicate and collinear vertices.
+def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Array, npt.NDArray[np.intp]]:
+    """The clip polygons without their duplicate and collinear vertices.
 
     A vertex within ``tol`` (k,) of its predecessor is a duplicate (a master vertex on a slave edge's line comes
     out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear. Both
-    are left out of the mean, which is then a continuous function of the geometry: the same centre, up to the
-    size of a perturbation, for a vertex exactly on an edge and for one 1e-9 beside it.
+    are removed, so the polygon, its vertex mean and its fan of triangles are continuous functions of the
+    geometry: the same, up to the size of a perturbation, for a vertex exactly on an edge and for one 1e-9
+    beside it. A polygon left with fewer than 3 vertices (a sliver or a touching edge) is empty.
 
     Args:
         P: Convex polygons (k, w, 2), the first ``count`` vertices valid.
@@ -349,7 +353,7 @@ def polygon_centre(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[A
         tol: The merge distance of each polygon (k,).
 
     Returns:
-        The centres (k, 2) (0 for an empty polygon) and the number of vertices left (k,).
+        The cleaned polygons (k, w, 2) and their vertex counts (k,) (0: empty).
     """
     k, width = P.shape[0], P.shape[1]
     slots = np.arange(width)[None, :]
@@ -357,8 +361,6 @@ def polygon_centre(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[A
     n = np.maximum(count, 1)[:, None]
     prev = np.take_along_axis(P, ((slots - 1) % n)[..., None], axis=1)
     keep = valid & (_norm(P - prev) > tol[:, None])
-    # a polygon of identical points keeps one
-    keep[:, 0] |= valid[:, 0] & ~keep.any(axis=1)
     Q, m = _compact(P, keep)
     slots = np.arange(Q.shape[1])[None, :]
     n = np.maximum(m, 1)[:, None]
@@ -367,11 +369,8 @@ def polygon_centre(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[A
     ab = b - a
     off = np.abs(_cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
     keep = (slots < m[:, None]) & ((off > tol[:, None]) | (m[:, None] < 3))
-    keep[:, 0] |= (m > 0) & ~keep.any(axis=1)
     Q, m = _compact(Q, keep)
-    valid = np.arange(Q.shape[1])[None, :] < m[:, None]
-    centre = np.sum(Q * valid[..., None], axis=1) / np.maximum(m, 1)[:, None]
-    return centre, m
+    return Q, np.where(m >= 3, m, 0)
 
 
 def _compact(P: Array, keep: npt.NDArray[np.bool_]) -> tuple[Array, npt.NDArray[np.intp]]:
@@ -503,11 +502,12 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         P, count = clip(m_poly, np.full(e.size, nvm), s_poly[e], tol)
         parts["e_all"].append(e)
         parts["area"].append(np.where(count > 0, polygon_area(P, count), 0.0))
-        # the fan from each clip polygon's vertex mean (duplicate and collinear vertices left out), the 7-point
-        # rule on each triangle
+        # each clip polygon without its duplicate and collinear vertices, the fan from its vertex mean, the
+        # 7-point rule on each triangle
+        P, count = clean_polygon(P, count, CLEAN_TOL * s_radius[e])
         width = P.shape[1]
         valid = np.arange(width)[None, :] < count[:, None]
-        mean, _ = polygon_centre(P, count, CENTRE_TOL * s_radius[e])
+        mean = np.sum(P * valid[..., None], axis=1) / np.maximum(count, 1)[:, None]
         nxt = (np.arange(width)[None, :] + 1) % np.maximum(count, 1)[:, None]
         Q = np.take_along_axis(P, nxt[..., None], axis=1)
         area = 0.5 * _cross2(P - mean[:, None], Q - mean[:, None]) * valid  # (k, width)

@@ -32,7 +32,7 @@ from conftest import assert_physics, global_norm
 from fenics_coulomb import ContactPair, ContactProblem
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.forces import pair_forces
-from fenics_coulomb.model.mortar import clip, polygon_area, polygon_centre
+from fenics_coulomb.model.mortar import clean_polygon, clip, polygon_area
 from fenics_coulomb.model.pairing import pair_surfaces
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -103,24 +103,26 @@ def cellwise(n=(8, 4), size=(2.0, 1.0), amplitude: float = 0.25, seed: int = 3) 
 
 
 # -- the clip polygon ------------------------------------------------------------------------------------
-def test_clip_polygon_centre_is_the_geometric_vertex_mean():
-    """A master square equal to the slave square comes out of the clipping with repeated vertices; the fan
-    centre leaves them (and a collinear mid-edge vertex) out, and is the same for a master 1e-9 beside it."""
+def test_clip_polygons_lose_duplicate_and_collinear_vertices():
+    """A master quadrilateral equal to the slave one, or 1e-9 / 1e-8 beside it, is the same 4-vertex polygon
+    after cleaning (the clipping repeats vertices or adds ones 1e-9 from the corners); a collinear mid-edge
+    vertex and a duplicate are removed; a sliver is empty. The areas are those of the uncleaned polygons."""
     square = np.array([[[0, 0], [1, 0], [1, 1], [0, 1]]], dtype=float)
     skew = np.array([[[0, 0], [1.3, 0], [1.1, 0.9], [0.2, 1.2]]], dtype=float)
-    centres = []
+    cleaned = []
     for shift in (0.0, 1e-9, 1e-8):
         P, n = clip(skew + [shift, 0.7 * shift], np.array([4]), skew, np.array([1e-12]))
-        c, m = polygon_centre(P, n, np.array([1e-6]))
-        assert m[0] == 4
         assert abs(polygon_area(P, n)[0] - polygon_area(skew, np.array([4]))[0]) < 2e-8
-        centres.append(c[0])
-    assert np.allclose(centres[0], skew[0].mean(axis=0), atol=1e-15)
-    assert np.allclose(centres, centres[0], atol=1e-8)
-    # a collinear vertex (the middle of an edge) and a duplicate are left out
+        Q, m = clean_polygon(P, n, np.array([1e-6]))
+        assert m[0] == 4
+        cleaned.append(Q[0, :4][np.lexsort(Q[0, :4].T)])
+    assert np.allclose(cleaned, cleaned[0], rtol=0, atol=2e-8)
+    assert np.allclose(cleaned[0], skew[0][np.lexsort(skew[0].T)], rtol=0, atol=1e-15)
     P = np.array([[[0, 0], [0.5, 0], [1, 0], [1, 0], [1, 1], [0, 1]]], dtype=float)
-    c, m = polygon_centre(P, np.array([6]), np.array([1e-6]))
-    assert m[0] == 4 and np.allclose(c[0], [0.5, 0.5])
+    Q, m = clean_polygon(P, np.array([6]), np.array([1e-6]))
+    assert m[0] == 4 and np.allclose(Q[0, :4].mean(axis=0), [0.5, 0.5])
+    sliver = np.array([[[0, 0], [1, 0], [1, 1e-9], [0, 1e-9]]], dtype=float)
+    assert clean_polygon(sliver, np.array([4]), np.array([1e-6]))[1][0] == 0
     assert np.isclose(polygon_area(P, np.array([6]))[0], 1.0)
     P, n = clip(square, np.array([4]), square, np.array([1e-12]))
     assert np.isclose(polygon_area(P, n)[0], 1.0)
@@ -138,8 +140,8 @@ def aligned_solve(comm, offset: float, method: str = "mortar"):
     V = dolfinx.fem.functionspace(b.mesh, ("Lagrange", 1, (3,)))
     bcs = [dolfinx.fem.dirichletbc(np.array([0.0004, 0.0, -0.002]),
                                    dolfinx.fem.locate_dofs_topological(V, 2, b.facet_tags.find(UPPER_TOP)), V),
-           dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, b.facet_tags.find(LOWER_BOTTOM)),
-                                   V)]
+           dolfinx.fem.dirichletbc(np.zeros(3),
+                                   dolfinx.fem.locate_dofs_topological(V, 2, b.facet_tags.find(LOWER_BOTTOM)), V)]
     a = elasticity(V, b.cell_tags, ((210.0, 0.3), (70.0, 0.3)))
     pair = ContactPair(b.facet_tags, slave=SLAVE, master=MASTER, friction=0.3, method=method)
     with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="maligned_") as p:
@@ -153,7 +155,7 @@ def aligned_solve(comm, offset: float, method: str = "mortar"):
 def test_aligned_grids_keep_every_covered_node_and_agree_with_offset_grids():
     """Every node of the upper block's bottom lies over the lower top (13 × 5 = 65, all covered); the aligned
     grids keep them all, and u and the pair force equal those of the grids offset by 1e-9 and 1e-8 (no
-    round-off cliff: the measured differences are 1e-10 – 1e-9 relative)."""
+    round-off cliff: the measured differences are about 3 × the offset)."""
     comm = MPI.COMM_WORLD
     count, u0, f0 = aligned_solve(comm, 0.0)
     assert count == 13 * 5
@@ -161,8 +163,8 @@ def test_aligned_grids_keep_every_covered_node_and_agree_with_offset_grids():
         count_o, u, f = aligned_solve(comm, offset)
         assert count_o == count
         diff = global_norm(u - u0) / global_norm(u0)
-        assert diff < 100 * offset, (offset, diff)
-        assert abs(f["force_on_slave_body"][2] / f0["force_on_slave_body"][2] - 1) < 100 * offset
+        assert diff < 20 * offset, (offset, diff)
+        assert abs(f["force_on_slave_body"][2] / f0["force_on_slave_body"][2] - 1) < 20 * offset
 
 
 # -- the patch test on distorted and warped quadrilaterals ------------------------------------------------
@@ -193,8 +195,8 @@ def patch(comm, n_lower, n_upper, kind: str, delta: float = 0.001, c: float = 0.
     V = dolfinx.fem.functionspace(b.mesh, ("Lagrange", 1, (3,)))
     pair = ContactPair(b.facet_tags, slave=SLAVE, master=MASTER, friction=friction)
     p = exact_pressure(delta, materials)
-    with ContactProblem(elasticity(V, b.cell_tags, materials), None, rollers(V, b.facet_tags, delta), contact_pairs=[pair],
-                        settings=TIGHT, petsc_options_prefix="mpatch_") as problem:
+    with ContactProblem(elasticity(V, b.cell_tags, materials), None, rollers(V, b.facet_tags, delta),
+                        contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mpatch_") as problem:
         _, result = problem.solve()
         assert result.converged
         checks = physics_residuals(problem.model, result.relative_displacement)
@@ -248,8 +250,8 @@ def projected_areas(V, facet_tags, blocks) -> np.ndarray:
 
 
 @pytest.mark.parametrize(("kind", "n_lower", "n_upper", "bound"), [
-    # measured (docs/two-bodies/geometry.md): 1.4e-6, 1.5e-6, 3.6e-7 (the segment quadrature on general
-    # quadrilaterals); warped 4.9e-10 (matching), 2.1e-6, 3.8e-6 (c² h²: the traction is not in the dual space)
+    # measured (docs/two-bodies/geometry.md): 3.9e-6, 4.0e-6, 7.9e-7 (the segment quadrature on general
+    # quadrilaterals); warped 1.0e-9 (matching), 2.1e-6, 3.8e-6 (c² h²: the traction is not in the dual space)
     ("distorted", (6, 6, 2), (6, 6, 2), 1e-5),   # matching
     ("distorted", (4, 4, 2), (5, 5, 2), 1e-5),
     ("distorted", (5, 5, 2), (4, 4, 2), 1e-5),
@@ -294,8 +296,8 @@ def punch(comm, swapped: bool, n_lower=(20, 3, 2), n_upper=(16, 3, 2), R: float 
     V = dolfinx.fem.functionspace(b.mesh, ("Lagrange", 1, (3,)))
     bcs = [dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -delta]),
                                    dolfinx.fem.locate_dofs_topological(V, 2, b.facet_tags.find(UPPER_TOP)), V),
-           dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, b.facet_tags.find(LOWER_BOTTOM)),
-                                   V)]
+           dolfinx.fem.dirichletbc(np.zeros(3),
+                                   dolfinx.fem.locate_dofs_topological(V, 2, b.facet_tags.find(LOWER_BOTTOM)), V)]
     a = elasticity(V, b.cell_tags, ((210.0, 0.3), (70.0, 0.3)))
     slave, master = (MASTER, SLAVE) if swapped else (SLAVE, MASTER)
     pair = ContactPair(b.facet_tags, slave=slave, master=master, friction=0.0, search_distance=0.05)
@@ -363,7 +365,8 @@ def test_mortar_overlap_rejected_on_the_true_geometry(cell):
     pointwise distance named: of a contact node, or of a master node as deep inside the slave body)."""
     b = two_blocks(MPI.COMM_WORLD, cell_type=cell, gap=-0.01, n_upper=(2, 2, 1), upper_origin=(0.3, 0.3))
     V = dolfinx.fem.functionspace(b.mesh, ("Lagrange", 1, (3,)))
-    with pytest.raises(InputError, match=r"overlap .* (contact|master) node .* lies 0\.01 inside the (master|slave) body"):
+    with pytest.raises(InputError,
+                       match=r"overlap .* (contact|master) node .* lies 0\.01 inside the (master|slave) body"):
         pair_surfaces(V, [ContactPair(b.facet_tags, slave=SLAVE, master=MASTER)], NONE)
 
 
