@@ -66,11 +66,13 @@ a slave node of that body named); Φ² ≠ 0 (a contact node that is itself a ve
 any contact node — with two bodies per pair only possible across pairs — both nodes named by coordinates);
 an overlap at the reference configuration, on the true geometry: a contact node whose node-to-surface
 distance to M (the rules above) is g < −1e-6 × the diagonal of the bounding box of M ∪ S, or a master node
-over S within the search distance whose node-to-surface distance to S is as negative (node and depth named,
-the deepest over all ranks). For mortar pairs this is NOT the nodal gap g̃_j / D_j: the dual basis is
+over S within the search distance whose node-to-surface distance to S is as negative, counted only to the
+thickness of the slave's cell layer under its closest point (twice the distance of that cell's centroid from
+the facet: deeper, S alone cannot tell the inside of the slave body from the space beyond a thin one) (node
+and depth named, the deepest over all ranks). For mortar pairs this is NOT the nodal gap g̃_j / D_j: the dual basis is
 negative on part of each facet, so g̃_j can be negative beside a curved master where no point overlaps; such
-a node is a contact node with a negative initial gap, and the solve separates it. Invalid ContactPair fields (friction, search distance, tags,
-name) are rejected when the pair is created.
+a node is a contact node with a negative initial gap, and the solve separates it. Invalid ContactPair fields
+(friction, search distance, tags, name) are rejected when the pair is created.
 A pair with no contact node is a logged warning (rank 0), not an error.
 
 Parallel
@@ -80,7 +82,7 @@ orientation; facets deduplicated by their global vertices), so the pairing of a 
 on where the master facets are: 1 rank and N ranks give the same pairing (up to the numbering, and the
 zero-weight vertices listed for a node on a shared edge or vertex, see the tie rule).
 
-Size: about 730 lines, 140 of them the exact model above (held-out references depend on it); the projection, the
+Size: about 900 lines, 140 of them the exact model above (held-out references depend on it); the projection, the
 cone test and the pairing are one algorithm that the surface obstacles (:mod:`fenics_coulomb.model.surface`) reuse.
 """
 
