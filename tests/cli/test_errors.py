@@ -114,7 +114,8 @@ def test_scene_files_that_are_not_scenes(mpi_tmp_path, capsys):
     [(["--young", "1e-300"], "Young's modulus E = 1e-300"), (["--young", "1e300"], "Young's modulus E = 1e+300"),
      (["--gamma-scale", "1e300"], "gamma_scale = 1e+300"), (["--gamma-scale", "1e-300"], "gamma_scale = 1e-300"),
      (["--load-scale", "1e300"], "load scale = 1e+300"), (["--lev", "30"], "lev = 30: "),
-     (["--lev", "1000"], "lev = 1000"), (["--out", ""], "--out ''"), (["--out", " "], "--out ' '")],
+     (["--lev", "1000"], "lev = 1000"), (["--out", ""], "--out ''"), (["--out", " "], "--out ' '"),
+     (["--sliding", "large"], "sliding = 'large'"), (["--sliding", ""], "sliding = ''")],
 )
 def test_out_of_range_exit_2(args, fragment, mpi_tmp_path, capsys):
     argv = [*args, "--out", str(mpi_tmp_path / "out")] if "--out" not in args else [*args, "--lev", "0"]

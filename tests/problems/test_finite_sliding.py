@@ -102,3 +102,11 @@ def test_slide_is_the_same_on_one_and_two_ranks_and_on_a_rerun():
         blocks.destroy()
     single = comm.bcast(single, root=0)
     assert np.abs(single - states[0]).max() <= 1e-10
+
+
+@pytest.mark.parametrize("value", ["large", "", None, 1, "Finite"])
+def test_a_bad_sliding_model_is_named(value):
+    from fenics_coulomb.errors import InputError
+
+    with pytest.raises(InputError, match=r"^sliding = .*must be one of"):
+        SlidingBlocks(MPI.COMM_WORLD, 0.5, sliding=value, prefix="slide_bad_", **SMALL)
