@@ -290,6 +290,7 @@ class ContactProblem:
                    petsc_options: dict[str, Any] | None = None) -> None:
         """Replace the solver (settings and PETSc options) on the same assembled model (collective)."""
         settings = _settings(settings)
+        _check_petsc_options(petsc_options, self.petsc_options_prefix)
         self.solver.destroy()
         self._solver = None
         self.settings = settings

@@ -342,6 +342,9 @@ def test_api_entry_points_name_bad_arguments(mpi_tmp_path):
     with pytest.raises(InputError, match="write_results: the result is not one of this problem's solve"):
         write_results(mpi_tmp_path / "o", problem, foreign)
     assert not (mpi_tmp_path / "o").exists()
+    with pytest.raises(InputError, match="petsc_options: PETSc options 'pc_type bogus' cannot be used"):
+        problem.set_solver(petsc_options={"pc_type": "bogus"})
+    assert problem.solve()[1].converged  # the solver was kept
     other.destroy()
     problem.destroy()
     for use in (problem.solve, lambda: problem.report(result), lambda: problem.move(0, [0.0, 0.0, 0.0]),
