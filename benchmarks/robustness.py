@@ -5,8 +5,10 @@
 
 Each case is a gmsh body (meshes/engineering.py, meshes/roller.py, meshes/hemisphere_on_block.py) and a scene
 file that uses only the defaults of the solver (no ``pc``, ``gamma_scale``, ``rtol`` or start given). It is run
-with the real command, ``mpirun -n R python3 -m fenics_coulomb --scene FILE --out DIR``, from the paper's start
-(the default) and from ``start = "undeformed"``, and compared with one linear-elastic solve of the same model
+with the real command, ``mpirun -n R python3 -m fenics_coulomb --scene FILE --out DIR``, with the default start
+(``start = "auto"``: :meth:`fenics_coulomb.problem.ContactProblem.start_rule`) and, to judge the rule, from the paper's
+start (``start = "zero"``) and from the undeformed body (``start = "undeformed"``), and compared with one
+linear-elastic solve of the same model
 (its stiffness matrix A, the same mesh and boundary conditions) by the best of CG + GAMG and CG + BoomerAMG
 (``python3 benchmarks/robustness.py linear FILE``, the same ranks). Recorded per run:
 
@@ -15,11 +17,14 @@ with the real command, ``mpirun -n R python3 -m fenics_coulomb --scene FILE --ou
   ``timings_s``) against the time of the linear solve (setup and solve of its best preconditioner): ``ratio``;
   and the same for the whole command against the whole linear command (Python start, mesh, assembly, output
   included): ``job ratio``;
-- the force balance from either start: the largest relative residual of equilibrium and of the global
+- the start the rule took (the explicit start whose iteration the default run repeats bit for bit) and the
+  Newton and Krylov iterations from each explicit start;
+- the force balance from each start: the largest relative residual of equilibrium and of the global
   balance (reactions + contact forces + applied loads) in summary.json's physics checks.
 
 Writes ``robustness.csv``, ``robustness.md`` (table) and ``robustness.png`` (ratio per case) into ``--out``.
-Run on an idle machine (timings); the load average is recorded with the results.
+Run on an idle machine (timings); the load average is recorded with the results. ``--starts auto`` runs the
+default start only.
 """
 
 from __future__ import annotations
@@ -318,86 +323,111 @@ def linear(scene_path: Path) -> int:
 
 
 # -- the study --------------------------------------------------------------------------------------------------
-def prepare(case: Case, work: Path) -> tuple[Path, Path, Any]:
-    """Write the case's mesh and its two scene files (the paper's start, the undeformed start)."""
+#: The starts a case runs from: the default (the start rule) and each start it chooses between.
+STARTS = ("auto", "zero", "undeformed")
+
+
+def prepare(case: Case, work: Path) -> tuple[dict[str, Path], Any]:
+    """Write the case's mesh and a scene file per start of :data:`STARTS` ("auto": the defaults, no start named)."""
     work.mkdir(parents=True, exist_ok=True)
     mesh = work / f"{case.name}.msh"
     info = case.mesh(mesh)
     text = case.scene.replace("{mesh}", str(mesh))
-    paper = work / f"{case.name}.toml"
-    paper.write_text(text)
-    undeformed = work / f"{case.name}-undeformed.toml"
-    undeformed.write_text(text + '\n[solver]\nstart = "undeformed"\n')
-    return paper, undeformed, info
+    scenes = {}
+    for start in STARTS:
+        scenes[start] = work / (f"{case.name}.toml" if start == "auto" else f"{case.name}-{start}.toml")
+        scenes[start].write_text(text if start == "auto" else text + f'\n[solver]\nstart = "{start}"\n')
+    return scenes, info
 
 
-def study(cases: list[Case], ranks: list[int], work: Path, baseline: Path | None = None) -> list[dict[str, Any]]:
+def chosen_start(default: Run, runs: dict[str, Run]) -> str:
+    """The explicit start whose iteration the default run repeated (the same residual history), or "?"."""
+    history = [s.get("residual_history") for s in default.steps]
+    return next((start for start, run in runs.items() if [s.get("residual_history") for s in run.steps] == history),
+                "?")
+
+
+def study(cases: list[Case], ranks: list[int], work: Path, baseline: Path | None = None,
+          starts: tuple[str, ...] = STARTS) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     for case in cases:
-        paper, undeformed, info = prepare(case, work)
+        scenes, info = prepare(case, work)
         for r in ranks:
-            lin = run_linear(paper, r)
-            first = run_contact(paper, work / f"{case.name}-{r}", r)
-            second = run_contact(undeformed, work / f"{case.name}-{r}-undeformed", r)
+            lin = run_linear(scenes["auto"], r)
+            first = run_contact(scenes["auto"], work / f"{case.name}-{r}", r)
+            others = {start: run_contact(scenes[start], work / f"{case.name}-{r}-{start}", r)
+                      for start in starts if start != "auto"}
             history = [f"{h['from']}→{h['to']}@{h['newton_step']}"
                        for h in first.summary.get("preconditioner_history", [])]
             row = {
                 "case": case.name, "ranks": r, "n": first.summary.get("n", lin["n"]),
-                "status": first.status, "status_undeformed": second.status,
+                "status": first.status, "start": chosen_start(first, others),
                 "newton": first.total("newton_iterations"), "krylov": first.total("krylov_iterations"),
                 "pc": first.summary.get("preconditioner", ""),
                 "escalations": " ".join(history) or "-",
                 "contact_s": first.solve_time, "linear_s": lin["time"], "linear_pc": lin["pc"],
                 "linear_its": lin["iterations"],
+                "krylov_ratio": first.total("krylov_iterations") / max(lin["iterations"], 1),
                 "ratio": first.solve_time / lin["time"] if lin["time"] > 0 else float("nan"),
                 "job_s": first.wall, "linear_job_s": lin["wall"], "job_ratio": first.wall / lin["wall"],
-                "balance": first.balance, "balance_undeformed": second.balance,
-                "equilibrium": first.equilibrium, "equilibrium_undeformed": second.equilibrium,
-                "newton_undeformed": second.total("newton_iterations"),
-                "krylov_undeformed": second.total("krylov_iterations"),
+                "balance": first.balance, "equilibrium": first.equilibrium,
             }
+            for start, run in others.items():
+                row.update({f"status_{start}": run.status, f"newton_{start}": run.total("newton_iterations"),
+                            f"krylov_{start}": run.total("krylov_iterations"), f"balance_{start}": run.balance})
             if baseline is not None:  # the same command with an earlier checkout's defaults
-                before = run_contact(paper, work / f"{case.name}-{r}-baseline", r, baseline, BASELINE_TIMEOUT)
+                before = run_contact(scenes["auto"], work / f"{case.name}-{r}-baseline", r, baseline, BASELINE_TIMEOUT)
                 row["before"] = (f"exit {before.status}, {before.total('newton_iterations')} / "
                                  f"{before.total('krylov_iterations')}, {before.wall:.1f} s")
-            if first.status or second.status:
-                row["log"] = (first.summary.get("log") or second.summary.get("log") or "")[-500:]
+            if first.status or any(run.status for run in others.values()):
+                row["log"] = (first.summary.get("log") or next((run.summary.get("log") for run in others.values()
+                                                                  if run.summary.get("log")), ""))[-500:]
             rows.append(row)
             print(json.dumps({k: (round(v, 4) if isinstance(v, float) else v) for k, v in row.items()
                               if k != "log"}), flush=True)
     return rows
 
 
-def write(rows: list[dict[str, Any]], out: Path, cases: list[Case]) -> None:
+def write(rows: list[dict[str, Any]], out: Path, cases: list[Case], load: float | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
-    keys = [k for k in rows[0] if k != "log"]
+    keys = list(dict.fromkeys(k for row in rows for k in row if k != "log"))
     with open(out / "robustness.csv", "w", newline="") as f:
         writer = csv.DictWriter(f, keys, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    load = os.getloadavg()
+    load = os.getloadavg()[0] if load is None else load
+
+    def counts(r: dict[str, Any], start: str) -> str:
+        if f"newton_{start}" not in r:
+            return "-"
+        return f"{r[f'newton_{start}']} / {r[f'krylov_{start}']}" + (f" (exit {r[f'status_{start}']})"
+                                                                     if r[f"status_{start}"] else "")
+
     lines = [
         "# Robustness of the defaults (benchmarks/robustness.py)", "",
-        f"Load average before the study: {load[0]:.2f} (1 min), machine of {os.cpu_count()} cores. Every case "
-        "runs the real command with the defaults; `ratio` = the contact solver's time (γ, setup, every Newton "
-        "step of every solve) / the best linear solve of the same A (KSP setup + solve, CG + GAMG or BoomerAMG, "
-        "rtol 1e-8); `job` = the same for the whole commands. Balance: |Σ reactions + contact forces on "
-        "obstacles + applied load| relative to the largest of them, and each pair's action-reaction balance, "
-        "from the paper's start and from `undeformed`; nodal equilibrium: the physics check (the largest "
-        "free-row residual relative to the largest nodal contact force or load). Before: the same command "
-        "with the defaults of the previous release (commit 5761472), the paper's start, the same ranks.", "",
-        "| case | ranks | unknowns | exit (paper / undeformed) | Newton / Krylov | pc (escalations) | contact s "
-        "| linear s (pc, its) | ratio | job ratio | balance (paper / undeformed) | nodal equilibrium "
-        "| before (exit, Newton / Krylov, job) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        f"Load average at the start of the study: {load:.2f} (1 min), machine of {os.cpu_count()} cores (timings "
+        "on a loaded machine are not comparable between rows; the iteration counts are). Every case runs the real "
+        "command with the defaults (start `auto`, the column `start` names the start it took: the explicit start "
+        "whose run repeats its iteration bit for bit) and, to judge the rule, from the paper's start (`zero`) and "
+        "from the undeformed body. `Krylov ratio` = the default run's Krylov iterations / the iterations of the "
+        "best linear solve of the same A (CG + GAMG or BoomerAMG, rtol 1e-8); `ratio` = the contact solver's time "
+        "(γ, setup, every Newton step of every solve) / that linear solve's time (KSP setup + solve); `job` = the "
+        "same for the whole commands. Balance: |Σ reactions + contact forces on obstacles + applied load| "
+        "relative to the largest of them, and each pair's action-reaction balance; nodal equilibrium: the physics "
+        "check (the largest free-row residual relative to the largest nodal contact force or load). Before: the "
+        "same command with the defaults of an earlier checkout (`--baseline`), the same ranks.", "",
+        "| case | ranks | unknowns | exit | start | Newton / Krylov | zero: Newton / Krylov | undeformed: Newton / "
+        "Krylov | linear its (pc) | Krylov ratio | pc (escalations) | contact s | linear s | ratio | job ratio "
+        "| balance | nodal equilibrium | before (exit, Newton / Krylov, job) |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {r['case']} | {r['ranks']} | {r['n']} | {r['status']} / {r['status_undeformed']} | "
-            f"{r['newton']} / {r['krylov']} | {r['pc']} ({r['escalations']}) | {r['contact_s']:.2f} | "
-            f"{r['linear_s']:.2f} ({r['linear_pc']}, {r['linear_its']}) | {r['ratio']:.2f} | {r['job_ratio']:.2f} | "
-            f"{r['balance']:.1e} / {r['balance_undeformed']:.1e} | {r['equilibrium']:.1e} / "
-            f"{r['equilibrium_undeformed']:.1e} | {r.get('before', '-')} |")
+            f"| {r['case']} | {r['ranks']} | {r['n']} | {r['status']} | {r['start']} | {r['newton']} / {r['krylov']} | "
+            f"{counts(r, 'zero')} | {counts(r, 'undeformed')} | {r['linear_its']} ({r['linear_pc']}) | "
+            f"{r['krylov_ratio']:.2f} | {r['pc']} ({r['escalations']}) | {r['contact_s']:.2f} | {r['linear_s']:.2f} | "
+            f"{r['ratio']:.2f} | {r['job_ratio']:.2f} | {r['balance']:.1e} | {r['equilibrium']:.1e} | "
+            f"{r.get('before', '-')} |")
     lines += ["", "Cases:", ""] + [f"- `{c.name}`: {c.what}" for c in cases] + [""]
     (out / "robustness.md").write_text("\n".join(lines))
     try:
@@ -430,12 +460,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", default="", help="comma-separated case names (default: all)")
     parser.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--baseline", type=Path, help="a checkout of an earlier version: its defaults run too")
+    parser.add_argument("--starts", default=",".join(STARTS),
+                        help="comma-separated starts to run (default: auto, zero, undeformed; auto always runs)")
     args = parser.parse_args(argv)
     args.work = args.work.resolve()
     chosen = [c for c in CASES if not args.cases or c.name in args.cases.split(",")]
-    rows = study(chosen, args.ranks, args.work, args.baseline)
-    write(rows, args.out, chosen)
-    bad = [r for r in rows if r["status"] or r["status_undeformed"]]
+    starts = tuple(s for s in STARTS if s == "auto" or s in args.starts.split(","))
+    load = os.getloadavg()[0]
+    rows = study(chosen, args.ranks, args.work, args.baseline, starts)
+    write(rows, args.out, chosen, load)
+    bad = [r for r in rows if r["status"] or any(r.get(f"status_{s}") for s in starts)]
     return 1 if bad else 0
 
 
