@@ -70,7 +70,13 @@ def interpolate_displacement(
     take the value of the closest cell, extended: a curved boundary (the cuboid's wavy bottom) puts the finer
     mesh's boundary nodes up to O(h²) outside the coarser mesh, where a padding of round-off size found no cell
     and left them 0.
+
+    Raises:
+        InputError: when ``u_from`` is not a vector Function of 3 components (the same on every rank).
     """
+    if not isinstance(u_from, dolfinx.fem.Function) or u_from.function_space.dofmap.index_map_bs != 3:
+        raise InputError(f"displacement = {_show(u_from)}: give a dolfinx.fem.Function of a 3-component "
+                         "vector space (on any mesh)")
     u = dolfinx.fem.Function(V)
     tdim = V.mesh.topology.dim
     cells = np.arange(V.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
@@ -198,6 +204,9 @@ class ContactProblem:
         _check_petsc_options(petsc_options, petsc_options_prefix)
         if contact is None and not contact_pairs:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
+        if contact is not None and isinstance(contact, tuple | list) and len(contact) == 2 and (
+                isinstance(contact[1], str | bytes) or not isinstance(contact[1], Sequence | np.ndarray)):
+            raise InputError(f"contact: markers = {_show(contact[1])}: give a list of facet tag values, e.g. [1]")
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
                                    form_compiler_options, jit_options, contact_pairs, sliding)
@@ -366,7 +375,11 @@ class ContactProblem:
             raise InputError(f"reset: step {step!r} must be an integer >= 0")
         delta = None
         if obstacle_displacements is not None:
-            delta = np.asarray(obstacle_displacements, dtype=np.float64)
+            try:
+                delta = np.asarray(obstacle_displacements, dtype=np.float64)
+            except (TypeError, ValueError):
+                raise InputError(f"reset: obstacle_displacements = {_show(obstacle_displacements)}: need finite "
+                                 f"values of shape ({len(self._obstacles)}, 3)") from None
             if delta.size == 0 and not self._obstacles:
                 delta = delta.reshape(0, 3)
             if delta.shape != (len(self._obstacles), 3) or not np.all(np.isfinite(delta)):

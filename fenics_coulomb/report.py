@@ -16,7 +16,8 @@ same numbers on 1, 2 or 3 ranks (to the solver's round-off across rank counts)::
 Definitions (the same as summary.json's and the XDMF fields'):
 
 * the contact force on the body at a node is the solver's −Rᵢ zⁱ (Cartesian); ``normal_force`` its normal
-  part λ ≥ 0, ``pressure`` = λ / area with ``area`` = ∫ φᵢ ds over the contact boundary (the lumped facet area);
+  part λ ≥ 0, ``pressure`` = λ / area (force per area, the ``contact_pressure`` output field) with ``area`` =
+  ∫ φᵢ ds over the contact boundary (the lumped facet area; the mortar D_j on a dual mortar pair's slave nodes);
 * ``obstacle_forces[name]`` = Σ of the contact forces on the nodes that touch that obstacle (the force the
   obstacle exerts on the body); ``pair_forces`` = the force each contact pair exerts on its slave body and, from
   that pair's own stencil, on its master body (:func:`fenics_coulomb.model.forces.pair_forces`);
@@ -48,9 +49,17 @@ from fenics_coulomb.model.obstacles import Obstacle
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN, ContactState
 
-__all__ = ["ContactNodes", "ContactReport", "make_report", "reaction_groups"]
+__all__ = ["ContactNodes", "ContactReport", "make_report", "nodal_pressure", "reaction_groups"]
 
 Array = npt.NDArray[np.float64]
+
+
+def nodal_pressure(normal_force: npt.ArrayLike, area: npt.ArrayLike) -> Array:
+    """The contact pressure per node, λ / area (force per area; 0 where the area is 0): the one definition of
+    ``ContactNodes.pressure`` and of the ``contact_pressure`` output field."""
+    force = np.asarray(normal_force, dtype=np.float64).reshape(-1)
+    area = np.asarray(area, dtype=np.float64).reshape(-1)
+    return np.divide(force, area, out=np.zeros_like(force), where=area > 0)
 
 
 def _finite_vector(value: Any, name: str) -> Array:
@@ -71,10 +80,12 @@ class ContactNodes:
     Attributes:
         coordinates: Reference coordinates, shape (p, 3).
         normal: The outward unit normal of the node's obstacle (or master surface), shape (p, 3).
-        area: The node's share of the contact surface ∫ φᵢ ds, shape (p,).
+        area: The node's share of the contact surface: ∫ φᵢ ds, or the mortar D_j on a dual mortar pair's
+            slave nodes, shape (p,).
         force: Contact force on the body (Cartesian), shape (p, 3).
         normal_force: Its normal part λ ≥ 0, shape (p,).
-        pressure: λ / area (0 where the area is 0), shape (p,).
+        pressure: The contact pressure λ / area (force per area, 0 where the area is 0; the ``contact_pressure``
+            output field), shape (p,).
         gap: The gap at the solution (≥ 0), shape (p,).
         state: :class:`~fenics_coulomb.scd.resolvent.ContactState` codes (0 open, 1 stick, 2 slip), shape (p,).
         obstacle: Index of the node's obstacle in the problem's list, −1 for a contact-pair (slave) node.
@@ -134,8 +145,8 @@ class ContactReport:
             radius to about one element.
         """
         centre = _finite_vector(center, "center")
-        if normal is not None:
-            _finite_vector(normal, "normal")
+        if normal is not None and not np.any(_finite_vector(normal, "normal")):
+            raise InputError(f"contact_radius: normal = {normal!r}: a zero vector has no direction")
         closed = self.nodes.closed
         if not np.any(closed):
             return 0.0
@@ -222,7 +233,7 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     force = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)
     area = contact_areas(model)
     normal_force = np.asarray(result.normal_force, dtype=np.float64)
-    pressure = np.divide(normal_force, area, out=np.zeros_like(normal_force), where=area > 0)
+    pressure = nodal_pressure(normal_force, area)
     paired = getattr(model, "paired", None)
     which = np.asarray(cmap.obstacle_index, dtype=np.int64).copy()
     if paired is not None and np.size(paired):

@@ -337,6 +337,15 @@ def test_api_entry_points_name_bad_arguments(mpi_tmp_path):
     assert report.reactions["top"][2] < 0.0  # the support pushes the block down onto the plane
     with pytest.raises(InputError, match=r"contact_radius: center = \[nan, 0, 0\]: must be 3 finite numbers"):
         report.contact_radius(center=[np.nan, 0, 0])
+    with pytest.raises(InputError, match=r"contact_radius: normal = \[0, 0, 0\]: a zero vector"):
+        report.contact_radius(center=[0, 0, 0], normal=[0, 0, 0])
+    for use in (lambda: problem.reset("x"), lambda: problem.solve("x")):
+        with pytest.raises(InputError, match="displacement = 'x': give a dolfinx.fem.Function"):
+            use()
+    with pytest.raises(InputError, match="reset: obstacle_displacements = 'x'"):
+        problem.reset(obstacle_displacements="x")
+    with pytest.raises(InputError, match="contact: markers = 1: give a list"):
+        make(contact=(tags, 1))
     with pytest.raises(InputError, match="write_results: problem = NoneType"):
         write_results(mpi_tmp_path / "o", None, result)
     with pytest.raises(InputError, match="write_results: the result is not one of this problem's solve"):
