@@ -467,7 +467,8 @@ class ContactProblem:
         * Driven by its obstacles (an indenter displaced into the body, no load), ŷ(ũ = 0) lies in the contact
           rows (‖ŷ_c‖/‖ŷ‖ = 1 on every sphere, cylinder and plate case of docs/robustness) and the body at rest is
           right away from the indentation; the paper's start moves every contact node onto the indenter, up to
-          the largest gap away (7–12 Newton steps from ũ = 0 against 12–27 from the paper's).
+          the largest gap away (7–15 Newton steps from ũ = 0 against 12–28 from the paper's on the single solves
+          of docs/robustness).
 
         The smaller of the two starts' residuals ‖ŷ⁽⁰⁾‖ does not tell them apart: the paper's start has the larger
         one on every case measured (the cuboid 7–2300×, whose Newton iteration it nevertheless shortens),

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERROR_PER_RTOL", "INTEGER_BOUNDS", "INTEGER_REASONS",
-           "rtol_for_accuracy", "SolverSettings"]
+__all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERROR_PER_RTOL", "INTEGER_BOUNDS",
+           "INTEGER_REASONS", "rtol_for_accuracy", "SolverSettings"]
 
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
@@ -103,7 +103,8 @@ class SolverSettings:
             node on its obstacle), "undeformed" (ũ = 0), or "auto" (the default): "zero" when the residual
             ŷ(ũ = 0) of the undeformed body lies mostly in the free rows (loads or prescribed displacements drive
             the body onto its obstacles), "undeformed" when it lies mostly in the contact rows (obstacles overlap
-            the body at rest); the rule and its measurements: :meth:`fenics_coulomb.problem.ContactProblem.start_rule`.
+            the body at rest); the rule and its measurements:
+            :meth:`fenics_coulomb.problem.ContactProblem.start_rule`.
         poisson_ratio: The body's largest Poisson ratio, when known (scenes set it from their materials; the
             solver never sees a material otherwise): from 0.48 on (nearly incompressible) ``auto`` takes GAMG with
             smoothed aggregation on every mesh (:data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
