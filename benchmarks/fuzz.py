@@ -136,7 +136,8 @@ def hostile_cases() -> list[tuple[list[str], dict[str, str]]]:
     ]
     cases = [(["--scene", "{dir}/scene.toml"], {"scene.toml": block + text, **stl}) for text in scenes]
     cases += [(["--lev", "0", "--rtol", "1e-5", "--accuracy", "1e-3"], {}),
-              (["--scene", "{dir}/scene.toml", "--lev", "0"], {"scene.toml": "[solver]\nrtol = 1e-6\naccuracy = 1e-4\n"}),
+              (["--scene", "{dir}/scene.toml", "--lev", "0"],
+               {"scene.toml": "[solver]\nrtol = 1e-6\naccuracy = 1e-4\n"}),
               (["--lev", "3", "--accuracy", "0.9"], {})]
     return cases
 

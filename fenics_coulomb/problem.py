@@ -392,7 +392,8 @@ class ContactProblem:
                 raise InputError(f"reset: obstacle_rotations = {obstacle_rotations!r}: give one rotation (or None) "
                                  f"per obstacle ({len(self._obstacles)})")
             deltas = delta if delta is not None else np.zeros((len(self._obstacles), 3))
-            placed = [o.moved(d).rotated(r) for o, d, r in zip(self._obstacles, deltas, obstacle_rotations, strict=True)]
+            placed = [o.moved(d).rotated(r)
+                      for o, d, r in zip(self._obstacles, deltas, obstacle_rotations, strict=True)]
         self._previous = None if u is None else interpolate_displacement(u, self.model.V)
         if self._previous is not None and not self.finite_sliding:  # the history in the model's unknown
             self._previous = self.model.relative(self._previous)

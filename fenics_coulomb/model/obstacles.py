@@ -589,8 +589,9 @@ def check_solid_side(obstacles: Sequence[Obstacle], x: npt.ArrayLike, comm: Any,
         if comm.allreduce(outside, op=_mpi_lor()) or comm.allreduce(deepest, op=_mpi_max()) <= tol:
             continue
         if obstacle.kind == "plane":
-            how = (f"its normal {list(obstacle.normal)} must point from the obstacle toward the body (the solid is "  # type: ignore[attr-defined]
-                   "the side it points away from): flip it")
+            normal = list(getattr(obstacle, "normal", ()))
+            how = (f"its normal {normal} must point from the obstacle toward the body (the solid is the side it "
+                   "points away from): flip it")
         elif obstacle.kind == "surface":
             side = getattr(obstacle, "side", "outward")
             how = (f"side = {side!r} makes the body's side solid: use side = "

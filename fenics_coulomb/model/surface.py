@@ -57,8 +57,8 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import _CHECKS, OBSTACLE_TYPES, Obstacle, Rotation
 from fenics_coulomb.model.pairing import _norm, _pair_nodes, _Surface
 
-__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "Source", "Surface", "file_source", "inside_closed", "read_triangles",
-           "surface_core"]
+__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "Source", "Surface", "file_source", "inside_closed",
+           "read_triangles", "surface_core"]
 
 Array = npt.NDArray[np.float64]
 
@@ -327,8 +327,8 @@ def inside_closed(X: Array, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
 
 
 def _inside_grid(X: Array, axes: list[Array]) -> npt.NDArray[np.bool_]:
-    """:func:`inside_closed` for the grid of ``axes`` (x₁, x₂, x₃ values), shape (n₁, n₂, n₃): the crossings are
-    found once per vertical line and counted above each height by a cumulative sum."""
+    """:func:`inside_closed` for the grid of ``axes`` (x₁, x₂, x₃ values), shape (n₁, n₂, n₃): the crossings
+    are found once per vertical line and counted above each height by a cumulative sum."""
     xy = np.stack(np.meshgrid(axes[0], axes[1], indexing="ij"), axis=-1).reshape(-1, 2)
     line, z = _crossings(X, xy)
     levels = axes[2]

@@ -288,7 +288,8 @@ def _forms(msh):
     facets = np.concatenate([bottom, top])
     order = np.argsort(facets)
     tags = dolfinx.mesh.meshtags(msh, 2, facets[order].astype(np.int32),
-                                 np.concatenate([np.full(bottom.size, 1), np.full(top.size, 2)])[order].astype(np.int32))
+                                 np.concatenate([np.full(bottom.size, 1),
+                                                 np.full(top.size, 2)])[order].astype(np.int32))
     bc = dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.01]), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
     return V, a, tags, bc
 
@@ -319,7 +320,8 @@ def test_api_entry_points_name_bad_arguments(mpi_tmp_path):
         make(petsc_options={"ksp_type": "nonsense"})
     with pytest.raises(InputError, match="petsc_options: PETSc options 'pc_type bogus' cannot be used"):
         make(petsc_options={"pc_type": "bogus"})
-    with pytest.raises(InputError, match=r"marker 7 is carried by no facet of the facet tags \(their values: \[1, 2\]\)"):
+    with pytest.raises(InputError, match=r"marker 7 is carried by no facet of the facet tags \(their values: "
+                                         r"\[1, 2\]\)"):
         make(contact=(tags, [7]))  # every rank's values, also on a rank that holds only one of them
     problem = make()
     other = ContactProblem(a2, None, bcs=[bc2], contact=(tags2, [1]), petsc_options_prefix="hard2_")

@@ -409,9 +409,11 @@ def test_motion_placements_start_and_end_at_the_two_placements():
 
     before = Sphere(center=(1.0, 0.5, 1.5), radius=0.3, displacement=(0.1, 0.0, 0.0))
     cases = [  # one axis and centre (blended angle), none before, and two different axes (relative rotation)
-        (before.rotated([10.0, [0, 1, 0], [1, 0.5, 0.5]]), before.moved([0.2, 0.0, -0.1]).rotated([70.0, [0, 1, 0], [1, 0.5, 0.5]])),
+        (before.rotated([10.0, [0, 1, 0], [1, 0.5, 0.5]]),
+         before.moved([0.2, 0.0, -0.1]).rotated([70.0, [0, 1, 0], [1, 0.5, 0.5]])),
         (before, before.rotated([-30.0, [1, 0, 0], [0, 0, 0]])),
-        (before.rotated([20.0, [0, 0, 1], [0, 0, 0]]), before.moved([0.0, 0.3, 0.0]).rotated([45.0, [1, 1, 0], [1, 0, 0]])),
+        (before.rotated([20.0, [0, 0, 1], [0, 0, 0]]),
+         before.moved([0.0, 0.3, 0.0]).rotated([45.0, [1, 1, 0], [1, 0, 0]])),
     ]
     for a, b in cases:
         placements, angle, _, _, _ = motion_placements(a, b)
