@@ -1,0 +1,91 @@
+"""The fast subset of the verification table (benchmarks/verification.py, docs/verification) on 1 and 2 ranks.
+
+Coarse meshes of every case, each with its own bound derived from the reference:
+
+* the incline is statics once every contact node slides: push/weight = (tan α + μ)/(1 − μ tan α) to the
+  solver's tolerance on any mesh;
+* the mortar patch test is exact (round-off); node-to-surface fails it on non-matching meshes;
+* Hertz on the coarse block (h₀ = a/3): the contact radius within the mesh's resolution h₀/2 of Hertz's
+  a = (3PR/4E*)^{1/3}; linear tetrahedra are stiffer than the exact solution and the clamped block stiffer than
+  a half-space, so under the imposed δ the force lies ABOVE Hertz's P(δ) (by 11.6 % at h₀ = a/3, 6.9 % at a/4,
+  2.6 % at a/11.3), and p₀ above 3P/(2πa²);
+* Lubkin on the same coarse block: after the twist every contact node off the axis slips, and the torque lies
+  within 5 % of the full-slip torque 3πμPa/16 (−3.4 % at h₀ = a/3; the table's 2 % is for its finer levels).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+from verification import (  # noqa: E402
+    FRICTIONS,
+    TAN_ALPHA,
+    hertz_indentation,
+    incline,
+    incline_reference,
+    lubkin,
+    patch,
+)
+
+#: The coarse block of the Hertz and Lubkin tests: (h₀/a, growth of the edge per unit distance).
+COARSE = (1 / 3, 0.3)
+
+
+def test_incline_reference_values():
+    """The formula's published value (0.412371 for μ = 0.3) and its limits: tan α without friction, and the
+    push along a level plane (tan α = 0) is μ × weight."""
+    assert incline_reference(0.3) == pytest.approx(0.412371, abs=5e-7)
+    assert incline_reference(0.0) == pytest.approx(TAN_ALPHA, rel=1e-15)
+    assert incline_reference(0.3, tan_alpha=0.0) == pytest.approx(0.3, rel=1e-15)
+
+
+@pytest.mark.parametrize("friction", FRICTIONS)
+def test_block_pushed_up_an_incline(friction):
+    """Every closed contact node slides (at μ = 0.5 the pushed end lifts off) and the push support's reaction over the weight is the statics' ratio (the
+    table's bound 1e-6; the solve reaches 1e-9); the support that only removes the rigid motions carries
+    nothing and the supports, the plane and the weight balance."""
+    r = incline(MPI.COMM_WORLD, friction, level=0)
+    assert r["converged"] and r["all_slide"]
+    assert abs(r["error"]) <= 1e-9
+    assert r["weight"] == pytest.approx(0.5, rel=1e-12)
+    assert r["hold"] <= 1e-9 and r["balance"] <= 1e-9
+
+
+@pytest.mark.parametrize(("method", "passes"), [("mortar", True), ("node-to-surface", False)])
+def test_patch_test(method, passes):
+    """Non-matching meshes: dual mortar transmits the uniform pressure to round-off, node-to-surface does not."""
+    r = patch(MPI.COMM_WORLD, method, level=0)
+    assert r["converged"] and r["checks"] < 1e-10
+    if passes:
+        assert abs(r["error"]) <= 1e-12 and abs(r["force_error"]) <= 1e-12
+    else:
+        assert abs(r["error"]) > 1e-3 and abs(r["force_error"]) < 0.05
+
+
+def test_hertz_coarse():
+    """The contact radius within h₀/2 of Hertz's for the measured force, the force above Hertz's for the
+    imposed δ (stiff elements, finite block) by less than 15 %, p₀ above 3P/(2πa²) by less than 10 %, and the
+    support's reaction equal to the contact force."""
+    r = hertz_indentation(MPI.COMM_WORLD, COARSE)
+    assert r["converged"] and r["physics"] < 1e-7
+    assert abs(r["radius"] - r["radius_ref"]) <= 0.5 * r["h_over_a"] * r["radius_ref"]
+    assert 0.0 < r["err_force"] < 0.15
+    assert 0.0 < r["err_pressure"] < 0.10
+    assert r["reaction"] == pytest.approx(r["force"], rel=1e-6)
+
+
+def test_lubkin_coarse():
+    """After a 3° twist every contact node off the axis slips and the torque is within 5 % of 3πμPa/16."""
+    r = lubkin(MPI.COMM_WORLD, COARSE, twists=(3.0,))
+    assert r["converged"]
+    (step,) = r["curve"]
+    assert step["closed"] > 20 and step["stick"] <= 1
+    assert abs(r["error"]) <= 0.05
+    assert np.isfinite(r["value"]) and r["value"] > 0
