@@ -8,6 +8,9 @@ thresholds do not depend on units:
 
 * ``equilibrium``: max |A ũ − l̃| over free DOFs (not contact, not clamped) / max |l̃| (or / max λ when l̃ = 0);
 * ``penetration``: max(−gap, 0) / δ  (gap ≥ 0), δ = max(max α, max |ũ|) the displacement scale;
+* ``free_penetration``: the same for the slave nodes over a master surface that are not contact nodes (beyond the
+  search distance, or mortar nodes not fully covered) when no paired contact node carries a force: a pair that
+  lost its contact must not pass;
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
 * ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
@@ -122,6 +125,13 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["equilibrium"] = _gmax(comm, np.abs(r[free])) / max(load_scale if load_scale > force_tiny else lam_scale,
                                                              force_tiny)
     out["penetration"] = _gmax(comm, -gap) / max(gap_scale, tiny)
+    # a pair that carries no force while its free slave nodes (over the master, but no contact nodes: beyond the
+    # search distance, or mortar nodes not fully covered) penetrate the master has lost its contact: no exit 0 for
+    # bodies passing through each other. (Border nodes that the mortar full-coverage rule drops beside nodes that
+    # carry the contact penetrate by the rule's border error and only warn, docs/sliding.)
+    carried = _gmax(comm, lam[model.paired]) if model.pairing is not None else 0.0
+    out["free_penetration"] = model.free_slave_depth(model.physical(displacement)) / max(gap_scale, tiny) \
+        if model.pairing is not None and carried <= force_tiny else 0.0
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * max(lam_scale, force_tiny), tiny)
     tnorm = np.hypot(t[:, 0], t[:, 1])
@@ -175,7 +185,7 @@ PHYSICS_LOOSEST = 1e-2
 #: The checks that decide (the others are reported values): slip_direction measures the direction of slips down to
 #: 1e-6 of the largest one, which a solve to rtol resolves only to about rtol/slip, and reaction_balance divides
 #: by the supports' own forces, which are the solver's noise when a prescribed motion is rigid.
-DECISIVE_CHECKS = ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone")
+DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "negative_pressure", "complementarity", "cone")
 
 
 def physics_failure(checks: dict[str, float], rtol: float) -> str:
@@ -185,6 +195,9 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
         value = checks.get(key, 0.0)
         if not np.isfinite(value) or value > bound:
             cause = ("rtol or accuracy too loose for any check to pass: tighten it" if bound < PHYSICS_PER_RTOL * rtol
+                     else "no contact node of the pairs carries a force while slave nodes beyond the search distance "
+                     "or not fully covered by the master (mortar) penetrate it: make the smaller surface the slave, "
+                     "or enlarge search_distance" if key == "free_penetration"
                      else "a degenerate mesh cell or a load too large for floating point?")
             return f"the physics checks fail: {key} residual {value:.3g} > {bound:.3g} ({cause})"
     return ""

@@ -482,12 +482,12 @@ class ContactModel:
         """u = M z on the owned DOFs (the identity for one body; collective for two)."""
         return self.coupling.physical(z)
 
-    def free_slave_penetrations(self, u: npt.NDArray[np.float64], tol: float = 1e-8) -> int:
-        """The number of free slave nodes (over a master surface, but not contact nodes: beyond the search
-        distance or with a Dirichlet component) whose linearized gap g + n·(u_s − Σ_j φ_j u_j) is below
-        −tol × the mesh size, on all ranks (collective; 0 for one body)."""
+    def _free_gaps(self, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The linearized gaps g + n·(u_s − Σ_j φ_j u_j) of the owned free slave nodes (over a master surface, but
+        not contact nodes: beyond the search distance, with a Dirichlet component, or a mortar node not fully
+        covered), ``u`` physical (collective; empty for one body)."""
         if self.pairing is None:
-            return 0
+            return np.zeros(0)
         free = self.pairing.free
         if self._free_coupling is None:
             self._free_coupling = coupling_matrix(self.V, free["blocks"], free["master_blocks"], free["weights"],
@@ -504,8 +504,23 @@ class ContactModel:
             w = w - w_of(self.configuration)
         x.destroy()
         y.destroy()
-        gap = free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+        return free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+
+    def free_slave_penetrations(self, u: npt.NDArray[np.float64], tol: float = 1e-8) -> int:
+        """The number of free slave nodes (:meth:`_free_gaps`) whose gap is below −tol × the mesh size, on all
+        ranks (collective; 0 for one body)."""
+        if self.pairing is None:
+            return 0
+        gap = self._free_gaps(u)
         return int(self.comm.allreduce(int(np.sum(gap < -tol * self._size)), op=MPI.SUM))
+
+    def free_slave_depth(self, u: npt.NDArray[np.float64]) -> float:
+        """The deepest penetration of a free slave node into its master surface, max(−g, 0) over all ranks
+        (collective; 0 for one body)."""
+        if self.pairing is None:
+            return 0.0
+        gap = self._free_gaps(u)
+        return float(self.comm.allreduce(float(np.max(-gap, initial=0.0)), op=MPI.MAX))
 
     def relative(self, u: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """z = M⁻¹ u = (I − Φ) u = 2u − M u on the owned DOFs (the identity for one body; collective for two)."""

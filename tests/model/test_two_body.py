@@ -338,13 +338,18 @@ def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
 
 def test_free_slave_nodes_that_penetrate_are_counted():
     """A search distance below the initial gap leaves every slave node free (a warning, no contact node): pressed
-    down, they penetrate the master surface and the check after the solve counts them; with the default search
+    down, they penetrate the master surface, the check after the solve counts them and the solve fails its
+    physics checks (free_penetration: no exit 0 with the bodies interpenetrating); with the default search
     distance none does."""
+    from fenics_coulomb.errors import SolverError
+
     V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_WORLD, top=(0.0, 0.0, -0.004))
     short = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.0, search_distance=1e-4)
     with ContactProblem(a, None, bcs, contact_pairs=[short], petsc_options_prefix="free_") as problem:
-        _, result = problem.solve()
-        assert problem.p == 0 and result.converged
+        with pytest.raises(SolverError, match="free_penetration") as failure:
+            problem.solve()
+        result = failure.value.result
+        assert problem.p == 0 and result.reason == "physics_check"
         free = problem.model.pairing.free
         assert MPI.COMM_WORLD.allreduce(free["blocks"].size) == 25  # the 5 × 5 slave nodes, all over the master
         assert problem.model.free_slave_penetrations(result.displacement) == 25
