@@ -95,8 +95,9 @@ def incline(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, Any]:
     (vertical). The face that was x1 = 0 (the lower end) gets the horizontal push u1 = ``PUSH`` on
     ``V.sub(0)`` (not its bottom edge: those nodes stay contact nodes); u2 = 0 on the top's centre line
     x2 = B/2 (``V.sub(1)``) holds the two rigid motions nothing else does. With ν = 0 the solution is invariant
-    along x2 with u2 = 0, so every slip is along the slope's line of greatest slope. Returns the measured and reference ratios, their relative error, the unknowns, whether
-    every contact node slides, the force balance and the wall time."""
+    along x2 with u2 = 0, so every slip is along the slope's line of greatest slope. Returns the measured and
+    reference ratios, their relative error, the unknowns, whether every closed contact node slides, the open
+    ones, the force balance, the reaction of the u2 support (zero) and the wall time."""
     t0 = time.perf_counter()
     L, B, H = BLOCK
     msh = dolfinx.mesh.create_box(comm, [[0.0, 0.0, 0.0], [L, B, H]], list(INCLINE_LEVELS[level]),
@@ -290,7 +291,8 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS) -> lis
                 one = _serial(comm, incline, friction, level)
                 agree = f"{_agreement(r, comm.bcast(one), ('value',)):.1e}"
             log(f"incline μ = {friction}: level {level}, push/weight {r['value']:.9f} (reference "
-                f"{r['reference']:.9f}, error {r['error']:+.2e}), every closed node slides: {r['all_slide']}, {r['open']} open, "
+                f"{r['reference']:.9f}, error {r['error']:+.2e}), every closed node slides: {r['all_slide']}, "
+                f"{r['open']} open, "
                 f"{r['wall']:.1f} s")
             rows.append({"case": "1. block pushed up an incline", "quantity": f"push/weight, μ = {friction}",
                          "level": f"{level}: {'×'.join(map(str, INCLINE_LEVELS[level]))} hex",
@@ -395,7 +397,8 @@ R e3 = n), so its bottom lies on the plane. Gravity is vertical, the body force 
 the one-component prescribed displacement u1 = 0.01 (`dirichletbc` on `V.sub(0)`; not its bottom edge, whose
 nodes stay contact nodes), far beyond the elastic deformation (~P/(E·area) = 3e-4), so every contact node in
 contact slides (checked: the note says so; at μ = 0.5 the push's moment lifts the nodes of the pushed end's
-bottom edge off the plane, by 1.7e-5 — statics is unchanged, the ratio holds with any set of sliding nodes). u2 = 0 on the top's centre line x2 = B/2 removes the two rigid motions
+bottom edge off the plane, by 1.7e-5 — statics is unchanged, the ratio holds with any set of sliding nodes).
+u2 = 0 on the top's centre line x2 = B/2 removes the two rigid motions
 that nothing else holds (translation along x2, rotation about the normal). The push is the x1 component of
 `problem.report(result, reactions={{"push": bc}}).reactions["push"]`, the weight −`applied_load`[2].
 
@@ -453,7 +456,8 @@ error is shown, not bounded.
 The Hertz set-up of §2 with μ = 0.3: step 1 presses the sphere δ = 0.025; the next steps rotate it about the
 contact normal (the x3 axis through its centre, `problem.move("indenter", δ, rotation=[θ, e3, centre])`) by
 θ = 2°, 5°, 10°. The torque is T = Σ (xᵢ × fᵢ)·e3 over the contact nodes. In full slip every point of the
-contact carries the traction μp(r) circumferentially, so T = ∫ μ p r dA = 2πμp₀ ∫₀ᵃ r²√(1 − r²/a²) dr
+contact carries the traction μp(r) circumferentially, so
+T = ∫ μ p r dA = 2πμp₀ ∫₀ᵃ r²√(1 − r²/a²) dr
 = π²μp₀a³/8 = 3πμPa/16 with p₀ = 3P/(2πa²) (Johnson §7.4, Lubkin 1951; a from Hertz for the measured P).
 The torque–twist curve is in the note; "stick" counts the contact nodes still sticking (the centre node has
 no slip by symmetry and carries no torque). The error is that of the first moment of the discrete pressure.
@@ -476,7 +480,8 @@ NOT_YET = [
         ("7. shrink fit (Lamé)", "interface pressure, bore hoop stress", "Lamé thick cylinders",
          "Lamé's thick-walled cylinders (plane strain)",
          "an initial overlap of two bodies is refused today (model change in progress)"),
-        ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))", "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
+        ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))",
+         "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
          "docs/rolling did not reach the steady state; a longer roll is not in this table yet"),
         ("9. Hertz, two elastic spheres", "a, p₀, P(δ)", "Hertz with 1/E* = Σ(1 − νᵢ²)/Eᵢ, 1/R = Σ 1/Rᵢ",
          "Johnson §4.2", "two-body case (benchmarks/two_body_hertz.py) not yet in the table"),
@@ -508,7 +513,8 @@ def table(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         bound = "—" if r["bound"] is None else f"{r['bound']:.0e}"
         key = (r["case"], r["quantity"])
-        trend = "—" if key not in first or not np.isfinite(r["error"]) else f"\\|e\\| {abs(first[key]):.2g} → {abs(r['error']):.2g}"
+        trend = ("—" if key not in first or not np.isfinite(r["error"])
+                 else f"\\|e\\| {abs(first[key]):.2g} → {abs(r['error']):.2g}")
         first.setdefault(key, r["error"])
         lines.append(f"| {r['case']} | {r['quantity']} | {r['level']} | {r['reference']} | {r['source']} | "
                      f"{r['value']} | {_pct(r['error'])} | {trend} | {bound} | {_met(r)} | {r['unknowns']} "

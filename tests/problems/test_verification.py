@@ -48,9 +48,9 @@ def test_incline_reference_values():
 
 @pytest.mark.parametrize("friction", FRICTIONS)
 def test_block_pushed_up_an_incline(friction):
-    """Every closed contact node slides (at μ = 0.5 the pushed end lifts off) and the push support's reaction over the weight is the statics' ratio (the
-    table's bound 1e-6; the solve reaches 1e-9); the support that only removes the rigid motions carries
-    nothing and the supports, the plane and the weight balance."""
+    """Every closed contact node slides (at μ = 0.5 the pushed end lifts off) and the push support's reaction
+    over the weight is the statics' ratio (the table's bound 1e-6; the solve reaches 1e-9); the support that
+    only removes the rigid motions carries nothing and the supports, the plane and the weight balance."""
     r = incline(MPI.COMM_WORLD, friction, level=0)
     assert r["converged"] and r["all_slide"]
     assert abs(r["error"]) <= 1e-9
