@@ -461,8 +461,8 @@ class ContactProblem:
 
         * Driven by its loads, the whole body moves toward its obstacles; from ũ = 0, where every contact node is
           open, the first Newton direction is the free elastic response, which runs through the obstacles, and
-          the line search creeps (the paper's cuboid at ν = 0.499, lev 5: ‖ŷ‖ stays within 10 % of ‖ŷ(0)‖ for 8
-          Newton steps, 19 in all against 14 from the paper's start). The paper's start is the discretization's
+          the line search creeps (the paper's cuboid at ν = 0.499, lev 5: ‖ŷ‖ stays within 10 % of ‖ŷ(0)‖ for the
+          first 6 Newton steps, 19 in all against 14 from the paper's start). The paper's start is the discretization's
           own image of that motion: measured ‖ŷ_c‖/‖ŷ‖ ≈ 0.02 at ũ = 0 on the cuboid (ν = 0.3 and 0.499, every
           gap and load case), 0.07 on a roller pressed onto a plane, 0 for two bodies pressed together.
         * Driven by its obstacles (an indenter displaced into the body, no load), ŷ(ũ = 0) lies in the contact
