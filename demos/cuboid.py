@@ -60,7 +60,7 @@ from fenics_coulomb.cli import run_command
 #
 # * `out/cuboid/solution.xdmf` — open it in ParaView (File ▸ Open, choose the *Xdmf3 Reader S*). Point
 #   fields: `displacement` (use *Warp By Vector* to see the deformed body), `contact_state` (0 open,
-#   1 stick, 2 slip; −1 off the contact boundary), `contact_pressure` (normal nodal contact force λ) and
+#   1 stick, 2 slip; −1 off the contact boundary), `contact_pressure` (normal contact force per area) and
 #   `tangential_force` (friction force on the body, opposite to the slip).
 # * `out/cuboid/summary.json` — sizes n and p, iterations, Krylov iterations, the residual history, the
 #   number of open/stick/slip nodes and timings.

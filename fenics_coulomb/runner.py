@@ -159,6 +159,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         )
         print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
               + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+        print("\n".join(contact_lines(data)), flush=True)
     return status
 
 
@@ -311,6 +312,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
               f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
         print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
               + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+        print("\n".join(f"last step: {line}" for line in contact_lines(data)), flush=True)
     return status
 
 
@@ -328,6 +330,25 @@ def friction_text(scene: Scene) -> str:
         name = f"{pair.name!r}" if pair.name else str(i + 1)
         parts.append(f"pair {name} F = {default if pair.friction is None else float(pair.friction):g}")
     return ", ".join(parts)
+
+
+def contact_lines(data: dict) -> list[str]:
+    """The result lines of the contact: area and peak pressure with its place, in total and per obstacle and
+    contact pair when there are several (summary.json's entries)."""
+    units = data.get("units", {})
+    area, pressure = units.get("area", "L^2"), units.get("pressure", "GPa")
+
+    def text(d: dict) -> str:
+        at = d.get("peak_pressure_at")
+        return (f"contact area {d['contact_area']:.6g} {area} ({d['contact_nodes']} nodes in contact), peak pressure "
+                f"{d['peak_pressure']:.6g} {pressure}" + (f" at {_vector_text(at)}" if at else ""))
+
+    lines = [f"contact: {text(data)}"]
+    groups = [(f"obstacle {name!r}", d) for name, d in data.get("obstacles", {}).items()] + \
+        [(f"pair {d.get('name') or d['pair'] + 1!r}", d) for d in data.get("contact_pairs", [])]
+    if len(groups) > 1:
+        lines += [f"  {name}: {text(d)}" for name, d in groups]
+    return lines
 
 
 def _vector_text(v: list[float]) -> str:

@@ -1,7 +1,26 @@
-"""Contact quantities as mesh fields and totals: nodal areas, the point fields written to the XDMF file
-(state, pressure, tangential force, traction, gap, normal, master reaction) and the forces per contact pair."""
+"""Contact quantities as mesh fields and totals: the point fields written to the XDMF file and the contact
+statistics of summary.json (contact area, peak pressure and where it is, per obstacle and per contact pair).
+
+One meaning per name, in the XDMF file, summary.json, the CSV files, the figures and
+:class:`~fenics_coulomb.report.ContactReport` (units: E's unit, GPa in the scenes, and the mesh's length unit L):
+
+* ``contact_force`` — the nodal contact force on the body, a Cartesian 3-vector (the solver's −Rᵢ zⁱ; GPa·L²);
+* ``contact_pressure`` — the normal contact traction, force per area: λ / aᵢ with λ ≥ 0 the normal part of the
+  nodal force and aᵢ the node's contact area (:func:`~fenics_coulomb.model.forces.contact_areas`: the lumped
+  tributary area ∫ φᵢ ds over the contact boundary, the mortar D_j on a dual mortar pair's slave nodes; GPa) —
+  the same numbers as ``problem.report(result).nodes.pressure``;
+* ``contact_traction`` — the traction vector, the nodal force per area (GPa);
+* ``tangential_force`` — the tangential part of the nodal force (GPa·L²);
+* ``contact_area`` — Σ aᵢ over the nodes in contact (stick or slip; L²): each node in contact counts its whole
+  tributary area, so on a mesh the area resolves the true one to about half an element ring.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from mpi4py import MPI
 
 import dolfinx
 import dolfinx.cpp.io
@@ -13,15 +32,27 @@ import numpy.typing as npt
 
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
+from fenics_coulomb.report import nodal_pressure
 from fenics_coulomb.scd.records import SolveResult
-from fenics_coulomb.scd.resolvent import NOT_CONTACT, ContactState
+from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, ContactState
 
-__all__ = ["CONTACT_STATES", "contact_functions"]
+__all__ = ["CONTACT_STATES", "FIELD_UNITS", "UNITS", "contact_functions", "contact_statistics", "group_names"]
+
+#: The units of the outputs (the scenes give E in GPa; the mesh's length unit is L).
+UNITS: dict[str, str] = {"length": "L", "area": "L^2", "pressure": "GPa", "stress": "GPa", "force": "GPa*L^2"}
+
+#: The unit of every point field of solution.xdmf ("" for a dimensionless or categorical field).
+FIELD_UNITS: dict[str, str] = {
+    "displacement": "L", "contact_state": "", "contact_pressure": "GPa", "contact_force": "GPa*L^2",
+    "tangential_force": "GPa*L^2", "contact_traction": "GPa", "gap": "L", "contact_normal": "",
+    "master_reaction": "GPa*L^2",
+}
 
 
 def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
-    """The output Functions (displacement, contact_state, contact_pressure, tangential_force,
-    contact_traction, gap, contact_normal, and master_reaction for contact pairs); see the module docstring."""
+    """The output Functions: displacement, contact_state, contact_pressure (force per area), contact_force
+    (nodal force vector), tangential_force, contact_traction (traction vector), gap, contact_normal, and
+    master_reaction for contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
     V = model.V
     msh = V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
@@ -43,12 +74,13 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     u.x.scatter_forward()
     tangential = np.einsum("iab,ib->ia", cmap.frames[:, :, :2], result.tangential_force)  # t₁, t₂ → x, y, z
     areas = contact_areas(model)
-    force = result.contact_force if result.contact_force.shape == (cmap.size, 3) else np.zeros((cmap.size, 3))
+    force = _nodal_forces(result, cmap.size)
     traction = np.divide(force, areas[:, None], out=np.zeros_like(force), where=areas[:, None] > 0)
     fields = (
         u,
-        point_field(S, "contact_state", scalar_dofs, result.states, fill=-1.0),
-        point_field(S, "contact_pressure", scalar_dofs, result.normal_force),
+        point_field(S, "contact_state", scalar_dofs, result.states, fill=float(NOT_CONTACT)),
+        point_field(S, "contact_pressure", scalar_dofs, nodal_pressure(result.normal_force, areas)),
+        point_field(V, "contact_force", vector_dofs, force),
         point_field(V, "tangential_force", vector_dofs, tangential),
         point_field(V, "contact_traction", vector_dofs, traction),
         point_field(S, "gap", scalar_dofs, result.gap),
@@ -63,7 +95,110 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     return (*fields, reaction)
 
 
+def group_names(model: ContactModel) -> tuple[list[str], list[str]]:
+    """The names of the obstacles (``name``, or "KIND N" by position as in the report) and of the contact pairs
+    (``name``, or "pair N")."""
+    obstacles = [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(model.obstacles)]
+    pairs = [getattr(q, "name", None) or f"pair {k + 1}" for k, q in enumerate(model.pairs)]
+    return obstacles, pairs
+
+
+def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any]:
+    """Contact area, peak pressure and its location, in total, per obstacle and per contact pair (collective;
+    the same on every rank).
+
+    The peak's location is the reference position of the node with the largest ``contact_pressure``; among
+    nodes within 1e-9 of the peak (a symmetric patch) the lexicographically smallest position (x₁, x₂, x₃), so
+    that the location does not depend on the partition.
+
+    Returns:
+        ``{"contact_area", "contact_nodes" (nodes in contact), "peak_pressure", "peak_pressure_at" (or None
+        without contact), "obstacles": {name: {the same keys, "force"}}, "contact_pairs": [{"name", the same
+        keys}]}``; units :data:`UNITS`.
+    """
+    comm = model.comm
+    cmap = model.contact
+    area = contact_areas(model)
+    pressure = nodal_pressure(result.normal_force, area)
+    state = np.asarray(result.states, dtype=np.int64).reshape(-1)
+    closed = (state != OPEN) & (state != NOT_CONTACT)
+    obstacle_names, pair_names = group_names(model)
+    n_obstacles = len(obstacle_names)
+    group = np.asarray(cmap.obstacle_index, dtype=np.int64).reshape(-1).copy()
+    paired = _paired_mask(model)
+    if paired.any():
+        group[paired] = n_obstacles + np.asarray(model.pairing.pair_index, dtype=np.int64)
+    groups = n_obstacles + len(pair_names)
+    force = _nodal_forces(result, cmap.size)
+    # per group (and the total as the last row): area in contact, nodes in contact, nodes, force
+    local = np.zeros((groups + 1, 6))
+    valid = (group >= 0) & (group < groups)
+    for target, mask in ((group[valid], valid), (np.full(int(np.count_nonzero(valid)), groups), valid)):
+        np.add.at(local[:, 0], target, np.where(closed[mask], area[mask], 0.0))
+        np.add.at(local[:, 1], target, closed[mask].astype(float))
+        np.add.at(local[:, 2], target, 1.0)
+        np.add.at(local[:, 3:6], target, force[mask])
+    totals = np.asarray(comm.allreduce(local, op=MPI.SUM))
+    peaks, where = _peaks(comm, pressure, np.asarray(cmap.coordinates, dtype=np.float64).reshape(-1, 3),
+                          np.where(valid, group, -1), groups)
+
+    def entry(g: int) -> dict[str, Any]:
+        return {"contact_area": float(totals[g, 0]), "contact_nodes": int(round(totals[g, 1])),
+                "peak_pressure": float(peaks[g]),
+                "peak_pressure_at": None if peaks[g] <= 0.0 else [float(c) for c in where[g]]}
+
+    data = entry(groups)
+    data["obstacles"] = {name: {**entry(i), "nodes": int(round(totals[i, 2])),
+                                "force": [float(c) for c in totals[i, 3:6]]}
+                         for i, name in enumerate(obstacle_names)}
+    data["contact_pairs"] = [{"name": name, **entry(n_obstacles + k), "nodes": int(round(totals[n_obstacles + k, 2]))}
+                             for k, name in enumerate(pair_names)]
+    return data
+
+
+def _peaks(comm: MPI.Comm, pressure: npt.NDArray[np.float64], x: npt.NDArray[np.float64],
+           group: npt.NDArray[np.int64], groups: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The largest pressure per group (the last row: over all groups) and the reference position of its node
+    (the lexicographically smallest among the nodes within 1e-9 of it; collective)."""
+    rows = np.concatenate([group, np.full(group.size, groups)])
+    values = np.concatenate([pressure, pressure])
+    points = np.concatenate([x, x])
+    keep = rows >= 0
+    rows, values, points = rows[keep], values[keep], points[keep]
+    local = np.zeros(groups + 1)
+    np.maximum.at(local, rows, values)
+    peak = np.empty_like(local)
+    comm.Allreduce(local, peak, op=MPI.MAX)
+    near = (peak[rows] > 0.0) & (values >= peak[rows] * (1.0 - 1e-9))
+    candidates = np.full((groups + 1, 3), np.inf)
+    if near.any():
+        r, p = rows[near], points[near]
+        order = np.lexsort((p[:, 2], p[:, 1], p[:, 0], r))  # by group, then lexicographically by position
+        r, p = r[order], p[order]
+        first = np.r_[True, r[1:] != r[:-1]]
+        candidates[r[first]] = p[first]
+    every = np.stack(comm.allgather(candidates))  # (ranks, groups + 1, 3)
+    where = np.empty((groups + 1, 3))
+    for g in range(groups + 1):  # a handful of groups
+        c = every[:, g]
+        where[g] = c[np.lexsort((c[:, 2], c[:, 1], c[:, 0]))[0]]
+    return peak, where
+
+
+def _nodal_forces(result: SolveResult, size: int) -> npt.NDArray[np.float64]:
+    """The Cartesian contact force on the body per owned contact node (zeros when the result has none)."""
+    force = np.asarray(result.contact_force, dtype=np.float64)
+    return force.reshape(size, 3) if force.size == 3 * size else np.zeros((size, 3))
+
+
+def _paired_mask(model: ContactModel) -> npt.NDArray[np.bool_]:
+    """The contact nodes that are slave nodes of a contact pair."""
+    paired = getattr(model, "paired", None)
+    if paired is None or not np.size(paired):
+        return np.zeros(model.contact.size, dtype=bool)
+    return np.asarray(paired, dtype=bool).reshape(-1)
+
+
 #: Categories of the (categorical) ``contact_state`` field.
 CONTACT_STATES: dict[int, str] = {NOT_CONTACT: "not a contact node",
                                   **{int(s): s.name.lower() for s in ContactState}}
-

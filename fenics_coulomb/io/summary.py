@@ -20,6 +20,7 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
+from fenics_coulomb.io.fields import UNITS, contact_statistics
 from fenics_coulomb.io.results import rank0_file
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import pair_forces
@@ -29,13 +30,21 @@ __all__ = ["summary", "write_summary", "write_convergence_csv", "write_path_csv"
 
 
 def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
-    """Global summary of a solve (collective; identical on all ranks): the result's own summary, the software
-    versions, for contact pairs the force on each body per pair (``contact_pairs``, :func:`pair_forces`) and
-    ``extra``."""
+    """Global summary of a solve (collective; identical on all ranks): the result's own summary, the contact
+    area and the peak contact pressure with its location (``contact_area``, ``contact_nodes``,
+    ``peak_pressure``, ``peak_pressure_at``), the same per obstacle (``obstacles``: name → those and the
+    ``force`` on the body) and per contact pair (``contact_pairs``: those and the force on each body,
+    :func:`pair_forces`), the ``units``, the software versions and ``extra``
+    (:func:`~fenics_coulomb.io.fields.contact_statistics`)."""
     comm = model.V.mesh.comm
     data = result.summary(comm)
+    statistics = contact_statistics(model, result)
+    per_pair = statistics.pop("contact_pairs")
+    data.update(statistics)
     if model.coupling.paired:
-        data["contact_pairs"] = pair_forces(model, result)
+        data["contact_pairs"] = [{**forces, **{k: v for k, v in stats.items() if k != "name"}}
+                                 for forces, stats in zip(pair_forces(model, result), per_pair, strict=False)]
+    data["units"] = dict(UNITS)
     data["versions"] = software_versions()
     if extra:
         data.update(extra)
@@ -72,17 +81,19 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
     number), step, substep, load factor, converged, Newton and Krylov iterations, the geometry updates of finite
     sliding, open/stick/slip, the total
     contact force, the applied load's resultant, the reaction per Dirichlet boundary and δ per obstacle (x, y,
-    z components each; a boundary group "a,b" is named "a+b"), wall time."""
+    z components each; a boundary group "a,b" is named "a+b"), wall time. Columns of a quantity with a unit
+    carry it after the name: ``contact_force_x [GPa*L^2]``, ``delta_ball_z [L]``."""
     if comm.rank != 0 or not steps:
         return
+    FORCE, LENGTH = f"[{UNITS['force']}]", f"[{UNITS['length']}]"  # noqa: N806
     xyz = ("x", "y", "z")
     reactions = list(steps[0]["reactions"])
     obstacles = list(steps[0]["obstacle_displacements"])
     header = ["solve", "time", "step", "substep", "load_factor", "converged", "newton_iterations",
               "krylov_iterations", "geometry_updates", "open", "stick", "slip",
-              *[f"contact_force_{c}" for c in xyz], *[f"applied_load_{c}" for c in xyz],
-              *[f"reaction_{name.replace(',', '+')}_{c}" for name in reactions for c in xyz],
-              *[f"delta_{name.replace(',', '+')}_{c}" for name in obstacles for c in xyz], "wall_time_s"]
+              *[f"contact_force_{c} {FORCE}" for c in xyz], *[f"applied_load_{c} {FORCE}" for c in xyz],
+              *[f"reaction_{name.replace(',', '+')}_{c} {FORCE}" for name in reactions for c in xyz],
+              *[f"delta_{name.replace(',', '+')}_{c} {LENGTH}" for name in obstacles for c in xyz], "wall_time_s"]
     lines = [",".join(header)]
     for s in steps:
         counts = s["state_counts"]

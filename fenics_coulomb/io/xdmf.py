@@ -11,15 +11,20 @@ lengths in the mesh's unit L):
     Categorical (int32): 0 open, 1 stick, 2 slip on contact nodes; −1 on all other nodes (see
     :data:`CONTACT_STATES`).
 ``contact_pressure``
-    Normal contact force λ = −ϑ ≥ 0 per contact node (the paper's normal nodal force, GPa·L²); 0 elsewhere.
+    The contact pressure: the normal contact traction λ / aᵢ ≥ 0 per contact node, force per AREA (GPa), with
+    λ the normal part of the nodal contact force and aᵢ the node's contact area (the lumped tributary area
+    ∫ φᵢ ds over the contact boundary, the mortar D_j on a dual mortar pair's slave nodes); equal to
+    ``problem.report(result).nodes.pressure``. 0 elsewhere.
+``contact_force``
+    The nodal contact force on the body, a Cartesian 3-vector (GPa·L²; sums to summary.json's
+    ``contact_force``). 0 elsewhere.
 ``tangential_force``
-    Tangential contact force the obstacle exerts on the body per contact node (GPa·L², a Cartesian 3-vector
-    ⊥ the node's obstacle normal: its t₁, t₂ components mapped back to x, y, z); it opposes the slip on
-    sliding nodes. 0 elsewhere.
+    The tangential part of the nodal contact force per contact node (GPa·L², a Cartesian 3-vector ⊥ the
+    node's obstacle normal: its t₁, t₂ components mapped back to x, y, z); it opposes the slip on sliding
+    nodes. 0 elsewhere.
 ``contact_traction``
-    The contact force on the body per unit contact area (GPa, Cartesian vector): the nodal contact force
-    divided by the node's share of the contact surface (the lumped facet areas ∫ φᵢ ds over the contact
-    boundary), comparable with a pressure distribution. 0 elsewhere.
+    The contact traction vector: the nodal contact force divided by the node's contact area aᵢ (GPa); its
+    normal component is ``contact_pressure``. 0 elsewhere.
 ``gap``
     The linearized gap g + n·ũ on contact nodes (L, ≥ 0 at a solution); 0 elsewhere.
 ``contact_normal``
@@ -31,6 +36,7 @@ lengths in the mesh's unit L):
     displacement w_s = u_s − Σ_j φ_sj u_j, and ``contact_normal`` is the master's outward normal at the
     closest point.
 
+The grid's ``units`` information item names each field's unit (:data:`~fenics_coulomb.io.fields.FIELD_UNITS`).
 All fields go through :class:`XDMFTimeSeries` (:func:`write_xdmf`). HDF5 layout (one file, one mesh for the
 whole series): ``/Mesh/mesh/geometry`` (N × 3 float64 vertex coordinates in the global P1 vertex numbering),
 ``/Mesh/mesh/topology`` (cells × vertices, int64 global vertex numbers, VTK/XDMF vertex order) and
@@ -61,7 +67,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import OutputError
-from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions
+from fenics_coulomb.io.fields import CONTACT_STATES, FIELD_UNITS, contact_functions
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.problem import interpolate_displacement
@@ -249,7 +255,8 @@ def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveRe
         name = ("" if name == "solution" else f"{name}: ") + f"last iterate (NOT converged: {result.reason})"
     xdmf.write(t, functions, dtypes={"contact_state": np.int32}, name=name,
                information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
-                            "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items())})
+                            "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items()),
+                            "units": ", ".join(f"{f.name} {FIELD_UNITS.get(f.name) or '1'}" for f in functions)})
 
 
 def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0) -> None:

@@ -29,7 +29,7 @@ from fenics_coulomb.scenes.cuboid import expected_sizes
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "demos" / "scenes" / "d3_L2_path.toml"
 PROG = "python3 -m fenics_coulomb"
-FIELDS = {"displacement", "contact_state", "contact_pressure", "tangential_force", "contact_traction", "gap",
+FIELDS = {"displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force", "contact_traction", "gap",
           "contact_normal"}
 #: The demo's solves: step 1 in 3 substeps, steps 2 and 3 in 2 each.
 DEMO_TIMES = [1 / 3, 2 / 3, 1.0, 1.5, 2.0, 2.5, 3.0]
@@ -99,8 +99,8 @@ def test_demo_path(mpi_tmp_path):
     assert len(table) == 7
     for row, s in zip(table, steps, strict=True):
         assert float(row["time"]) == s["time"] and int(row["newton_iterations"]) == s["newton_iterations"] > 0
-        assert [float(row[f"contact_force_{c}"]) for c in "xyz"] == s["contact_force"]
-        assert [float(row[f"reaction_left_{c}"]) for c in "xyz"] == s["reactions"]["left"]
+        assert [float(row[f"contact_force_{c} [GPa*L^2]"]) for c in "xyz"] == s["contact_force"]
+        assert [float(row[f"reaction_left_{c} [GPa*L^2]"]) for c in "xyz"] == s["reactions"]["left"]
         assert sum(s["state_counts"].values()) == p
         assert int(row["open"]) + int(row["stick"]) + int(row["slip"]) == p
         # global balance of the step: contact force + reactions + applied load = 0

@@ -120,7 +120,7 @@ def test_time_series_roundtrip(cell, mpi_tmp_path):
 
 
 def test_solution_file(mpi_tmp_path):
-    """solution.xdmf of a run: ONE grid with all seven fields, float64 except the categorical contact_state;
+    """solution.xdmf of a run: ONE grid with all eight fields, float64 except the categorical contact_state;
     the fields agree with summary.json and with the default plane's frame (n = e3, tangential force ⊥ n,
     gap ≥ 0, traction along the pressure)."""
     out = mpi_tmp_path / "run"
@@ -131,7 +131,7 @@ def test_solution_file(mpi_tmp_path):
     info = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
     assert info["converged"] == "true" and "1 stick" in info["contact_state"]
     items = {a.get("Name"): a.find("DataItem") for a in grid.findall("Attribute")}
-    assert list(items) == ["displacement", "contact_state", "contact_pressure", "tangential_force",
+    assert list(items) == ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
                            "contact_traction", "gap", "contact_normal"]
     for name, item in items.items():
         expected = ("Int", "4") if name == "contact_state" else ("Float", "8")
@@ -140,7 +140,8 @@ def test_solution_file(mpi_tmp_path):
     with h5py.File(out / "solution.h5", "r") as h5:
         state = h5["Function/contact_state/0"][:]
         fields = {name: h5[f"Function/{name}/0"][:] for name in
-                  ("contact_pressure", "tangential_force", "contact_traction", "gap", "contact_normal")}
+                  ("contact_pressure", "contact_force", "tangential_force", "contact_traction", "gap",
+                   "contact_normal")}
     contact = state >= 0
     assert np.array_equal(fields["contact_normal"][contact], np.tile([0.0, 0.0, 1.0], (contact.sum(), 1)))
     assert not fields["contact_normal"][~contact].any() and not fields["gap"][~contact].any()
@@ -149,6 +150,11 @@ def test_solution_file(mpi_tmp_path):
     pressed = fields["contact_pressure"] > 0.0
     assert np.all(fields["contact_traction"][pressed, 2] > 0.0)
     assert not fields["contact_traction"][~pressed, 2].any()
+    # one meaning per name: contact_pressure = the traction's normal component (force per area); contact_force
+    # = the nodal force vector, summing to summary.json's total; the units as the grid's metadata
+    assert np.allclose(fields["contact_traction"][:, 2], fields["contact_pressure"], rtol=1e-12, atol=0)
+    assert np.allclose(fields["contact_force"].sum(axis=0), summary["contact_force"], rtol=1e-10)
+    assert "contact_pressure GPa" in info["units"] and "contact_force GPa*L^2" in info["units"]
     counts = {name: int(np.sum(state == code)) for code, name in enumerate(("open", "stick", "slip"))}
     assert counts == summary["state_counts"] and np.sum(state == -1) == state.size - summary["p"]
     assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "view.py", "summary.json"]

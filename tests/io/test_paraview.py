@@ -24,8 +24,8 @@ from fenics_coulomb.io.display import virtual_display
 pytestmark = pytest.mark.serial
 
 PROBE = Path(__file__).resolve().parents[1] / "paraview_probe.py"
-FIELDS = {"displacement": 3, "contact_state": 1, "contact_pressure": 1, "tangential_force": 3, "contact_traction": 3,
-          "gap": 1, "contact_normal": 3}
+FIELDS = {"displacement": 3, "contact_state": 1, "contact_pressure": 1, "contact_force": 3, "tangential_force": 3,
+          "contact_traction": 3, "gap": 1, "contact_normal": 3}
 ARGS = ["--lev", "2", "--gap", "d3", "--load", "L2"]
 
 

@@ -228,11 +228,11 @@ def test_scene_rollers_along_a_load_path(mpi_tmp_path):
     data = json.loads((out / "summary.json").read_text())
     assert len(rows) == 2
     for row in rows:
-        reactions = {name: np.array([float(row[f"reaction_{name}_{c}"]) for c in "xyz"])
+        reactions = {name: np.array([float(row[f"reaction_{name}_{c} [GPa*L^2]"]) for c in "xyz"])
                      for name in ("top", *ROLLERS)}
         for name, held in ROLLERS.items():
             assert np.all(np.delete(reactions[name], held) == 0.0), name
-        contact = np.array([float(row[f"contact_force_{c}"]) for c in "xyz"])
+        contact = np.array([float(row[f"contact_force_{c} [GPa*L^2]"]) for c in "xyz"])
         scale = np.linalg.norm(reactions["top"])
         assert np.linalg.norm(sum(reactions.values()) + contact) <= 1e-8 * scale  # no applied load
-    assert [float(rows[-1][f"reaction_left_{c}"]) for c in "xyz"] == data["reactions"]["left"]
+    assert [float(rows[-1][f"reaction_left_{c} [GPa*L^2]"]) for c in "xyz"] == data["reactions"]["left"]

@@ -25,13 +25,13 @@ from test_two_body import MASTER, SLAVE, TIGHT, pressed_blocks
 from fenics_coulomb import ContactProblem
 from fenics_coulomb.model.checks import unconstrained_residual
 from fenics_coulomb.io.fields import contact_functions
-from fenics_coulomb.model.forces import pair_forces
+from fenics_coulomb.model.forces import contact_areas, pair_forces
 from fenics_coulomb.io.summary import summary, write_summary
 from fenics_coulomb.io.xdmf import write_xdmf
 from fenics_coulomb.model.pairing import ContactPair
 
-FIELDS = ["displacement", "contact_state", "contact_pressure", "tangential_force", "contact_traction", "gap",
-          "contact_normal", "master_reaction"]
+FIELDS = ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
+          "contact_traction", "gap", "contact_normal", "master_reaction"]
 
 
 def _gather_rows(comm, *arrays):
@@ -76,9 +76,9 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
         # the gap's constant part: the pairing's g(X + u_c) linearized about the configuration, g − n·w(u_c)
         # (finite sliding; the pairing's own gap with small sliding)
         gap_constant = model.contact.gap[model.paired]
-        stencil, weights, gap0, normals, force, xs = _gather_rows(
+        stencil, weights, gap0, normals, force, xs, areas = _gather_rows(
             comm, pairing.master_blocks, pairing.weights, gap_constant, pairing.frames[:, :, 2], result.contact_force,
-            pairing.coordinates)
+            pairing.coordinates, contact_areas(model)[model.paired])
         slave_blocks = pairing.blocks.astype(np.int64) + r0
         (slave_global,) = _gather_rows(comm, slave_blocks)
         # ∫ traction ds over the slave surface = Σ nodal contact forces (traction = f_i / ∫ φ_i ds)
@@ -109,7 +109,7 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
     assert on_slave.sum() == result.p == len(xs)
     assert np.all(fields["contact_state"][~on_slave] == -1) and np.all(fields["contact_state"][on_slave] >= 0)
     assert np.all(np.isclose(x[on_slave, 2], 1e-3))  # the upper block's bottom (the slave surface)
-    for name in ("contact_pressure", "tangential_force", "contact_traction", "gap", "contact_normal"):
+    for name in ("contact_pressure", "contact_force", "tangential_force", "contact_traction", "gap", "contact_normal"):
         assert not np.any(fields[name][~on_slave]), name
     key = np.lexsort(np.round(xs, 9).T[::-1])
     # gap = g + n·w with w_s = u_s − Σ_j φ_sj u_j, from the written displacement
@@ -118,8 +118,13 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
     assert np.allclose(fields["gap"][on_slave], gap[key], rtol=0, atol=1e-10 * np.abs(u_all).max())
     assert fields["gap"][on_slave].min() >= -1e-10 * np.abs(u_all).max()
     assert np.allclose(fields["contact_normal"][on_slave], normals[key], atol=1e-14)
-    assert np.allclose(fields["contact_pressure"][on_slave], np.einsum("ij,ij->i", normals, force)[key],
-                       atol=1e-10 * scale)
+    # contact_force = the nodal force; contact_pressure = its normal part per area (the mortar D_j), the
+    # traction's normal component
+    assert np.allclose(fields["contact_force"][on_slave], force[key], rtol=0, atol=1e-14 * scale)
+    pressure = np.einsum("ij,ij->i", normals, force)[key] / areas[key]
+    assert np.allclose(fields["contact_pressure"][on_slave], pressure, rtol=0, atol=1e-10 * np.abs(pressure).max())
+    assert np.allclose(np.einsum("ij,ij->i", normals[key], fields["contact_traction"][on_slave]),
+                       fields["contact_pressure"][on_slave], rtol=0, atol=1e-10 * np.abs(pressure).max())
     # complementarity of the written fields
     assert np.abs(fields["gap"][on_slave] * fields["contact_pressure"][on_slave]).max() <= (
         1e-8 * scale * np.abs(u_all).max())

@@ -1,0 +1,153 @@
+"""One meaning per name: ``contact_pressure`` is force per area everywhere (the XDMF field, the report, summary.json,
+the result lines), ``contact_force`` the nodal force vector, ``contact_traction`` the traction vector.
+
+Physics: a block under a uniform pressure p on its top, resting on the frictionless plane x3 = 0 (rollers on two
+sides above the bottom remove the rigid modes): the stress is uniaxial, σ₃₃ = −p, the displacement linear — exact in Q1 — and the
+contact pressure is p at EVERY bottom node (the nodal force p ∫φᵢ ds over the node's area ∫φᵢ ds), the contact
+area the whole bottom. A sphere pressed into a block: the XDMF ``contact_pressure`` equals
+``problem.report(result).nodes.pressure`` node by node, and summary.json's area and peak pressure are the
+report's. 1 and 2 ranks."""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import dolfinx.mesh
+import h5py
+import numpy as np
+import ufl
+
+from fenics_coulomb import ContactProblem, Sphere, write_results
+
+E, NU = 70.0, 0.3
+MU, LMBDA = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
+TOP, BOTTOM = 2, 1
+TIGHT = {"rtol": 1e-12, "tol": 1e-12}
+
+
+def _elasticity(V):
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+
+    def eps(w):
+        return ufl.sym(ufl.grad(w))
+
+    return ufl.inner(2 * MU * eps(u) + LMBDA * ufl.tr(eps(u)) * ufl.Identity(3), eps(v)) * ufl.dx, v
+
+
+def _tags(msh, faces):
+    facets, values = [], []
+    for tag, where in faces.items():
+        f = dolfinx.mesh.locate_entities_boundary(msh, 2, where)
+        facets.append(f)
+        values.append(np.full(f.size, tag, np.int32))
+    facets, values = np.concatenate(facets), np.concatenate(values)
+    order = np.argsort(facets)
+    return dolfinx.mesh.meshtags(msh, 2, facets[order].astype(np.int32), values[order])
+
+
+def _read(out):
+    """The single grid's information items and every point field, rows ordered by the vertex coordinates."""
+    (grid,) = ET.parse(out / "solution.xdmf").getroot().find("Domain/Grid").findall("Grid")
+    info = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
+    with h5py.File(out / "solution.h5", "r") as h5:
+        x = h5["Mesh/mesh/geometry"][:]
+        fields = {name: h5[f"Function/{name}/0"][:] for name in h5["Function"]}
+    order = np.lexsort(np.round(x, 9).T[::-1])
+    return info, x[order], {k: v[order] for k, v in fields.items()}
+
+
+def uniform_pressure(comm, p=0.05, n=(4, 3, 2)):
+    """A block [0,1]×[0,0.75]×[0,0.5] on the frictionless plane x3 = 0 under the pressure p on its top; rollers
+    u1 = 0 on x1 = 0 and u2 = 0 on x2 = 0 above the bottom (the exact solution has u1 = 0, u2 = 0 there too)."""
+    msh = dolfinx.mesh.create_box(comm, [[0, 0, 0], [1, 0.75, 0.5]], list(n), dolfinx.mesh.CellType.hexahedron)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    tags = _tags(msh, {BOTTOM: lambda x: np.isclose(x[2], 0.0), TOP: lambda x: np.isclose(x[2], 0.5)})
+    bcs = []
+    for i in (0, 1):
+        Vi, _ = V.sub(i).collapse()
+        # the roller's nodes above the bottom only: a held component would take a node out of the contact
+        dofs = dolfinx.fem.locate_dofs_geometrical(
+            (V.sub(i), Vi), lambda x, i=i: np.isclose(x[i], 0.0) & (x[2] > 1e-9))
+        bcs.append(dolfinx.fem.dirichletbc(dolfinx.fem.Function(Vi), dofs, V.sub(i)))
+    a, v = _elasticity(V)
+    L = -p * v[2] * ufl.Measure("ds", domain=msh, subdomain_data=tags)(TOP)
+    return ContactProblem(a, L, bcs=bcs, contact=(tags, [BOTTOM]), friction=0.0, settings=TIGHT,
+                          petsc_options_prefix="unip_"), bcs
+
+
+def test_uniform_pressure_is_the_applied_pressure_everywhere(mpi_tmp_path):
+    comm = MPI.COMM_WORLD
+    p = 0.05
+    problem, _ = uniform_pressure(comm, p)
+    with problem:
+        _, result = problem.solve()
+        assert result.converged
+        report = problem.report(result)
+        out = mpi_tmp_path / "uniform"
+        data = write_results(out, problem, result)
+    comm.barrier()
+    info, x, fields = _read(out)
+    bottom = np.isclose(x[:, 2], 0.0)
+    assert np.all(fields["contact_state"][bottom] > 0) and np.all(fields["contact_state"][~bottom] == -1)
+    # every bottom node carries the applied pressure, as a pressure (not a mesh-dependent nodal force)
+    assert np.allclose(fields["contact_pressure"][bottom], p, rtol=1e-9, atol=0)
+    assert np.allclose(fields["contact_traction"][bottom], [0.0, 0.0, p], rtol=0, atol=1e-9 * p)
+    assert np.allclose(report.nodes.pressure, p, rtol=1e-9, atol=0)
+    # the nodal forces sum to the load p·|bottom| and are the report's
+    assert np.allclose(fields["contact_force"].sum(axis=0), [0.0, 0.0, p * 0.75], rtol=0, atol=1e-9 * p)
+    assert np.allclose(np.sort(fields["contact_force"][bottom, 2]), np.sort(report.nodes.force[:, 2]), rtol=1e-12)
+    # summary.json: area = the whole bottom, the peak = p at the lexicographically first node (all tie)
+    assert abs(data["contact_area"] - 0.75) <= 1e-12 and data["contact_nodes"] == bottom.sum()
+    assert abs(data["peak_pressure"] - p) <= 1e-9 * p and np.allclose(data["peak_pressure_at"], 0.0, atol=1e-12)
+    (plane,) = data["obstacles"].values()
+    assert plane["contact_area"] == data["contact_area"] and plane["peak_pressure"] == data["peak_pressure"]
+    assert np.allclose(plane["force"], data["contact_force"], rtol=1e-12)
+    assert data["units"]["pressure"] == "GPa" and data["units"]["area"] == "L^2"
+    assert "contact_pressure GPa" in info["units"] and "contact_traction GPa" in info["units"]
+    assert json.loads((out / "summary.json").read_text())["peak_pressure"] == data["peak_pressure"]
+
+
+def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
+    """A rigid sphere pressed 0.01 into a block: the XDMF contact_pressure is report.nodes.pressure at every contact
+    node, contact_traction's normal part is it, and summary.json's area and peak (with its node) are the report's."""
+    comm = MPI.COMM_WORLD
+    n, radius, depth = 12, 0.5, 0.01
+    msh = dolfinx.mesh.create_box(comm, [[0, 0, 0], [1, 1, 0.5]], [n, n, n // 2], dolfinx.mesh.CellType.hexahedron)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    tags = _tags(msh, {TOP: lambda x: np.isclose(x[2], 0.5)})
+    bottom = dolfinx.fem.locate_dofs_topological(
+        V, 2, dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0)))
+    clamp = dolfinx.fem.dirichletbc(np.zeros(3), bottom, V)
+    a, _ = _elasticity(V)
+    ball = Sphere(center=[0.5, 0.5, 0.5 + radius], radius=radius, displacement=[0, 0, -depth], name="ball")
+    with ContactProblem(a, None, bcs=[clamp], contact=(tags, [TOP]), friction=0.3, obstacles=[ball],
+                        petsc_options_prefix="sphp_") as problem:
+        _, result = problem.solve()
+        assert result.converged
+        report = problem.report(result)
+        out = mpi_tmp_path / "sphere"
+        data = write_results(out, problem, result)
+    comm.barrier()
+    _, x, fields = _read(out)
+    contact = fields["contact_state"] >= 0
+    nodes = report.nodes
+    # both orders are lexicographic in the (rounded) reference coordinates
+    assert np.allclose(x[contact], nodes.coordinates, atol=1e-12)
+    assert np.allclose(fields["contact_pressure"][contact], nodes.pressure, rtol=1e-12, atol=0)
+    assert np.allclose(fields["contact_force"][contact], nodes.force, rtol=1e-12, atol=1e-15)
+    normal_traction = np.einsum("ij,ij->i", fields["contact_traction"][contact], nodes.normal)
+    assert np.allclose(normal_traction, nodes.pressure, rtol=1e-10, atol=1e-12 * nodes.pressure.max())
+    closed = nodes.closed
+    assert closed.sum() == data["contact_nodes"] > 4
+    assert np.isclose(data["contact_area"], nodes.area[closed].sum(), rtol=1e-12)
+    peak = np.argmax(nodes.pressure)
+    assert data["peak_pressure"] == nodes.pressure.max()
+    assert np.allclose(data["peak_pressure_at"], nodes.coordinates[peak], atol=1e-12)
+    # the peak is under the sphere's centre (symmetric patch: the first of the tied nodes in x1, x2)
+    assert np.linalg.norm(np.asarray(data["peak_pressure_at"][:2]) - 0.5) <= 1.5 / n
+    assert data["obstacles"]["ball"]["peak_pressure"] == data["peak_pressure"]
+    assert np.allclose(data["obstacles"]["ball"]["force"], report.obstacle_forces["ball"], rtol=1e-10)
