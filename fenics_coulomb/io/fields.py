@@ -21,6 +21,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from mpi4py import MPI
+from petsc4py import PETSc
 
 import dolfinx
 import dolfinx.cpp.io
@@ -29,6 +30,7 @@ import dolfinx.fem.petsc
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
+import ufl
 
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
@@ -36,7 +38,8 @@ from fenics_coulomb.report import nodal_pressure
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, ContactState
 
-__all__ = ["CONTACT_STATES", "FIELD_UNITS", "UNITS", "contact_functions", "contact_statistics", "group_names"]
+__all__ = ["CONTACT_STATES", "FIELD_UNITS", "UNITS", "contact_functions", "contact_statistics", "group_names",
+           "stress_from_form", "stress_functions"]
 
 #: The units of the outputs (the scenes give E in GPa; the mesh's length unit is L).
 UNITS: dict[str, str] = {"length": "L", "area": "L^2", "pressure": "GPa", "stress": "GPa", "force": "GPa*L^2"}
@@ -45,7 +48,7 @@ UNITS: dict[str, str] = {"length": "L", "area": "L^2", "pressure": "GPa", "stres
 FIELD_UNITS: dict[str, str] = {
     "displacement": "L", "contact_state": "", "contact_pressure": "GPa", "contact_force": "GPa*L^2",
     "tangential_force": "GPa*L^2", "contact_traction": "GPa", "gap": "L", "contact_normal": "",
-    "master_reaction": "GPa*L^2",
+    "master_reaction": "GPa*L^2", "stress": "GPa", "von_mises": "GPa",
 }
 
 
@@ -197,6 +200,63 @@ def _paired_mask(model: ContactModel) -> npt.NDArray[np.bool_]:
     if paired is None or not np.size(paired):
         return np.zeros(model.contact.size, dtype=bool)
     return np.asarray(paired, dtype=bool).reshape(-1)
+
+
+def stress_from_form(a: ufl.Form, u: dolfinx.fem.Function) -> ufl.core.expr.Expr | None:
+    """The stress tensor σ(u) of the constitutive law in the bilinear form ``a`` (a UFL expression, 3 × 3).
+
+    The cell integrand f(w, v) of a(w, v) is linear in the test function v: f = A(w) : ∇v + b(w)·v. With the
+    trial function replaced by ``u`` and v by the linear field eᵢ xⱼ (∇v = eᵢ ⊗ eⱼ) and by the constant eᵢ,
+    A_ij = f(u, eᵢ xⱼ) − xⱼ f(u, eᵢ) exactly; for elasticity a = ∫ σ(w) : ε(v) dx that is σ_ij(u) (any
+    law, per-cell material fields included). Returns None when ``a`` has no cell integral or integrals restricted
+    to cell subdomains (a law per subdomain: give the stress explicitly)."""
+    cells = [i for i in a.integrals() if i.integral_type() == "cell"]
+    if not cells or any(i.subdomain_id() not in ("everywhere", "otherwise") for i in cells):
+        return None
+    test, trial = sorted(a.arguments(), key=lambda w: w.number())
+    integrand = sum((i.integrand() for i in cells[1:]), cells[0].integrand())
+    x = ufl.SpatialCoordinate(u.function_space.mesh)
+    dim = len(x)
+
+    def unit(i: int, factor: ufl.core.expr.Expr | float) -> ufl.core.expr.Expr:
+        return ufl.as_vector([factor if k == i else 0.0 for k in range(dim)])
+
+    def f(v: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+        return ufl.replace(integrand, {trial: u, test: v})
+
+    return ufl.as_matrix([[f(unit(i, x[j])) - x[j] * f(unit(i, 1.0)) for j in range(dim)] for i in range(dim)])
+
+
+def stress_functions(stress: ufl.core.expr.Expr,
+                     mesh: dolfinx.mesh.Mesh) -> tuple[dolfinx.fem.Function, dolfinx.fem.Function]:
+    """The Cauchy stress and the von Mises stress as point (P1) fields ``stress`` (3 × 3, GPa) and ``von_mises``
+    (GPa) by a lumped L2 projection (collective).
+
+    σᵢ = ∫ φᵢ σ dx / ∫ φᵢ dx at every vertex i: the mean of the cellwise stress over the vertex's cells weighted
+    by φᵢ. On P1/Q1 the stress of a displacement is discontinuous across cells (constant on a tetrahedron,
+    varying within a hexahedron); the lumped projection has positive weights, so it neither overshoots nor
+    oscillates at boundaries and kinks like the consistent L2 projection does, needs no linear solve, and
+    reproduces a uniform stress exactly. The von Mises stress √(3/2 s : s), s = σ − tr σ / 3 I, is evaluated at
+    the vertices from the projected tensor. Like every nodal recovery it smooths a peak over one element."""
+    T = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3, 3)))
+    S = dolfinx.fem.functionspace(mesh, ("Lagrange", 1))
+    moments = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.inner(stress, ufl.TestFunction(T)) * ufl.dx))
+    mass = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.TestFunction(S) * ufl.dx))
+    for b in (moments, mass):
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    # T and S share the scalar P1 dofmap: block k of T is DOF k of S
+    sigma = moments.getArray(readonly=True).reshape(-1, 9) / mass.getArray(readonly=True)[:, None]
+    moments.destroy()
+    mass.destroy()
+    owned = sigma.shape[0]
+    tensor = dolfinx.fem.Function(T, name="stress")
+    tensor.x.array[: 9 * owned] = sigma.ravel()
+    tensor.x.scatter_forward()
+    deviator = sigma.reshape(-1, 3, 3) - np.einsum("nii->n", sigma.reshape(-1, 3, 3))[:, None, None] / 3 * np.eye(3)
+    mises = dolfinx.fem.Function(S, name="von_mises")
+    mises.x.array[:owned] = np.sqrt(1.5 * np.einsum("nij,nij->n", deviator, deviator))
+    mises.x.scatter_forward()
+    return tensor, mises
 
 
 #: Categories of the (categorical) ``contact_state`` field.

@@ -22,6 +22,7 @@ import numpy as np
 import ufl
 
 from fenics_coulomb import ContactProblem, Sphere, write_results
+from fenics_coulomb.io.fields import stress_from_form, stress_functions
 
 E, NU = 70.0, 0.3
 MU, LMBDA = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -151,3 +152,30 @@ def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
     assert np.linalg.norm(np.asarray(data["peak_pressure_at"][:2]) - 0.5) <= 1.5 / n
     assert data["obstacles"]["ball"]["peak_pressure"] == data["peak_pressure"]
     assert np.allclose(data["obstacles"]["ball"]["force"], report.obstacle_forces["ball"], rtol=1e-10)
+
+
+def test_uniaxial_stress_and_von_mises():
+    """The block under uniform pressure p: σ = −p e₃ ⊗ e₃ and von Mises = p at every vertex to round-off (the
+    lumped projection reproduces a uniform stress), from the law read off the bilinear form; a term in v itself
+    (an elastic foundation k u·v dx) does not enter the stress."""
+    comm = MPI.COMM_WORLD
+    p = 0.05
+    problem, _ = uniform_pressure(comm, p)
+    with problem:
+        uh, result = problem.solve()
+        assert result.converged
+        a = problem.model.a_ufl
+        stress = stress_from_form(a, uh)
+        sigma, mises = stress_functions(stress, uh.function_space.mesh)
+        test, trial = sorted(a.arguments(), key=lambda w: w.number())
+        with_foundation = stress_from_form(a + 3.0 * ufl.inner(trial, test) * ufl.dx, uh)
+        _, mises_foundation = stress_functions(with_foundation, uh.function_space.mesh)
+    exact = np.zeros(9)
+    exact[8] = -p
+    owned = sigma.function_space.dofmap.index_map.size_local
+    values = sigma.x.array.reshape(-1, 9)
+    assert values.shape[0] == mises.x.array.size
+    assert np.abs(values - exact).max() <= 1e-9 * p
+    assert np.abs(mises.x.array - p).max() <= 1e-9 * p
+    assert np.abs(mises_foundation.x.array - p).max() <= 1e-9 * p
+    assert comm.allreduce(owned) == mises.function_space.dofmap.index_map.size_global
