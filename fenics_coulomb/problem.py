@@ -592,8 +592,9 @@ class ContactProblem:
                     if model.comm.rank == 0:
                         logger.warning("finite sliding: %s, back and forth between two geometries whose solutions "
                                        "differ by %.3g (%.2g of the smallest cell at the contact nodes): the one of "
-                                       "the smaller signature is kept", change.describe(), amplitude, amplitude / h)
-                    if change.old_signature < change.new_signature:
+                                       "the smaller elastic energy is kept", change.describe(), amplitude,
+                                       amplitude / h)
+                    if model.elastic_energy(u) <= model.elastic_energy(solved[-2][1]):
                         break
                     cycle_end = True  # one more solve, in the other geometry of the cycle
             if updates == MAX_GEOMETRY_UPDATES:

@@ -413,6 +413,19 @@ class ContactModel:
             return np.zeros((np.size(blocks), 3))
         return self.configuration.reshape(-1, 3)[blocks]
 
+    def elastic_energy(self, u: npt.NDArray[np.float64]) -> float:
+        """½ uᵀ K u of the physical displacement of the owned DOFs (K: A_free for contact pairs, else A; the same on
+        every rank; collective). Invariant under rigid motions of the bodies (pairs) and independent of the mesh's
+        numbering and partition up to round-off."""
+        K = self._A_free if self._A_free is not None else self.A
+        x, y = K.createVecs()
+        x.array[:] = np.asarray(u, dtype=np.float64)[:x.getLocalSize()]
+        K.mult(x, y)
+        energy = 0.5 * x.dot(y)
+        x.destroy()
+        y.destroy()
+        return float(energy)
+
     def node_size(self) -> npt.NDArray[np.float64]:
         """The largest diameter of the cells at each local DOF block (owned and ghost), computed once."""
         if getattr(self, "_node_size", None) is None:

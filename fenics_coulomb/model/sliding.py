@@ -43,9 +43,10 @@ the edge, where neither facet's rule applies. Such a 2-cycle — the new geometr
 before — ends the iteration when its two solutions differ by at most :data:`CYCLE_TOLERANCE`·h (h the smallest
 cell diameter at the contact nodes: a position error of a thousandth of an element, far below the
 discretization's; the amplitude is a local slip across the edge and does not scale with |u|): of its two
-geometries the one with the smaller signature (a digest of the contact nodes and supports, the same on every
-rank and partition) is solved once more and kept, so the answer does not depend on the path that led to the cycle;
-a warning names the nodes and the amplitude. A wider cycle fails as above.
+solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved once more if it was the
+earlier one) — a choice that depends on neither the path that led to the cycle, nor the mesh's numbering and
+partition, nor a rigid translation of a body; a warning names the nodes and the amplitude. A wider cycle fails as
+above. (The cycle itself is recognized by a digest of the contact nodes and supports, the same on every rank.)
 """
 
 from __future__ import annotations
