@@ -39,7 +39,7 @@ from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, ContactState
 
 __all__ = ["CONTACT_STATES", "FIELD_UNITS", "UNITS", "contact_functions", "contact_statistics", "group_names",
-           "stress_from_form", "stress_functions"]
+           "stress_from_form", "stress_functions", "stress_statistics"]
 
 #: The units of the outputs (the scenes give E in GPa; the mesh's length unit is L).
 UNITS: dict[str, str] = {"length": "L", "area": "L^2", "pressure": "GPa", "stress": "GPa", "force": "GPa*L^2"}
@@ -54,8 +54,9 @@ FIELD_UNITS: dict[str, str] = {
 
 def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
     """The output Functions: displacement, contact_state, contact_pressure (force per area), contact_force
-    (nodal force vector), tangential_force, contact_traction (traction vector), gap, contact_normal, and
-    master_reaction for contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
+    (nodal force vector), tangential_force, contact_traction (traction vector), gap, contact_normal, stress and
+    von_mises (when the bilinear form gives the stress: :func:`stress_from_form`), and master_reaction for
+    contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
     V = model.V
     msh = V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
@@ -89,6 +90,9 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         point_field(S, "gap", scalar_dofs, result.gap),
         point_field(V, "contact_normal", vector_dofs, cmap.normals),
     )
+    stress = stress_from_form(model.a_ufl, u)
+    if stress is not None:
+        fields = (*fields, *stress_functions(stress, msh))
     if not model.coupling.paired:
         return fields
     reaction = dolfinx.fem.Function(V, name="master_reaction")
@@ -96,6 +100,31 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         reaction.x.petsc_vec.array[:] = result.master_force
     reaction.x.scatter_forward()
     return (*fields, reaction)
+
+
+def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any]:
+    """The largest von Mises stress and the largest shear stress τ = (σ₁ − σ₃)/2 of the projected stress
+    (:func:`stress_functions`) and the reference positions of their vertices (ties: the first in x₁, x₂, x₃;
+    collective). Empty when the bilinear form gives no stress (:func:`stress_from_form`)."""
+    u = dolfinx.fem.Function(model.V)
+    u.x.petsc_vec.array[:] = result.displacement
+    u.x.scatter_forward()
+    stress = stress_from_form(model.a_ufl, u)
+    if stress is None:
+        return {}
+    sigma, mises = stress_functions(stress, model.V.mesh)
+    S = mises.function_space
+    owned = S.dofmap.index_map.size_local
+    x = S.tabulate_dof_coordinates()[:owned]
+    principal = np.linalg.eigvalsh(sigma.x.array[: 9 * owned].reshape(-1, 3, 3))
+    shear = 0.5 * (principal[:, -1] - principal[:, 0])
+    none = np.full(owned, -1, dtype=np.int64)
+    out: dict[str, Any] = {}
+    for key, values in (("max_von_mises", mises.x.array[:owned]), ("max_shear", shear)):
+        peak, where = _peaks(model.comm, np.asarray(values, dtype=np.float64), x, none, 0)
+        out[key] = float(peak[0])
+        out[f"{key}_at"] = [float(c) for c in where[0]] if peak[0] > 0 else None
+    return out
 
 
 def group_names(model: ContactModel) -> tuple[list[str], list[str]]:
@@ -111,8 +140,8 @@ def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, An
     the same on every rank).
 
     The peak's location is the reference position of the node with the largest ``contact_pressure``; among
-    nodes within 1e-9 of the peak (a symmetric patch) the lexicographically smallest position (x₁, x₂, x₃), so
-    that the location does not depend on the partition.
+    nodes within 1e-9 of the peak (a symmetric patch) the lexicographically smallest position (x₁, x₂, x₃, each
+    rounded to 1e-9 of the mesh's extent), so that the location does not depend on the partition.
 
     Returns:
         ``{"contact_area", "contact_nodes" (nodes in contact), "peak_pressure", "peak_pressure_at" (or None
@@ -173,18 +202,23 @@ def _peaks(comm: MPI.Comm, pressure: npt.NDArray[np.float64], x: npt.NDArray[np.
     peak = np.empty_like(local)
     comm.Allreduce(local, peak, op=MPI.MAX)
     near = (peak[rows] > 0.0) & (values >= peak[rows] * (1.0 - 1e-9))
-    candidates = np.full((groups + 1, 3), np.inf)
+    # positions compared rounded to 1e-9 of the mesh's extent: a generator's round-off (−5e-17 for 0) must not
+    # decide which of the tied nodes is first
+    scale = comm.allreduce(float(np.abs(x).max(initial=0.0)), op=MPI.MAX) or 1.0
+    candidates = np.full((groups + 1, 6), np.inf)
     if near.any():
         r, p = rows[near], points[near]
-        order = np.lexsort((p[:, 2], p[:, 1], p[:, 0], r))  # by group, then lexicographically by position
-        r, p = r[order], p[order]
+        key = np.round(p / scale, 9)
+        order = np.lexsort((key[:, 2], key[:, 1], key[:, 0], r))  # by group, then lexicographically by position
+        r, p, key = r[order], p[order], key[order]
         first = np.r_[True, r[1:] != r[:-1]]
-        candidates[r[first]] = p[first]
-    every = np.stack(comm.allgather(candidates))  # (ranks, groups + 1, 3)
+        candidates[r[first], :3] = key[first]
+        candidates[r[first], 3:] = p[first]
+    every = np.stack(comm.allgather(candidates))  # (ranks, groups + 1, 6)
     where = np.empty((groups + 1, 3))
     for g in range(groups + 1):  # a handful of groups
         c = every[:, g]
-        where[g] = c[np.lexsort((c[:, 2], c[:, 1], c[:, 0]))[0]]
+        where[g] = c[np.lexsort((c[:, 2], c[:, 1], c[:, 0]))[0], 3:]
     return peak, where
 
 
@@ -208,14 +242,31 @@ def stress_from_form(a: ufl.Form, u: dolfinx.fem.Function) -> ufl.core.expr.Expr
     The cell integrand f(w, v) of a(w, v) is linear in the test function v: f = A(w) : ∇v + b(w)·v. With the
     trial function replaced by ``u`` and v by the linear field eᵢ xⱼ (∇v = eᵢ ⊗ eⱼ) and by the constant eᵢ,
     A_ij = f(u, eᵢ xⱼ) − xⱼ f(u, eᵢ) exactly; for elasticity a = ∫ σ(w) : ε(v) dx that is σ_ij(u) (any
-    law, per-cell material fields included). Returns None when ``a`` has no cell integral or integrals restricted
-    to cell subdomains (a law per subdomain: give the stress explicitly)."""
+    law, per-cell material fields included). Integrals over cell subdomains (a law per body, ``dx(k)``) enter
+    with the indicator of their cells (a DG0 field from the measure's cell tags), ``dx`` without an id everywhere.
+    Returns None when ``a`` has no cell integral or a subdomain integral without cell tags."""
     cells = [i for i in a.integrals() if i.integral_type() == "cell"]
-    if not cells or any(i.subdomain_id() not in ("everywhere", "otherwise") for i in cells):
+    if not cells:
         return None
+    msh = u.function_space.mesh
+    parts = []
+    for integral in cells:
+        ids = integral.subdomain_id()
+        if ids == "everywhere":
+            parts.append(integral.integrand())
+            continue
+        tags = integral.subdomain_data()
+        if not isinstance(tags, dolfinx.mesh.MeshTags) or ids == "otherwise":
+            return None
+        Q = dolfinx.fem.functionspace(msh, ("DG", 0))
+        indicator = dolfinx.fem.Function(Q)
+        marked = np.isin(tags.values, np.atleast_1d(np.asarray(ids, dtype=np.int64)))
+        indicator.x.array[Q.dofmap.list[tags.indices[marked], 0]] = 1.0
+        indicator.x.scatter_forward()
+        parts.append(indicator * integral.integrand())
     test, trial = sorted(a.arguments(), key=lambda w: w.number())
-    integrand = sum((i.integrand() for i in cells[1:]), cells[0].integrand())
-    x = ufl.SpatialCoordinate(u.function_space.mesh)
+    integrand = sum(parts[1:], parts[0])
+    x = ufl.SpatialCoordinate(msh)
     dim = len(x)
 
     def unit(i: int, factor: ufl.core.expr.Expr | float) -> ufl.core.expr.Expr:

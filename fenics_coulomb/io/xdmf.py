@@ -29,6 +29,13 @@ lengths in the mesh's unit L):
     The linearized gap g + n·ũ on contact nodes (L, ≥ 0 at a solution); 0 elsewhere.
 ``contact_normal``
     The outward unit normal n of each contact node's obstacle; 0 elsewhere.
+``stress``
+    The Cauchy stress tensor (GPa, 9 components, row-major) of the law in the bilinear form, at the vertices by a
+    lumped L2 projection of the cellwise stress (:func:`~fenics_coulomb.io.fields.stress_functions`: positive
+    weights, no overshoot, a uniform stress exactly); written when the form gives the stress
+    (:func:`~fenics_coulomb.io.fields.stress_from_form`).
+``von_mises``
+    The von Mises stress √(3/2 s : s) of ``stress`` (GPa).
 ``master_reaction``
     Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.two_body`): the reaction on each master node,
     f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the

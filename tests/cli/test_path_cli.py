@@ -29,7 +29,8 @@ from fenics_coulomb.scenes.cuboid import expected_sizes
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "demos" / "scenes" / "d3_L2_path.toml"
 PROG = "python3 -m fenics_coulomb"
-FIELDS = {"displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force", "contact_traction", "gap",
+FIELDS = {"displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force", "stress",
+          "von_mises", "contact_traction", "gap",
           "contact_normal"}
 #: The demo's solves: step 1 in 3 substeps, steps 2 and 3 in 2 each.
 DEMO_TIMES = [1 / 3, 2 / 3, 1.0, 1.5, 2.0, 2.5, 3.0]

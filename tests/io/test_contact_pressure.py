@@ -110,6 +110,14 @@ def test_uniform_pressure_is_the_applied_pressure_everywhere(mpi_tmp_path):
     assert data["units"]["pressure"] == "GPa" and data["units"]["area"] == "L^2"
     assert "contact_pressure GPa" in info["units"] and "contact_traction GPa" in info["units"]
     assert json.loads((out / "summary.json").read_text())["peak_pressure"] == data["peak_pressure"]
+    # the stress fields: uniaxial σ₃₃ = −p, von Mises p at every vertex; their maxima in summary.json
+    exact = np.zeros(9)
+    exact[8] = -p
+    assert np.abs(fields["stress"] - exact).max() <= 1e-9 * p
+    assert np.abs(fields["von_mises"] - p).max() <= 1e-9 * p
+    assert abs(data["max_von_mises"] - p) <= 1e-9 * p and abs(data["max_shear"] - p / 2) <= 1e-9 * p
+    assert np.allclose(data["max_von_mises_at"], 0.0, atol=1e-12)  # all tie: the first vertex
+    assert "stress GPa" in info["units"] and "von_mises GPa" in info["units"]
 
 
 def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
@@ -157,7 +165,8 @@ def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
 def test_uniaxial_stress_and_von_mises():
     """The block under uniform pressure p: σ = −p e₃ ⊗ e₃ and von Mises = p at every vertex to round-off (the
     lumped projection reproduces a uniform stress), from the law read off the bilinear form; a term in v itself
-    (an elastic foundation k u·v dx) does not enter the stress."""
+    (an elastic foundation k u·v dx) does not enter the stress; the law given per subdomain (dx(1) + dx(2)) gives
+    the same stress."""
     comm = MPI.COMM_WORLD
     p = 0.05
     problem, _ = uniform_pressure(comm, p)
@@ -170,6 +179,14 @@ def test_uniaxial_stress_and_von_mises():
         test, trial = sorted(a.arguments(), key=lambda w: w.number())
         with_foundation = stress_from_form(a + 3.0 * ufl.inner(trial, test) * ufl.dx, uh)
         _, mises_foundation = stress_functions(with_foundation, uh.function_space.mesh)
+        # the law given body by body, dx(1) + dx(2) over two halves of the block (cell tags)
+        msh = uh.function_space.mesh
+        cells = np.arange(msh.topology.index_map(3).size_local + msh.topology.index_map(3).num_ghosts, dtype=np.int32)
+        halves = np.where(dolfinx.mesh.compute_midpoints(msh, 3, cells)[:, 0] < 0.5, 1, 2).astype(np.int32)
+        dx = ufl.Measure("dx", domain=msh, subdomain_data=dolfinx.mesh.meshtags(msh, 3, cells, halves))
+        (integral,) = a.integrals()
+        split = stress_from_form(integral.integrand() * dx(1) + integral.integrand() * dx(2), uh)
+        sigma_split, _ = stress_functions(split, msh)
     exact = np.zeros(9)
     exact[8] = -p
     owned = sigma.function_space.dofmap.index_map.size_local
@@ -178,4 +195,5 @@ def test_uniaxial_stress_and_von_mises():
     assert np.abs(values - exact).max() <= 1e-9 * p
     assert np.abs(mises.x.array - p).max() <= 1e-9 * p
     assert np.abs(mises_foundation.x.array - p).max() <= 1e-9 * p
+    assert np.abs(sigma_split.x.array.reshape(-1, 9) - exact).max() <= 1e-9 * p
     assert comm.allreduce(owned) == mises.function_space.dofmap.index_map.size_global

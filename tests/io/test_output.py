@@ -120,7 +120,7 @@ def test_time_series_roundtrip(cell, mpi_tmp_path):
 
 
 def test_solution_file(mpi_tmp_path):
-    """solution.xdmf of a run: ONE grid with all eight fields, float64 except the categorical contact_state;
+    """solution.xdmf of a run: ONE grid with all ten fields, float64 except the categorical contact_state;
     the fields agree with summary.json and with the default plane's frame (n = e3, tangential force ⊥ n,
     gap ≥ 0, traction along the pressure)."""
     out = mpi_tmp_path / "run"
@@ -132,7 +132,7 @@ def test_solution_file(mpi_tmp_path):
     assert info["converged"] == "true" and "1 stick" in info["contact_state"]
     items = {a.get("Name"): a.find("DataItem") for a in grid.findall("Attribute")}
     assert list(items) == ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
-                           "contact_traction", "gap", "contact_normal"]
+                           "contact_traction", "gap", "contact_normal", "stress", "von_mises"]
     for name, item in items.items():
         expected = ("Int", "4") if name == "contact_state" else ("Float", "8")
         assert (item.get("NumberType"), item.get("Precision")) == expected

@@ -25,7 +25,7 @@ pytestmark = pytest.mark.serial
 
 PROBE = Path(__file__).resolve().parents[1] / "paraview_probe.py"
 FIELDS = {"displacement": 3, "contact_state": 1, "contact_pressure": 1, "contact_force": 3, "tangential_force": 3,
-          "contact_traction": 3, "gap": 1, "contact_normal": 3}
+          "contact_traction": 3, "gap": 1, "contact_normal": 3, "stress": 9, "von_mises": 1}
 ARGS = ["--lev", "2", "--gap", "d3", "--load", "L2"]
 
 
@@ -147,7 +147,7 @@ def test_one_rank_equals_two_ranks(two_rank_run, tmp_path):
     xb, fb, cb = canonical(b)
     assert np.array_equal(xa, xb) and np.array_equal(ca, cb)
     assert np.array_equal(fa["contact_state"], fb["contact_state"])
-    for name in ("displacement", "contact_pressure", "tangential_force"):
+    for name in ("displacement", "contact_pressure", "tangential_force", "stress", "von_mises"):
         scale = np.abs(fa[name]).max()
         assert np.abs(fa[name] - fb[name]).max() <= 1e-6 * scale, name
 

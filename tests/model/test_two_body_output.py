@@ -31,7 +31,7 @@ from fenics_coulomb.io.xdmf import write_xdmf
 from fenics_coulomb.model.pairing import ContactPair
 
 FIELDS = ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
-          "contact_traction", "gap", "contact_normal", "master_reaction"]
+          "contact_traction", "gap", "contact_normal", "stress", "von_mises", "master_reaction"]
 
 
 def _gather_rows(comm, *arrays):

@@ -17,7 +17,8 @@ import h5py
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[2]
-FIELDS = {"displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force", "contact_traction", "gap",
+FIELDS = {"displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force", "stress",
+          "von_mises", "contact_traction", "gap",
           "contact_normal", "master_reaction", "body"}
 
 
