@@ -48,15 +48,16 @@ UNITS: dict[str, str] = {"length": "L", "area": "L^2", "pressure": "GPa", "stres
 FIELD_UNITS: dict[str, str] = {
     "displacement": "L", "contact_state": "", "contact_pressure": "GPa", "contact_force": "GPa*L^2",
     "tangential_force": "GPa*L^2", "contact_traction": "GPa", "gap": "L", "contact_normal": "",
-    "master_reaction": "GPa*L^2", "stress": "GPa", "von_mises": "GPa",
+    "master_reaction": "GPa*L^2", "stress": "GPa", "von_mises": "GPa", "body": "",
 }
 
 
 def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
     """The output Functions: displacement, contact_state, contact_pressure (force per area), contact_force
     (nodal force vector), tangential_force, contact_traction (traction vector), gap, contact_normal, stress and
-    von_mises (when the bilinear form gives the stress: :func:`stress_from_form`), and master_reaction for
-    contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
+    von_mises (when the bilinear form gives the stress: :func:`stress_from_form`), body (a mesh of several
+    bodies: 1, 2, … per connected component, numbered by its smallest mesh-file node index) and master_reaction
+    for contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
     V = model.V
     msh = V.mesh
     S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
@@ -93,6 +94,11 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     stress = stress_from_form(model.a_ufl, u)
     if stress is not None:
         fields = (*fields, *stress_functions(stress, msh))
+    if getattr(model, "num_bodies", 1) > 1:
+        body = dolfinx.fem.Function(S, name="body")
+        body.x.array[to_scalar] = np.asarray(model.body_of_block, dtype=np.float64) + 1.0
+        body.x.scatter_forward()
+        fields = (*fields, body)
     if not model.coupling.paired:
         return fields
     reaction = dolfinx.fem.Function(V, name="master_reaction")

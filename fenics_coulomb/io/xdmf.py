@@ -36,6 +36,10 @@ lengths in the mesh's unit L):
     (:func:`~fenics_coulomb.io.fields.stress_from_form`).
 ``von_mises``
     The von Mises stress √(3/2 s : s) of ``stress`` (GPa).
+``body``
+    A mesh of several bodies only: the body of every vertex, 1, 2, … (int32), the connected components of the
+    mesh numbered by their smallest mesh-file node index (independent of the partition); threshold on it to
+    see one body, e.g. the slave surface from the master side.
 ``master_reaction``
     Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.two_body`): the reaction on each master node,
     f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
@@ -260,7 +264,8 @@ def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveRe
     functions = contact_functions(model, result)
     if not result.converged:
         name = ("" if name == "solution" else f"{name}: ") + f"last iterate (NOT converged: {result.reason})"
-    xdmf.write(t, functions, dtypes={"contact_state": np.int32}, name=name,
+    dtypes = {key: np.int32 for key in ("contact_state", "body") if any(f.name == key for f in functions)}
+    xdmf.write(t, functions, dtypes=dtypes, name=name,
                information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
                             "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items()),
                             "units": ", ".join(f"{f.name} {FIELD_UNITS.get(f.name) or '1'}" for f in functions)})

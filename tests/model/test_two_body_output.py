@@ -31,7 +31,7 @@ from fenics_coulomb.io.xdmf import write_xdmf
 from fenics_coulomb.model.pairing import ContactPair
 
 FIELDS = ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
-          "contact_traction", "gap", "contact_normal", "stress", "von_mises", "master_reaction"]
+          "contact_traction", "gap", "contact_normal", "stress", "von_mises", "body", "master_reaction"]
 
 
 def _gather_rows(comm, *arrays):
@@ -102,6 +102,13 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
     # the physical displacement u = M z
     _, u_sorted = sort_by_coordinates(x_all, u_all)
     assert np.allclose(fields["displacement"], u_sorted, rtol=0, atol=1e-14)
+
+    # the body id: one value per block, the two blocks told apart
+    lower, upper = x[:, 2] < 5e-4, x[:, 2] > 5e-4  # the blocks: x3 <= 0 and x3 >= 1e-3
+    assert lower.any() and upper.any()
+    assert len(set(fields["body"][lower])) == 1 and len(set(fields["body"][upper])) == 1
+    assert {int(fields["body"][lower][0]), int(fields["body"][upper][0])} == {1, 2}
+    assert fields["body"].dtype == np.int32
 
     # contact fields on exactly the slave contact nodes, matched by coordinates
     slave_points = {tuple(r) for r in np.round(xs, 9)}
