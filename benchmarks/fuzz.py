@@ -66,6 +66,7 @@ GOOD = {
     "--friction": ["0", "0.23", "1"], "--variant": ["4a", "4b"], "--tol": ["0.1", "0.01"],
     "--rtol": ["1e-7", "1e-10"], "--pc": ["auto", "ilu", "gamg", "lu"], "--gamma-scale": ["0.01", "1"],
     "--start": ["zero", "undeformed"], "--steps": ["2"], "--max-it": ["50"], "--accuracy": ["1e-6"],
+    "--sliding": ["finite", "small"],
 }
 BAD = {
     "--lev": ["-1", "abc", "41", "1.5", ""], "--gap": ["d9", "x3", "1/", "__import__('os')", "sin(x1, x2)", ""],
@@ -74,7 +75,7 @@ BAD = {
     "--tol": ["0", "1", "-0.1", "nan"], "--rtol": ["0", "1", "-1e-8"], "--pc": ["none2", "", "ILU"],
     "--gamma-scale": ["0", "-1", "1e-300", "inf"], "--start": ["/nonexistent.xdmf", "/dev/null", "yes"],
     "--steps": ["0", "-3", "1e9", "x"], "--max-it": ["0", "-5", "1.5"], "--accuracy": ["0", "1", "-1"],
-    "--nested": ["-1", "x"], "--start-step": ["1"],
+    "--nested": ["-1", "x"], "--start-step": ["1"], "--sliding": ["large", "", "Finite", "1"],
 }
 PETSC_GOOD = [["-coulomb_ksp_monitor_cancel"], ["-coulomb_ksp_gmres_restart", "50"], ["-coulomb_pc_type", "jacobi"]]
 PETSC_BAD = [["-coulomb_ksp_max_it", "-3"], ["-coulomb_ksp_rtol", "-1"], ["-coulomb_"], ["-ksp_monitor"],
