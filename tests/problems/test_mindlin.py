@@ -31,8 +31,11 @@ demo = runpy.run_path(str(ROOT / "demos" / "mindlin.py"), run_name="mindlin_demo
 
 @pytest.fixture(scope="module")
 def cycle():
-    """The coarse cycle with every step's displacement kept."""
-    return demo["run_cycle"](MPI.COMM_WORLD, demo["QUICK_MESH"], amplitude=0.75, substeps=2, keep=True)
+    """The coarse cycle with every step's displacement kept, at rtol 1e-8: the physics residuals asserted below
+    (1e-6) sit just above the default rtol 1e-7's solve accuracy once the contact geometry follows the sphere
+    (finite sliding: 1.6e-6 at step 8 on 2 ranks)."""
+    return demo["run_cycle"](MPI.COMM_WORLD, demo["QUICK_MESH"], amplitude=0.75, substeps=2, keep=True,
+                             settings={"rtol": 1e-8})
 
 
 def by_branch(cycle, branch: str) -> list:
