@@ -214,8 +214,13 @@ def bump(comm: MPI.Comm, sliding: str, kind: str = "cylinder", directory: Path |
         x = X + problem.u.x.array.reshape(-1, 3)[:nloc][bottom]
         distance = np.min([o.signed_distance(x) for o in obstacles], axis=0) if x.size else np.zeros(0)
         worst = min(worst, comm.allreduce(float(distance.min(initial=np.inf)), op=MPI.MIN))
+    # the report's partner points lie on the obstacles, its positions are X + u (the same on every rank)
+    nodes = problem.report(result).nodes
+    on_surface = max((float(np.abs(o.signed_distance(nodes.partner[nodes.obstacle == j])).max(initial=0.0))
+                      for j, o in enumerate(obstacles)), default=0.0)
     problem.destroy()
-    return {"sliding": sliding, "kind": kind, "min_distance": worst, "updates": updates}
+    return {"sliding": sliding, "kind": kind, "min_distance": worst, "updates": updates,
+            "partner_off_surface": on_surface}
 
 
 def main() -> None:

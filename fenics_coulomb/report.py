@@ -89,6 +89,10 @@ class ContactNodes:
         gap: The gap at the solution (≥ 0), shape (p,).
         state: :class:`~fenics_coulomb.scd.resolvent.ContactState` codes (0 open, 1 stick, 2 slip), shape (p,).
         obstacle: Index of the node's obstacle in the problem's list, −1 for a contact-pair (slave) node.
+        position: The node's current position X + u, shape (p, 3).
+        partner: Its partner point in the current configuration, position − gap·normal: the closest point of its
+            obstacle, or the master point beneath a slave node along its normal (the node-to-surface closest
+            point; for dual mortar the point the weighted gap measures to), shape (p, 3).
     """
 
     coordinates: Array
@@ -100,6 +104,8 @@ class ContactNodes:
     gap: Array
     state: npt.NDArray[np.int8]
     obstacle: npt.NDArray[np.int64]
+    position: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    partner: Array = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def closed(self) -> npt.NDArray[np.bool_]:
@@ -238,16 +244,22 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     which = np.asarray(cmap.obstacle_index, dtype=np.int64).copy()
     if paired is not None and np.size(paired):
         which[np.asarray(paired, dtype=bool)] = -1
+    u = np.asarray(result.displacement, dtype=np.float64).reshape(-1, 3)[cmap.blocks]
+    position = _gather(comm, cmap.coordinates, order) + _gather(comm, u, order)
+    gap = _gather(comm, np.asarray(result.gap, dtype=np.float64), order)
+    normal = _gather(comm, cmap.normals, order)
     nodes = ContactNodes(
         coordinates=_gather(comm, cmap.coordinates, order),
-        normal=_gather(comm, cmap.normals, order),
+        normal=normal,
         area=_gather(comm, area, order),
         force=_gather(comm, force, order),
         normal_force=_gather(comm, normal_force, order),
         pressure=_gather(comm, pressure, order),
-        gap=_gather(comm, np.asarray(result.gap, dtype=np.float64), order),
+        gap=gap,
         state=_gather(comm, np.asarray(result.states, dtype=np.int8), order),
         obstacle=_gather(comm, which, order),
+        position=position,
+        partner=position - gap[:, None] * normal,
     )
     per_obstacle: dict[str, Array] = {}
     for i, obstacle in enumerate(obstacles):

@@ -59,6 +59,9 @@ def test_a_block_pushed_over_a_bump_never_penetrates_it(kind, tmp_path_factory):
     finite = bump(MPI.COMM_WORLD, "finite", kind, directory, steps=4)
     small = bump(MPI.COMM_WORLD, "small", kind, directory, steps=4)
     assert finite["min_distance"] >= -1e-8 * 0.6
+    # report.nodes.partner: the obstacle point beneath each node, to the geometry iteration's tolerance
+    # 8·rtol·|u| = 6.4e-9 (rtol 1e-9, |u| <= 0.8)
+    assert finite["partner_off_surface"] <= 8e-9 * 0.8
     assert small["min_distance"] < -1e-2  # the reference geometry does not see the bump under the slid nodes
     assert max(finite["updates"]) >= 1 and max(small["updates"]) == 0
 
