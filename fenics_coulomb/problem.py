@@ -44,7 +44,7 @@ from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairing import ContactPair
-from fenics_coulomb.model.sliding import (CYCLE_TOLERANCE, MAX_GEOMETRY_UPDATES, SMALL_SLIDE_WARNING, geometry_change,
+from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration,
                                           largest_slide)
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
@@ -531,9 +531,9 @@ class ContactProblem:
                            "its partner; the reference configuration's contact geometry no longer describes it: use "
                            "sliding = \"finite\"", ", ".join(f"{c:.6g}" for c in where), ratio)
 
-    def _solve_placed(self, start: npt.NDArray[np.float64]) -> SolveResult:
-        """One SCD solve of the model as placed, from ``start`` (the predictor and the no-contact shortcut first
-        when set; collective). A SolverError keeps its last iterate as :attr:`u`."""
+    def _solve_placed(self, start: npt.NDArray[np.float64], reduction: float | None = None) -> SolveResult:
+        """One SCD solve of the model as placed, from ``start``, to ``reduction`` (default rtol; the predictor and
+        the no-contact shortcut first when set; collective). A SolverError keeps its last iterate as :attr:`u`."""
         model, solver, settings = self.model, self.solver, self.settings
         if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
             result = solver.solve_linear()
@@ -545,7 +545,7 @@ class ContactProblem:
                 return result
             self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
-            return solver.solve(start)
+            return solver.solve(start, reduction)
         except SolverError as err:
             if err.result is not None:
                 err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
@@ -561,59 +561,49 @@ class ContactProblem:
             self.p = self.model.p
 
     def _solve_finite(self, u0: dolfinx.fem.Function | None) -> tuple[dolfinx.fem.Function, SolveResult]:
-        """Finite sliding: iterate the geometry (see :mod:`fenics_coulomb.model.sliding`): solve with G(u⁽ᵐ⁾)
-        linearized about u⁽ᵐ⁾, from u⁽ᵐ⁾, until G(u⁽ᵐ⁺¹⁾) has the same contact nodes and stencil supports and its
-        linearization moves no node's gap or slip by more than the solve's accuracy (collective)."""
+        """Finite sliding: iterate the geometry (:class:`~fenics_coulomb.model.sliding.GeometryIteration`): solve
+        with G(u⁽ᵐ⁾) linearized about u⁽ᵐ⁾, from u⁽ᵐ⁾, until G(u⁽ᵐ⁺¹⁾) has the same contact nodes and stencil supports
+        and its linearization moves no node's gap or slip by more than the solve's accuracy (collective)."""
         model = self.model
         configuration = self._previous  # u⁽⁰⁾: the previous step's physical u (None: the reference X)
         if configuration is not None or model.configuration is not None:
             self._configure(configuration)
         self._place()
-        result = self._solve_placed(self.initial_displacement(u0))
-        updates, newton, krylov = 0, result.iterations, result.krylov_iterations
-        solved: list[tuple[str, npt.NDArray[np.float64]]] = []  # (geometry, solution) of every solve
-        cycle_end = False
+        iteration = GeometryIteration(model, self.settings.reduction, ERROR_PER_RTOL, self._previous)
+        reduction = iteration.reduction
+        result = self._solve_placed(self.initial_displacement(u0), reduction)
+        newton, krylov = result.iterations, result.krylov_iterations
         while True:
             z = np.array(result.displacement, dtype=np.float64)
             u = model.physical(z)
-            change = geometry_change(model, u, z, self._previous, ERROR_PER_RTOL * self.settings.reduction)
-            solved.append((change.old_signature, u))
-            logger.debug("finite sliding: solved in %s, new %s: %s", change.old_signature[:8], change.new_signature[:8],
-                         change.describe() if not change.settled else "settled")
-            if change.settled:
+            step = iteration.after(u, z, reduction, result.iterations)
+            if step.change is not None:
+                logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
+                             step.change.new_signature[:8], step.action)
+            if step.action == "settled":
                 break
-            if cycle_end:
-                break
-            if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
-                amplitude = model.comm.allreduce(float(np.max(np.abs(u - solved[-2][1]), initial=0.0)), op=MPI.MAX)
-                h = model.comm.allreduce(float(np.min(model.node_size()[model.contact.blocks], initial=np.inf)),
-                                         op=MPI.MIN)
-                if amplitude <= CYCLE_TOLERANCE * h:
-                    if model.comm.rank == 0:
-                        logger.warning("finite sliding: %s, back and forth between two geometries whose solutions "
-                                       "differ by %.3g (%.2g of the smallest cell at the contact nodes): the one of "
-                                       "the smaller elastic energy is kept", change.describe(), amplitude,
-                                       amplitude / h)
-                    if model.elastic_energy(u) <= model.elastic_energy(solved[-2][1]):
-                        break
-                    cycle_end = True  # one more solve, in the other geometry of the cycle
-            if updates == MAX_GEOMETRY_UPDATES:
-                result.geometry_updates = updates
+            if step.action == "fail":
+                result.geometry_updates = iteration.updates
                 result.converged, result.reason = False, "geometry"
                 result.checks = physics_residuals(model, z, balance=False)
                 self._finish(result)
-                raise SolverError(f"finite sliding: the contact geometry did not settle after {updates} updates "
-                                  f"({change.describe()})", "geometry", result)
-            updates += 1
-            self._configure(u, change.pairing)
-            self._place()
-            start = model.relative(u)
-            start[model.dirichlet_rows] = model.dirichlet_values
-            result = self._solve_placed(start)
+                raise SolverError(step.message, "geometry", result)
+            if step.action == "update":
+                assert step.change is not None
+                self._configure(u, step.change.pairing)
+                self._place()
+                start = model.relative(u)
+                start[model.dirichlet_rows] = model.dirichlet_values
+                self._log(f"finite sliding: geometry update {iteration.updates} ({step.message})")
+            else:  # the same geometry, on to rtol
+                start = z
+                self._log(f"finite sliding: {step.message}")
+            reduction = iteration.reduction
+            earlier = result.timings
+            result = self._solve_placed(start, reduction)
             newton, krylov = newton + result.iterations, krylov + result.krylov_iterations
-            if self.model.comm.rank == 0:
-                logger.info("finite sliding: geometry update %d (%s)", updates, change.describe())
-        result.geometry_updates = updates
+            result.timings["total"] = result.timings.get("total", 0.0) + earlier.get("total", 0.0)  # every geometry
+        result.geometry_updates = iteration.updates
         result.iterations, result.krylov_iterations = newton, krylov  # over every geometry of the solve
         self._verify(result)
         return self._finish(result, commit=result.converged), result

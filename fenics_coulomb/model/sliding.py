@@ -34,6 +34,18 @@ displacement accuracy, e = ERROR_PER_RTOL·rtol (:data:`fenics_coulomb.settings.
 largest ratio measured in docs/tradeoff, the bound ``--accuracy`` uses). At most :data:`MAX_GEOMETRY_UPDATES`
 updates; then the solve fails (exit 3) naming the nodes whose pairing keeps changing.
 
+**Accuracy of the intermediate solves.** Only the last solve's accuracy reaches the answer: an intermediate
+solution serves to place the next geometry, and the iteration damps its error (u⁽ᵐ⁺¹⁾'s error moves G(u⁽ᵐ⁺¹⁾) and
+with it u⁽ᵐ⁺²⁾ by the iteration's contraction, measured 1/30–1/100 per update). :class:`GeometryIteration`
+therefore solves the first geometry to the reduction √rtol (when the geometry can change at all: pairs or a curved
+obstacle; with planes only every solve is to rtol, bit for bit as small sliding), a geometry after a change of
+Δ to θ·Δ/(e_r‖u‖_∞) (θ = :data:`LOOSE_FACTOR`, e_r = ERROR_PER_RTOL: a displacement error a tenth of the change
+that prompted the update), never looser than the previous solve and never tighter than rtol; when the geometry of a
+loose solve has settled, the same geometry is solved on to rtol and checked again. An update whose solve starts
+already converged (no Newton step: u⁽ᵐ⁺¹⁾ = u⁽ᵐ⁾, the configuration itself) has settled without another check (a
+loose one is solved on to rtol); a reduction within 10× of rtol is rtol (no separate solve on to rtol).
+The reduction never increases, so once at rtol the iteration is the plain one above.
+
 **Nodes on a master edge.** The node-to-surface rules are discontinuous where a slave node's closest point crosses
 a master edge with a kink: the constraint's normal jumps from one facet's to the other's, and with it the direction
 of the contact force; a node beside such an edge is projected onto facet A, its solution moves it over facet B,
@@ -52,6 +64,7 @@ above. (The cycle itself is recognized by a digest of the contact nodes and supp
 from __future__ import annotations
 
 import hashlib
+import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -67,9 +80,12 @@ if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
     from fenics_coulomb.model.pairing import Pairing
 
-__all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "largest_slide", "GeometryChange", "supports", "geometry_change"]
+__all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "LOOSE_FACTOR", "largest_slide",
+           "GeometryChange", "GeometryIteration", "supports", "geometry_change"]
 
 Array = npt.NDArray[np.float64]
+
+logger = logging.getLogger(__name__)
 
 #: The most geometry updates of one solve (finite sliding).
 MAX_GEOMETRY_UPDATES = 10
@@ -80,6 +96,10 @@ SMALL_SLIDE_WARNING = 0.5
 #: A 2-cycle of the geometry (nodes flipping across a master edge) is accepted when its two solutions differ by at
 #: most this × the smallest cell diameter at the contact nodes (see "Nodes on a master edge").
 CYCLE_TOLERANCE = 1e-3
+
+#: An intermediate geometry is solved to a displacement error of this × the geometry change that prompted it (see
+#: "Accuracy of the intermediate solves").
+LOOSE_FACTOR = 0.1
 
 
 @dataclass
@@ -245,6 +265,108 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
 
     return GeometryChange(settled, changed, discrepancy, tolerance, where, pairing, signature(old_nodes, old_rows),
                           signature(new_nodes, new_rows))
+
+
+@dataclass
+class Step:
+    """What the geometry iteration does after a solve.
+
+    Attributes:
+        action: "settled" (the solve is the answer), "update" (solve in G(u⁽ᵐ⁺¹⁾), adopting ``change.pairing``),
+            "continue" (solve the same geometry on to rtol from the solution) or "fail" (no settling).
+        change: The comparison of the geometries (None when none was needed).
+        message: One line for the log or the error.
+    """
+
+    action: str
+    change: GeometryChange | None = None
+    message: str = ""
+
+
+class GeometryIteration:
+    """The decisions of one solve's geometry iteration (collective; the same on every rank): the reduction of
+    every solve, when the geometry has settled, 2-cycles across master edges, the limit of updates. The solving
+    itself stays with :class:`~fenics_coulomb.problem.ContactProblem`.
+
+    Args:
+        model: The contact model (configured and placed for the first solve).
+        rtol: The solve's residual reduction; e = ``error_per_rtol``·rtol its relative displacement accuracy.
+        error_per_rtol: The displacement error per unit of residual reduction.
+        previous: The previous step's physical displacement (owned DOFs), None for 0.
+    """
+
+    def __init__(self, model: ContactModel, rtol: float, error_per_rtol: float, previous: Array | None) -> None:
+        self.model = model
+        self.rtol = float(rtol)
+        self.error_per_rtol = float(error_per_rtol)
+        self.previous = previous
+        fixed = model.pairing is None and all(o.affine for o in model.obstacles)
+        #: The reduction of the next solve (never increasing).
+        self.reduction = self.rtol if fixed else max(self.rtol, min(self.rtol ** 0.5, 1e-3))
+        #: Geometry updates so far.
+        self.updates = 0
+        self._solved: list[tuple[str, Array, float]] = []  # (geometry, solution, reduction) of every solve
+        self._last = False
+
+    def _at_configuration(self, u: Array, iterations: int) -> bool:
+        """Whether a solve without a Newton step returned the configuration its geometry was evaluated at."""
+        model = self.model
+        if iterations or model.configuration is None:
+            return False
+        size = u.size
+        configuration = model.configuration[:size]
+        scale = model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
+        off = model.comm.allreduce(float(np.max(np.abs(u - configuration), initial=0.0)), op=MPI.MAX)
+        return off <= 1e-12 * scale
+
+    def after(self, u: Array, z: Array, reduction: float, iterations: int) -> Step:
+        """Decide after a solve to ``reduction`` with ``iterations`` Newton steps whose solution is ``u``
+        (physical) / ``z`` (the model's unknown), both on the owned DOFs (collective)."""
+        model, rtol = self.model, self.rtol
+        if self._last:  # the kept geometry of an accepted 2-cycle, solved once more
+            return Step("settled")
+        if self._at_configuration(u, iterations):  # G(u⁽ᵐ⁺¹⁾) = G(u⁽ᵐ⁾), exactly linearized
+            if reduction <= rtol:
+                return Step("settled")
+            self.reduction = rtol
+            return Step("continue", None, f"the start meets the loose reduction {reduction:.3g}: solved on to rtol "
+                                          f"{rtol:g}")
+        change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol)
+        self._solved.append((change.old_signature, u, reduction))
+        if change.settled:
+            if reduction <= rtol:
+                return Step("settled", change)
+            self.reduction = rtol
+            return Step("continue", change, f"the geometry settled: solved on to rtol {rtol:g}")
+        step = Step("update", change, change.describe())
+        solved = self._solved
+        if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
+            if max(solved[-1][2], solved[-2][2]) > rtol:
+                self.reduction = rtol  # a cycle seen at loose accuracy: look again at rtol
+            else:
+                amplitude = model.comm.allreduce(float(np.max(np.abs(u - solved[-2][1]), initial=0.0)), op=MPI.MAX)
+                h = model.comm.allreduce(float(np.min(model.node_size()[model.contact.blocks], initial=np.inf)),
+                                         op=MPI.MIN)
+                if amplitude <= CYCLE_TOLERANCE * h:
+                    if model.comm.rank == 0:
+                        logger.warning("finite sliding: %s, back and forth between two geometries whose solutions "
+                                       "differ by %.3g (%.2g of the smallest cell at the contact nodes): the one of "
+                                       "the smaller elastic energy is kept", change.describe(), amplitude,
+                                       amplitude / h)
+                    if model.elastic_energy(u) <= model.elastic_energy(solved[-2][1]):
+                        return Step("settled", change)
+                    self._last = True  # one more solve, in the other geometry of the cycle
+        if self.updates == MAX_GEOMETRY_UPDATES:
+            return Step("fail", change, f"finite sliding: the contact geometry did not settle after "
+                                        f"{self.updates} updates ({change.describe()})")
+        if not change.changed:
+            scale = model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
+            wanted = LOOSE_FACTOR * change.discrepancy / (self.error_per_rtol * scale) if scale > 0 else rtol
+            self.reduction = min(self.reduction, rtol if wanted <= 10.0 * rtol else wanted)
+        if 2 * self.updates >= MAX_GEOMETRY_UPDATES:
+            self.reduction = rtol
+        self.updates += 1
+        return step
 
 
 def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[float]]:

@@ -500,13 +500,14 @@ class SCDNewtonSolver:
         self.r.axpy(-1.0, self.model.rhs)
         return self.approximation_step(u, self.r.getArray(readonly=True).copy())
 
-    def stopping_rule(self, first: Iterate) -> StoppingRule:
+    def stopping_rule(self, first: Iterate, reduction: float | None = None) -> StoppingRule:
         """The stopping rule for a solve starting at ``first`` (:mod:`fenics_coulomb.scd.stopping`): relative to the
-        residual of ũ = 0, whatever the start."""
+        residual of ũ = 0, whatever the start; ``reduction`` (default the settings' rtol) the reduction asked."""
         shift = self.model.shift.getArray(readonly=True)
         load = self.norm(self.model.load.getArray(readonly=True))
         zero = self.undeformed()
-        return StoppingRule.create(self.settings.reduction, self.settings.max_it, first.residual, zero.residual,
+        rtol = self.settings.reduction if reduction is None else float(reduction)
+        return StoppingRule.create(rtol, self.settings.max_it, first.residual, zero.residual,
                                    self.norm(shift), self.norm(first.u - shift), load, self.gamma)
 
     def zero_if_converged(self, it: Iterate, rule: StoppingRule) -> Iterate:
@@ -523,8 +524,9 @@ class SCDNewtonSolver:
             logger.info("ũ = 0 meets the stopping rule (|y| = %.3e): the load is below round-off", it.residual)
         return zero
 
-    def solve(self, initial_displacement: Array | None = None) -> SolveResult:
-        """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0).
+    def solve(self, initial_displacement: Array | None = None, reduction: float | None = None) -> SolveResult:
+        """Solve the contact problem from ũ⁽⁰⁾ (owned DOFs of the physical displacement; default 0) to the residual
+        reduction ``reduction`` (default the settings' rtol; finite sliding solves intermediate geometries looser).
 
         Raises:
             SolverError: when the method does not converge; ``error.result`` holds the last iterate.
@@ -533,7 +535,7 @@ class SCDNewtonSolver:
         self._steps = 0
         self._limited = 0
         it = self.start(initial_displacement)
-        rule = self.stopping_rule(it)
+        rule = self.stopping_rule(it, reduction)
         it = self.zero_if_converged(it, rule)
         history = [it.residual]
         records: list[IterationRecord] = []
@@ -543,7 +545,7 @@ class SCDNewtonSolver:
             gammas = f"{self.gamma:.4g}" if lo == hi == self.gamma else f"{self.gamma:.4g} (contact {lo:.3g}-{hi:.3g})"
             logger.info("SCD semismooth* Newton (%s, tol=%g, pc=%s, gamma=%s): |y0| = %.3e, stops at |y| <= %.3e "
                         "(rtol %g x |y(u = 0)|: |y|/|y0| <= %.3e)", self.step.name, self.tol, self.pc, gammas,
-                        it.residual, rule.threshold, self.settings.reduction,
+                        it.residual, rule.threshold, rule.rtol,
                         rule.threshold / it.residual if it.residual > 0 else 0.0)
         try:
             while not rule.satisfied(it.residual):
@@ -593,7 +595,7 @@ class SCDNewtonSolver:
             gap=it.v[:, 2].copy(),
             gamma=self.gamma,
             node_gamma=self._node_gamma_range(),
-            rtol=self.settings.reduction,
+            rtol=rule.rtol if rule is not None else self.settings.reduction,
             target=rule.threshold if rule is not None else 0.0,
             timings=dict(self.timings),
             pc=self.pc,

@@ -107,7 +107,10 @@ def test_a_faceted_plane_is_the_plane(mpi_tmp_path):
     b, ub = _solve(mpi_tmp_path, "faceted", faceted)
     assert a["state_counts"] == b["state_counts"] and a["state_counts"]["stick"] + a["state_counts"]["slip"] > 0
     assert np.linalg.norm(ub - ua) <= 1e-10 * np.linalg.norm(ua)
-    assert np.allclose(b["contact_force"], a["contact_force"], rtol=1e-10, atol=1e-14)
+    # the surface's geometry is checked after a looser first solve (finite sliding), the plane's is fixed: the
+    # forces agree to the solves' accuracy, not bit for bit
+    force = np.asarray(a["contact_force"])
+    assert np.linalg.norm(np.asarray(b["contact_force"]) - force) <= 1e-10 * np.linalg.norm(force)
 
 
 def test_a_faceted_sphere_approaches_the_sphere(mpi_tmp_path):
