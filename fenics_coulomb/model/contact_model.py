@@ -42,6 +42,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 from collections.abc import Sequence
+from typing import Any
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -167,6 +168,17 @@ def _previous_placements(obstacles: Sequence[Obstacle], previous: npt.ArrayLike 
     return before if rotating else None
 
 
+
+def _same_placements(a: tuple, b: tuple) -> bool:
+    """Whether two (obstacles, previous placements) keys of :meth:`ContactModel.check_motion` are the same
+    placements: the same obstacle objects (placed obstacles are immutable; a move makes new ones) and the same
+    previous obstacles or displacements."""
+    def same(x: Any, y: Any) -> bool:
+        if x is None or y is None or isinstance(x, bytes) or isinstance(y, bytes):
+            return x == y
+        return len(x) == len(y) and all(p is q for p, q in zip(x, y))
+    return same(a[0], b[0]) and same(a[1], b[1])
+
 class ContactModel:
     """The algebraic contact problem (A, l̃, d, l, Q) of Section 6, with PETSc storage.
 
@@ -225,6 +237,9 @@ class ContactModel:
         #: The configuration the contact geometry is evaluated in: the physical displacement u of every local
         #: DOF (owned and ghost; None: the reference configuration X).
         self.configuration: npt.NDArray[np.float64] | None = None
+        self._closest_cache: tuple | None = None  # (obstacles, points, closest_obstacle's result)
+        self._motion_checked: tuple | None = None  # the placements check_motion passed last
+        self._material_cache: tuple | None = None  # (obstacle, points, its closest points)
         self._A_free: PETSc.Mat | None = None
         self._ghosted: dolfinx.fem.Function | None = None
         obstacle_contact = None
@@ -605,7 +620,7 @@ class ContactModel:
         if rigid.size:
             X = cmap.coordinates[rigid]
             u = self._at_blocks(cmap.blocks[rigid])
-            index, gap, _, frames = closest_obstacle(obstacles, X + u if finite else X)
+            index, gap, _, frames = self.closest(obstacles, X + u if finite else X)
             # round-off below the surface (e.g. from mesh generators) counts as touching
             gap[(gap < 0.0) & (gap > -1e-12 * self._size)] = 0.0
             if finite:  # linearized about the configuration: g(X + u_c) + n·(u − u_c)
@@ -627,7 +642,7 @@ class ContactModel:
                 for j, (now, before) in enumerate(zip(obstacles, previous_obstacles, strict=True)):
                     mine = index == j
                     if np.any(mine):
-                        moved[mine] = now.motion(before, before.closest_point(x[mine]))
+                        moved[mine] = now.motion(before, self.material_point(before, x[mine]))
                 offset[rigid] = moved
             elif previous_obstacle_displacements is not None:
                 previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
@@ -651,6 +666,31 @@ class ContactModel:
         self.A.mult(self.shift, self.rhs)
         self.rhs.axpy(1.0, self.load)
 
+    def closest(self, obstacles: Sequence[Obstacle], x: npt.NDArray[np.float64]
+                ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64], npt.NDArray[np.float64],
+                           npt.NDArray[np.float64]]:
+        """:func:`~fenics_coulomb.model.obstacles.closest_obstacle` of the points ``x``, remembered for the last
+        obstacles and points: the geometry check of finite sliding and the next placement ask for the same points
+        (copies returned)."""
+        cached = self._closest_cache
+        if cached is not None and len(cached[0]) == len(obstacles) and all(
+                a is b for a, b in zip(cached[0], obstacles)) and np.array_equal(cached[1], x):
+            result = cached[2]
+        else:
+            result = closest_obstacle(obstacles, x)
+            self._closest_cache = (list(obstacles), np.array(x, copy=True), result)
+        return tuple(np.array(r, copy=True) for r in result)  # type: ignore[return-value]
+
+    def material_point(self, obstacle: Obstacle, x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """``obstacle.closest_point(x)``, remembered for the last obstacle and points: a rotating obstacle's
+        material point beneath a node at the previous step is the same at every geometry update of a step."""
+        cached = self._material_cache
+        if cached is not None and cached[0] is obstacle and np.array_equal(cached[1], x):
+            return np.array(cached[2], copy=True)
+        point = obstacle.closest_point(x)
+        self._material_cache = (obstacle, np.array(x, copy=True), np.array(point, copy=True))
+        return point
+
     def check_motion(self, obstacles: Sequence[Obstacle],
                      previous_displacements: npt.ArrayLike | Sequence[Obstacle] | None) -> None:
         """InputError on every rank (collective) for obstacles whose placement the contact nodes cannot see:
@@ -670,6 +710,16 @@ class ContactModel:
             self._scene_obstacles = [o.moved(np.zeros(3)) for o in obstacles]
             check_solid_side(obstacles, self.V.mesh.geometry.x, self.comm, self._size)
         if self._locator is None:
+            return
+        # the check depends on the placements only (the body's reference mesh): once per placement, not again at
+        # every geometry update of finite sliding
+        if previous_displacements is None or (len(previous_displacements) and  # type: ignore[arg-type]
+                                              isinstance(previous_displacements[0], Obstacle)):  # type: ignore[index]
+            previous_key: Any = None if previous_displacements is None else tuple(previous_displacements)  # type: ignore[arg-type]
+        else:
+            previous_key = np.asarray(previous_displacements, dtype=np.float64).tobytes()
+        key = (tuple(obstacles), previous_key)
+        if self._motion_checked is not None and _same_placements(self._motion_checked, key):
             return
         loc = self._locator
         if previous_displacements is None:
@@ -700,6 +750,7 @@ class ContactModel:
                 what = (f"its {core} lies inside the body at {where} (displacement {list(obstacle.displacement)}): "
                         "an obstacle buried in the body, or indenting it too deep")
             raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
+        self._motion_checked = key
 
     def _friction_at_contact_nodes(self, friction: Friction, blocks: npt.NDArray[np.int32] | None = None
                                    ) -> float | npt.NDArray[np.float64]:

@@ -73,7 +73,6 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.model.obstacles import closest_obstacle
 from fenics_coulomb.model.two_body import coupling_matrix
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -197,7 +196,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     index = np.zeros(0, np.intp)
     if rigid.size:
         uc = U[cmap.blocks[rigid]]
-        index, g, n, _ = closest_obstacle(model.obstacles, x_now[rigid])
+        index, g, n, _ = model.closest(model.obstacles, x_now[rigid])
         moved[rigid] = index != cmap.obstacle_index[rigid]
         n_old = cmap.frames[rigid][:, :, 2]
         linear = cmap.gap[rigid] + np.einsum("ij,ij->i", n_old, uc)

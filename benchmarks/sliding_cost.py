@@ -1,0 +1,106 @@
+# ---
+# jupytext:
+#   text_representation:
+#     extension: .py
+#     format_name: light
+# ---
+
+# # The cost of finite sliding against small sliding on the demo scenes
+#
+# Every demo scene solved with `--sliding finite` and `--sliding small`, back to back in one process (the form
+# kernels compiled once, so the second mode is not charged for it), alternating which mode runs first: Newton
+# iterations over every geometry, geometry updates, and the solver's wall time (the sum over the steps of a path;
+# model set-up and output excluded). Writes `docs/sliding/cost.md`.
+#
+#     python3 benchmarks/sliding_cost.py [--out docs/sliding] [--scenes NAME ...]
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from fenics_coulomb.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: The scenes measured: every demo scene with something curved (pairs, spheres, cylinders, STL) and, as the
+#: control, planes (no update, bit for bit).
+SCENES = ["sphere_indentation", "surface_ball", "cylinder_roller", "two_bodies", "slide_off", "tilted_plane", "roller",
+          "d3_L2_path", "cylinder_drag_path", "roller_rolling_path", "stl_roller_rolling"]
+
+
+def measure(comm: MPI.Comm, scene: str, sliding: str, out: Path) -> dict[str, Any]:
+    """Solve ``scene`` in one sliding mode; Newton iterations, geometry updates, solver and command wall time."""
+    t0 = time.perf_counter()
+    status = main(["--scene", str(ROOT / "demos" / "scenes" / f"{scene}.toml"), "--sliding", sliding, "--out",
+                   str(out), "--quiet", "--no-plots"])
+    command = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    summary = json.loads((out / "summary.json").read_text())
+    row: dict[str, Any] = {"status": status, "command_s": command}
+    if (out / "path.csv").exists():
+        with open(out / "path.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        row["solves"] = len(rows)
+        row["newton"] = sum(int(r["newton_iterations"]) for r in rows)
+        row["updates"] = sum(int(r.get("geometry_updates") or 0) for r in rows)
+        row["solve_s"] = sum(float(r["wall_time_s"]) for r in rows)
+    else:
+        row["solves"] = 1
+        row["newton"] = int(summary["newton_iterations"])
+        row["updates"] = int(summary.get("geometry_updates") or 0)
+        row["solve_s"] = float(summary["wall_time_s"])
+    return row
+
+
+def table(comm: MPI.Comm, scenes: list[str], work: Path) -> list[dict[str, Any]]:
+    """Both modes of every scene, back to back, the first mode alternating from scene to scene."""
+    rows = []
+    for k, scene in enumerate(scenes):
+        modes = ("finite", "small") if k % 2 == 0 else ("small", "finite")
+        result = {m: measure(comm, scene, m, work / f"{scene}_{m}") for m in modes}
+        rows.append({"scene": scene, **{f"{m}_{key}": v for m in modes for key, v in result[m].items()}})
+        if comm.rank == 0:
+            f, s = result["finite"], result["small"]
+            print(f"{scene}: Newton {s['newton']} -> {f['newton']} ({f['updates']} updates), solve "
+                  f"{s['solve_s']:.2f} -> {f['solve_s']:.2f} s", flush=True)
+    return rows
+
+
+def write(rows: list[dict[str, Any]], path: Path, comm: MPI.Comm) -> None:
+    """The Markdown table (rank 0)."""
+    if comm.rank != 0:
+        return
+    load = os.getloadavg()[0]
+    lines = [f"Measured with `python3 benchmarks/sliding_cost.py` on {comm.size} rank(s), load average "
+             f"{load:.1f} at the end (2-core machine), {time.strftime('%Y-%m-%d')}. Newton iterations over every "
+             "geometry of every solve; solve time = the solver's wall time summed over the solves (set-up and output "
+             "excluded).", "",
+             "| scene | solves | small Newton | finite Newton (updates) | Newton ratio | small solve s | finite solve s "
+             "| time ratio | small command s | finite command s |", "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(
+            f"| {r['scene']} | {r['finite_solves']} | {r['small_newton']} | {r['finite_newton']} ({r['finite_updates']}) "
+            f"| {r['finite_newton'] / max(r['small_newton'], 1):.2f} | {r['small_solve_s']:.2f} | {r['finite_solve_s']:.2f} "
+            f"| {r['finite_solve_s'] / max(r['small_solve_s'], 1e-9):.2f} | {r['small_command_s']:.1f} "
+            f"| {r['finite_command_s']:.1f} |")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--out", default=str(ROOT / "docs" / "sliding"))
+    parser.add_argument("--scenes", nargs="*", default=SCENES)
+    args = parser.parse_args()
+    comm = MPI.COMM_WORLD
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(comm.bcast(tmp if comm.rank == 0 else None))
+        write(table(comm, args.scenes, work), Path(args.out) / "cost.md", comm)
