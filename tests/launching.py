@@ -24,15 +24,16 @@ def command_env(display: bool = True) -> dict[str, str]:
     return env
 
 
-def start_in_newton(args: list[str], ranks: int = 2, display: bool = True) -> subprocess.Popen:
-    """``mpirun -n ranks python3 -m fenics_coulomb *args`` in a new session, returned once it printed its first
-    Newton iteration (the ranks are inside the solve); RuntimeError if it ended before."""
+def start_in_newton(args: list[str], ranks: int = 2, display: bool = True, marker: str = "it ") -> subprocess.Popen:
+    """``mpirun -n ranks python3 -m fenics_coulomb *args`` in a new session, returned once it printed a line
+    starting with ``marker`` (default its first Newton iteration: the ranks are inside the solve); RuntimeError if
+    it ended before."""
     cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "fenics_coulomb", *args]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=command_env(display), start_new_session=True)
     assert proc.stdout is not None
     for line in proc.stdout:
-        if line.startswith("it "):
+        if line.startswith(marker):
             return proc
     raise RuntimeError(f"the run ended before its first Newton iteration (status {proc.wait()})")
 

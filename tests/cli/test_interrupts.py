@@ -109,3 +109,36 @@ def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
     assert not left, left
     assert _digest(out) == before  # the earlier result set, byte for byte
     assert not [p for p in os.listdir(tmp_path) if "partial" in p]
+
+
+@pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("ranks", signal.SIGTERM)],
+                         ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
+def test_interrupt_during_the_geometry_iteration(tmp_path, target, signum):
+    """Finite sliding: a signal right after a geometry update (the ranks re-pair, re-place and solve again) ends
+    every rank with 128 + the signal and keeps the earlier result set."""
+    out = tmp_path / "out"
+    subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--no-plots",
+                    "--quiet"], env=command_env(display=False), check=True)
+    before = _digest(out)
+    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "stl_roller_rolling.toml"
+    try:  # -v: a load path's geometry updates are logged per solve
+        proc = start_in_newton(["--scene", str(scene), "-v", "--out", str(out), "--no-plots"], display=False,
+                               marker="finite sliding: geometry update")
+    except RuntimeError as err:
+        pytest.fail(str(err))
+    ranks = rank_pids(proc)
+    for rank in ranks[-1:] if target == "rank" else ranks:
+        os.kill(rank, signum)
+    try:
+        rest, _ = proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        pytest.fail(f"{signal.Signals(signum).name} to {target}: the run hung")
+    assert proc.returncode == 128 + signum, rest[-2000:]
+    assert f"interrupted by {signal.Signals(signum).name}" in rest
+    deadline = time.monotonic() + 5.0
+    while (left := session_processes(proc.pid)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not left, left
+    assert _digest(out) == before
+    assert not [p for p in os.listdir(tmp_path) if "partial" in p]
