@@ -231,7 +231,8 @@ class ContactModel:
         #: u = M z: the identity for one body, :class:`~fenics_coulomb.model.coupling.PairCoupling` for two.
         self.coupling: Coupling = IdentityCoupling()
         self._free_coupling: PETSc.Mat | None = None
-        self._prefix = prefix
+        #: The PETSc options prefix of every object the model creates.
+        self.prefix = prefix
         #: "finite" (the contact geometry follows the deformation, :meth:`configure`) or "small" (reference).
         self.sliding = sliding
         #: The configuration the contact geometry is evaluated in: the physical displacement u of every local
@@ -370,7 +371,7 @@ class ContactModel:
         |g|, ties: the pair; obstacle nodes keep z = u, no row of Φ), M = I + Φ, Ã = Mᵀ A_free M with the
         Dirichlet rows and columns of s I (:mod:`fenics_coulomb.model.two_body` derives it), l̃_z and the
         contact map (collective)."""
-        V, comm, prefix = self.V, self.comm, self._prefix
+        V, comm, prefix = self.V, self.comm, self.prefix
         obstacle_map = self._obstacle_map
         if obstacle_map is not None:
             keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
@@ -519,7 +520,7 @@ class ContactModel:
         free = self.pairing.free
         if self._free_coupling is None:
             self._free_coupling = coupling_matrix(self.V, free["blocks"], free["master_blocks"], free["weights"],
-                                                  f"{self._prefix}free_")
+                                                  f"{self.prefix}free_")
         x, y = self._free_coupling.createVecs()
 
         def w_of(v: npt.ArrayLike) -> npt.NDArray[np.float64]:

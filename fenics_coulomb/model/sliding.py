@@ -236,7 +236,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         if same_nodes:  # every rank: the coupling matrix of the new stencils is collective
             size_local = model.V.dofmap.index_map.size_local
             M = coupling_matrix(model.V, pairing.blocks, pairing.master_blocks, pairing.weights,
-                                f"{model._prefix}geometry_")
+                                f"{model.prefix}geometry_")
             x, y = M.createVecs()
             x.array[:] = step[:3 * size_local]
             M.mult(x, y)
