@@ -3,7 +3,8 @@
 Coarse meshes of every case, each with its own bound derived from the reference:
 
 * the incline is statics once every contact node slides: push/weight = (tan α + μ)/(1 − μ tan α) to the
-  solver's tolerance on any mesh;
+  solver's tolerance on any mesh — built through the API, and as the scene file docs/verification/incline.toml
+  (a per-component push, rollers through the contact face);
 * the mortar patch test is exact (round-off); node-to-surface fails it on non-matching meshes;
 * Hertz on the coarse block (h₀ = a/3): the contact radius within the mesh's resolution h₀/2 of Hertz's
   a = (3PR/4E*)^{1/3}; linear tetrahedra are stiffer than the exact solution and the clamped block stiffer than
@@ -30,6 +31,7 @@ from verification import (  # noqa: E402
     hertz_indentation,
     incline,
     incline_reference,
+    incline_scene,
     lubkin,
     patch,
 )
@@ -44,6 +46,19 @@ def test_incline_reference_values():
     assert incline_reference(0.3) == pytest.approx(0.412371, abs=5e-7)
     assert incline_reference(0.0) == pytest.approx(TAN_ALPHA, rel=1e-15)
     assert incline_reference(0.3, tan_alpha=0.0) == pytest.approx(0.3, rel=1e-15)
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_block_pushed_up_an_incline_as_a_scene(friction):
+    """docs/verification/incline.toml (meshes/incline.msh): every contact node slides, the push's reaction over
+    the weight is the statics' ratio to 1e-9, the rollers' bottom-edge nodes are contact nodes (20 of the 25
+    bottom nodes: the pushed end's 5 are driven along the contact), the rollers balance each other, all balances."""
+    r = incline_scene(MPI.COMM_WORLD, friction, level=0)
+    assert r["converged"] and r["all_slide"] and r["open"] == 0
+    assert abs(r["error"]) <= 1e-9
+    assert r["contact_nodes"] == 20
+    assert r["weight"] == pytest.approx(0.5, rel=1e-12)
+    assert r["hold"] <= 1e-9 and r["balance"] <= 1e-9
 
 
 @pytest.mark.parametrize("friction", FRICTIONS)
