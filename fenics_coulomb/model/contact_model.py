@@ -56,7 +56,7 @@ import ufl
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap, held_blocks, hold
 from fenics_coulomb.model.coupling import Coupling, IdentityCoupling, PairCoupling
-from fenics_coulomb.model.frames import local_shift, to_global
+from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames, local_shift, to_global
 from fenics_coulomb.model.mesh_checks import BodyLocator, check_mesh
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, closest_obstacle, core_path
 from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
@@ -325,7 +325,8 @@ class ContactModel:
         """The bodies, their supports, A_free and the obstacles' contact nodes once; then the pairing of the
         reference configuration (:meth:`_pair`; collective)."""
         V, comm = self.V, self.comm
-        self._excluded = np.unique(dirichlet // 3)
+        #: Never slave contact nodes: clamped, or held at a non-zero value (:meth:`_not_contact`).
+        self._excluded = self._not_contact()
         #: Body of every local DOF block (connected components of the mesh) and their number.
         self.body_of_block, self.num_bodies = connected_bodies(V)
         check_rigid_support(V, self.body_of_block, self.num_bodies, self.dirichlet_rows)
@@ -372,6 +373,25 @@ class ContactModel:
         first = next((m for m in self.comm.allgather(message) if m), "")
         check_all(self.comm, not first, first)
 
+    def held_pairing(self, pairing: Pairing) -> tuple[Pairing, npt.NDArray[np.bool_]]:
+        """The pairing with the frames of its slave nodes with held components (held axes first, the normal
+        projected: :func:`~fenics_coulomb.model.frames.held_frames` with the pairs' tolerance), without the nodes
+        whose held direction is not orthogonal to their normal (logged; collective), and the held components of
+        its nodes, shape (m, 3)."""
+        held = self._held[pairing.blocks]
+        if not self.comm.allreduce(bool(np.any(held)), op=MPI.LOR):
+            return pairing, held
+        frames, conflict = held_frames(pairing.frames, held, PAIR_HELD_NORMAL_TOL)
+        pairing = dataclasses.replace(pairing, frames=frames)
+        count = self.comm.allreduce(int(np.sum(conflict)), op=MPI.SUM)
+        if count:
+            if self.comm.rank == 0:
+                logger.info("%d slave node(s) with a held component not orthogonal to the contact normal are moved "
+                            "by their support, not contact nodes", count)
+            pairing = pairing.subset(~conflict, self.comm)
+            held = held[~conflict]
+        return pairing, np.ascontiguousarray(held)
+
     def _merge(self, pairing: Pairing, u: npt.NDArray[np.float64] | None) -> Pairing:
         """The pairing without the nodes that belong to a rigid obstacle: a node that is both a paired slave node
         and an obstacle contact node belongs to the one with the smaller |g| in X + u (``u`` ghosted, None: X;
@@ -394,6 +414,7 @@ class ContactModel:
         Dirichlet rows and columns of s I (:mod:`fenics_coulomb.model.two_body` derives it), l̃_z and the
         contact map (collective)."""
         V, comm, prefix = self.V, self.comm, self._prefix
+        pairing, pair_held = self.held_pairing(pairing)
         obstacle_map = self._obstacle_map
         if obstacle_map is not None:
             keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
@@ -403,7 +424,8 @@ class ContactModel:
             pairing = dataclasses.replace(pairing, coordinates=V.tabulate_dof_coordinates()[pairing.blocks])
         self.pairing = pairing
         self.coupling.destroy()
-        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free)
+        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free,
+                                     pair_held)
         if getattr(self, "A", None) is not None:
             self.A.destroy()
         self.A = self.coupling.stiffness(self, prefix)
@@ -418,7 +440,7 @@ class ContactModel:
         gap, frames = pairing.gap, pairing.frames
         index = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
         paired = np.ones(blocks.size, dtype=bool)
-        held = np.zeros((blocks.size, 3), dtype=bool)  # paired slave nodes have no held component
+        held = pair_held
         node_friction = pairing.friction
         if obstacle_map is not None:
             blocks = np.concatenate([blocks, obstacle_map.blocks])

@@ -133,7 +133,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["HELD_NORMAL_TOL", "frames_from_normals", "held_frames", "local_held", "to_local", "to_global",
+__all__ = ["HELD_NORMAL_TOL", "PAIR_HELD_NORMAL_TOL", "frames_from_normals", "held_frames", "local_held", "to_local", "to_global",
            "rotate_rows", "conjugate", "local_shift"]
 
 Array = npt.NDArray[np.float64]
@@ -195,14 +195,22 @@ def local_shift(R: Array, g: npt.ArrayLike, offset: npt.ArrayLike | None = None)
 #: round-off of the normals of a geometry symmetric about the held direction's plane (an obstacle centred on a
 #: symmetry plane gives exactly 0). A normal tilted further (a tilted plane against a roller) is a conflict.
 HELD_NORMAL_TOL = 1e-6
+#: The same for the slave nodes of contact pairs, whose normals come from a faceted master surface (or, for
+#: mortar, from the slave's facets): a curved surface meshed on one side of a symmetry plane tilts them by about
+#: h/(8R) (1.2e-2 at h = R/10); the normal is projected onto the plane (a change of that order in the gap's
+#: linearization, below the facetting error itself).
+PAIR_HELD_NORMAL_TOL = 0.05
 
 
-def held_frames(frames: Array, held: npt.ArrayLike) -> tuple[Array, npt.NDArray[np.bool_]]:
+def held_frames(frames: Array, held: npt.ArrayLike, tol: float = HELD_NORMAL_TOL
+                ) -> tuple[Array, npt.NDArray[np.bool_]]:
     """The frames of contact nodes with held Cartesian components (see "Contact nodes with held components").
 
     Args:
         frames: Frames R = (t₁, t₂, n) (columns) of the nodes, shape (m, 3, 3).
         held: Which Cartesian components a Dirichlet condition holds at each node, shape (m, 3) (at most two).
+        tol: The largest |n·e_h| of a compatible node (:data:`HELD_NORMAL_TOL`; :data:`PAIR_HELD_NORMAL_TOL` for
+            the faceted normals of contact pairs).
 
     Returns:
         (frames, conflict): the nodes with a held component get n projected onto the complement of the held
@@ -218,7 +226,7 @@ def held_frames(frames: Array, held: npt.ArrayLike) -> tuple[Array, npt.NDArray[
         return out, conflict
     n = out[rows, :, 2]
     h = held[rows]
-    conflict[rows] = np.any(h & (np.abs(n) > HELD_NORMAL_TOL), axis=1)
+    conflict[rows] = np.any(h & (np.abs(n) > tol), axis=1)
     ok = ~conflict[rows]
     rows, n, h = rows[ok], n[ok], h[ok]
     n = np.where(h, 0.0, n)

@@ -237,3 +237,67 @@ def test_an_obstacle_dragged_across_a_symmetry_plane_is_refused():
                            r"while it slips along them by \(0, -0.01, 0\)"):
             problem.move(0, (0.0, 0.01, 0.0))
             problem.solve()
+
+
+def stacked(comm, half, method):
+    """A block 0.5 × 0.5 × 0.25 (slave bottom) pressed 0.01 into a block 1 × 1 × 0.5 (master top; bottom clamped),
+    F = 0.3; ``half``: the part x1 >= 0.5 of both with rollers u1 = 0 on x1 = 0.5 (the slave's bottom edge there
+    holds u1). The report and the number of slave nodes with a held component."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
+    from two_blocks import TAGS, two_blocks
+
+    from fenics_coulomb import ContactPair
+
+    x0, width, n_lower, n_upper = (0.5, 0.5, (4, 8, 2), (3, 6, 2)) if half else (0.0, 1.0, (8, 8, 2), (6, 6, 2))
+    blocks = two_blocks(comm, lower=(width, 1.0, 0.5), n_lower=n_lower, upper_origin=(0.0, 0.25),
+                        upper=(0.5 * width, 0.5, 0.25), n_upper=n_upper, gap=0.0)
+    msh = blocks.mesh
+    msh.geometry.x[:, 0] += x0 + (0.0 if half else 0.0)
+    upper = blocks.cell_tags.find(2)
+    dofs_upper = np.unique(msh.geometry.dofmap[upper])
+    if not half:  # the full upper block is centred: [0.25, 0.75]
+        msh.geometry.x[dofs_upper, 0] += 0.25
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    ft = blocks.facet_tags
+    bottom = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(TAGS["lower_bottom"]))
+    top = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(TAGS["upper_top"]))
+    bcs = [dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), bottom, V),
+           dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.01], dtype=PETSc.ScalarType), top, V)]
+    if half:
+        bcs.append(component_bc(V, 0, 0.0, facets(msh, 0, 0.5)))
+    pair = ContactPair(ft, slave=TAGS["upper_bottom"], master=TAGS["lower_top"], friction=0.3, method=method)
+    with ContactProblem(lame(V), None, bcs, contact_pairs=[pair], settings={"rtol": 1e-11},
+                        petsc_options_prefix="held_pair_") as problem:
+        _, result = problem.solve()
+        assert result.converged
+        report = problem.report(result)
+        held = comm.allreduce(int(np.sum(problem.model.contact.held_components.any(axis=1))), op=MPI.SUM)
+        return report, held
+
+
+@pytest.mark.parametrize("method", ["mortar", "node-to-surface"])
+def test_half_two_body_model_equals_the_full_model(method):
+    """Two blocks (non-matching hexahedra), the half model with a symmetry roller through the slave's bottom edge
+    against the full model: the slave nodes on the plane are contact nodes (Φ's x1 rows 0 there) carrying half
+    the full model's force, the others the same, total normal force × 2. Mortar: every component to 1e-7 of the
+    largest force. Node-to-surface: the normal components to 1e-5 (the full model itself is not symmetric to
+    better than that: its slave nodes on x1 = 0.5 lie on a master edge, where the tie rule picks one facet's
+    stencil — they carry x1 forces of 3e-4 of the largest force, the half model's 0)."""
+    comm = MPI.COMM_WORLD
+    full, full_held = stacked(comm, False, method)
+    half, held = stacked(comm, True, method)
+    assert full_held == 0 and held == 6 + 1  # the slave bottom's nodes on x1 = 0.5
+    scale = np.max(np.abs(full.nodes.force))
+    bound, components = (1e-7, slice(None)) if method == "mortar" else (1e-5, slice(2, 3))
+    assert abs(2.0 * half.total_force[2] - full.total_force[2]) <= bound * scale
+    x = half.nodes.coordinates
+    mine = full.nodes.coordinates[:, 0] >= 0.5 - 1e-12
+    assert np.allclose(full.nodes.coordinates[mine], x, rtol=0, atol=1e-12)
+    share = np.where(np.isclose(x[:, 0], 0.5), 0.5, 1.0)
+    expected = share[:, None] * full.nodes.force[mine]
+    assert np.allclose(half.nodes.force[:, components], expected[:, components], rtol=0, atol=bound * scale)
+    assert np.sum(half.nodes.normal_force[share < 1.0]) > 0.05 * np.sum(half.nodes.normal_force)
+    assert np.all(half.nodes.force[share < 1.0, 0] == 0.0)
