@@ -56,7 +56,7 @@ from two_body_patch import run as patch_run  # noqa: E402
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
 __all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "incline", "incline_scene", "incline_reference",
-           "hertz_indentation", "lubkin", "patch", "main"]
+           "hertz_indentation", "lubkin", "patch", "shrink_fit", "shrink_fit_reference", "SHRINK_LEVELS", "main"]
 
 LOG = logging.getLogger("verification")
 
@@ -206,6 +206,97 @@ def incline_scene(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, 
             "open": int(lifted), "converged": bool(result.converged),
             "balance": float(np.linalg.norm(total) / weight), "hold": float(hold), "weight": weight,
             "wall": time.perf_counter() - t0}
+
+
+#: The shrink fit: E, ν (shaft and ring); mesh levels: (shaft element size, ring element size, layers).
+E_FIT, NU_FIT = 200.0, 0.3
+SHRINK_LEVELS = {0: (0.1, 0.08, 1), 1: (0.05, 0.04, 1), 2: (0.025, 0.02, 1)}
+#: The shrink fit is solved with the reference-configuration model: the motion is radial, along the normals of
+#: concentric circles, where the linearized gap is exact (docs/verification §7).
+SHRINK_SLIDING = "small"
+#: The levels of the table (level 0 is the fast test's).
+SHRINK_TABLE_LEVELS = (1, 2)
+
+
+def shrink_fit_reference(b_shaft: float, b_bore: float, c: float, E: float = E_FIT, nu: float = NU_FIT
+                         ) -> tuple[float, float]:
+    """Lamé, plane strain, equal materials: the interface pressure p and the ring's bore hoop stress σθ(b) of a
+    solid shaft of radius b_shaft in a ring of bore b_bore = b_shaft − δ and outer radius c (linear elasticity
+    on the reference geometry: u_ring(b_bore) − u_shaft(b_shaft) = δ; derivation in docs/verification §7)."""
+    Ep, nup = E / (1.0 - nu**2), nu / (1.0 - nu)
+    delta = b_shaft - b_bore
+    ring = b_bore * ((c**2 + b_bore**2) / (c**2 - b_bore**2) + nup)
+    shaft = b_shaft * (1.0 - nup)
+    p = delta * Ep / (ring + shaft)
+    return p, p * (c**2 + b_bore**2) / (c**2 - b_bore**2)
+
+
+def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int]) -> dict[str, Any]:
+    """A ring shrunk on a shaft (meshes/shrink_fit.py: a quarter slice, tetrahedra, curved non-matching surfaces
+    overlapping by the radial interference δ), plane strain (rollers on the cut faces and on both x3 faces), the
+    ring's bore the slave surface, frictionless. Returns the interface pressure (the total normal contact force
+    over the bore's area (π/2)·b_bore·t) and the bore hoop stress σθ(b) = E' ū/b − ν' p (ū the mean radial
+    displacement of the bore's nodes: the hoop strain at the bore, with σr = −p; plane-strain Hooke), against
+    :func:`shrink_fit_reference`."""
+    import tempfile
+
+    from fenics_coulomb import ContactPair
+    from fenics_coulomb.scenes.meshes import read_gmsh_tags
+
+    t0 = time.perf_counter()
+    shaft_h, ring_h, layers = SHRINK_LEVELS[level] if isinstance(level, int) else level
+    folder = path = None
+    if comm.rank == 0:
+        sys.path.insert(0, str(ROOT / "meshes"))
+        import shrink_fit as shrink_mesh
+
+        folder = tempfile.mkdtemp(prefix="shrink_")
+        path = str(Path(folder) / "shrink_fit.msh")
+        shrink_mesh.build(Path(path), shaft_h, ring_h, layers=layers)
+        geometry, tags = dict(shrink_mesh.GEOMETRY), dict(shrink_mesh.TAGS)
+    else:
+        geometry = tags = None
+    path, geometry, tags = comm.bcast((path, geometry, tags))
+    msh, _, facet_tags = read_gmsh_tags(path, comm)
+    if folder is not None:
+        import shutil
+
+        shutil.rmtree(folder, ignore_errors=True)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    mu, lmbda = E_FIT / (2 * (1 + NU_FIT)), E_FIT * NU_FIT / ((1 + NU_FIT) * (1 - 2 * NU_FIT))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    eps = ufl.sym(ufl.grad(u))
+    a = ufl.inner(2 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(3), ufl.sym(ufl.grad(v))) * ufl.dx
+    bcs = [dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0),
+                                   dolfinx.fem.locate_dofs_topological(V.sub(axis), 2, facet_tags.find(tags[name])),
+                                   V.sub(axis)) for axis, name in ((0, "x_cut"), (1, "y_cut"), (2, "faces"))]
+    pair = ContactPair(facet_tags, slave=tags["ring_bore"], master=tags["shaft_surface"], friction=0.0,
+                       method=method)
+    b, c, t = geometry["b"], geometry["c"], geometry["t"]
+    bore = b - geometry["delta"]
+    with ContactProblem(a, None, bcs, contact_pairs=[pair], settings={"rtol": 1e-10},
+                        petsc_options_prefix="shrink_", sliding=SHRINK_SLIDING) as problem:
+        uh, result = problem.solve()
+        model = problem.model
+        n = model.V.dofmap.index_map.size_local
+        blocks = model.contact.blocks
+        x = V.tabulate_dof_coordinates()[blocks]
+        radial = x[:, :2] / np.linalg.norm(x[:, :2], axis=1)[:, None]
+        ur = np.einsum("ij,ij->i", uh.x.array[: 3 * n].reshape(-1, 3)[blocks, :2], radial)
+        force = np.einsum("ij,ij->i", result.contact_force[:, :2], radial)
+        total = comm.allreduce(float(np.sum(force)), op=MPI.SUM)
+        mean_ur = comm.allreduce(float(np.sum(ur)), op=MPI.SUM) / result.p
+        held = comm.allreduce(int(np.sum(model.contact.held_components.any(axis=1))), op=MPI.SUM)
+        unknowns, p_nodes = problem.n, result.p
+        converged = bool(result.converged)
+    pressure = total / (0.5 * np.pi * bore * t)
+    Ep, nup = E_FIT / (1.0 - NU_FIT**2), NU_FIT / (1.0 - NU_FIT)
+    hoop = Ep * mean_ur / bore - nup * pressure
+    p_ref, hoop_ref = shrink_fit_reference(b, bore, c)
+    return {"pressure": pressure, "pressure_ref": p_ref, "err_pressure": pressure / p_ref - 1.0, "hoop": hoop,
+            "hoop_ref": hoop_ref, "err_hoop": hoop / hoop_ref - 1.0, "unknowns": int(unknowns),
+            "contact_nodes": int(p_nodes), "held": held, "converged": converged, "h": (shaft_h, ring_h),
+            "value": pressure, "wall": time.perf_counter() - t0}
 
 
 def _indented_block(comm: MPI.Comm, level: int | tuple[float, float]) -> tuple[Any, ...]:
@@ -446,6 +537,28 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
                      "source": "Johnson, Contact Mechanics (1985), §7.4: T = 3πμPa/16 (a for the measured P)",
                      "value": f"{r['value']:.5f}", "error": r["error"], "bound": 2e-2, "unknowns": r["unknowns"],
                      "ranks": ranks, "wall": r["wall"], "agree": agree, "note": "torque–twist: " + curve})
+    lame = "Lamé's thick cylinders, plane strain (Timoshenko & Goodier, Theory of Elasticity, §28); docs/verification §7"
+    for method in ("mortar", "node-to-surface"):
+        previous: dict[str, float] = {}
+        for i, level in enumerate(SHRINK_TABLE_LEVELS):
+            r = shrink_fit(comm, method, level)
+            agree = "—"
+            if i == 0:
+                one = comm.bcast(_serial(comm, shrink_fit, method, level))
+                agree = f"{_agreement(r, one, ('pressure', 'hoop')):.1e}"
+            log(f"shrink fit {method}: level {level}, p {r['pressure']:.6f} ({r['err_pressure']:+.2%}), hoop "
+                f"{r['hoop']:.6f} ({r['err_hoop']:+.2%}), {r['unknowns']} unknowns, {r['wall']:.1f} s")
+            lvl = f"{level}: h = {r['h'][0]:g} (shaft), {r['h'][1]:g} (ring), tetra"
+            common = {"case": "7. shrink fit (Lamé)", "level": lvl, "unknowns": r["unknowns"], "ranks": ranks,
+                      "wall": r["wall"], "agree": agree}
+            for key, quantity, bound in (("pressure", "interface pressure", 5e-3), ("hoop", "bore hoop stress", 1e-2)):
+                trend = f"; from {previous[key]:+.2%}" if key in previous else ""
+                rows.append({**common, "quantity": f"{quantity}, {method}", "reference": f"{r[key + '_ref']:.6f}",
+                             "source": lame, "value": f"{r[key]:.6f}", "error": r["err_" + key],
+                             "bound": bound if method == "mortar" else None,
+                             "note": f"δ/b = 0.5 %, a quarter slice on rollers, {r['contact_nodes']} slave nodes "
+                                     f"(all with held components){trend}"})
+                previous[key] = r["err_" + key]
     rows += NOT_YET
     return rows, curves
 
@@ -469,9 +582,8 @@ inflated accordingly).
 {table}
 
 The "not yet" rows: the cases of the verification plan not in this table yet: Cattaneo–Mindlin with β = 0
-(two identical elastic spheres, mortar), the shrink fit (Lamé; an initial overlap of two bodies is refused
-today), steady rolling (Carter), the incline with the slope as a second elastic body, and the two-elastic-sphere
-Hertz case. They need either model changes (an initial overlap of two bodies; slave nodes of a contact pair with a held
+(two identical elastic spheres, mortar), steady rolling (Carter), the incline with the slope as a second elastic
+body, and the two-elastic-sphere Hertz case. They need either model changes (an initial overlap of two bodies; slave nodes of a contact pair with a held
 component — obstacle contact nodes with components held tangentially are contact nodes now) or more time than
 this table has had.
 
@@ -565,6 +677,38 @@ no slip by symmetry and carries no torque). The error is that of the first momen
 The torque rises with the twist as the slip annulus spreads inward and is flat from about 5° on (full slip):
 
 ![torque over the full-slip torque against the twist](lubkin.png)
+
+## 7. Shrink fit (Lamé)
+
+`meshes/shrink_fit.py`: a solid shaft of radius b = 1 and a ring of bore b − δ and outer radius c = 2, radial
+interference δ = 0.005 (0.5 % of b), E = 200, ν = 0.3 both, frictionless; a quarter slice of thickness t = 0.1 (one
+element layer), the two bodies meshed apart by gmsh with their own sizes (tetrahedra; curved surfaces, non-matching,
+overlapping by δ at the reference configuration: an interference, resolved by the solve). Plane strain and the
+quarter: rollers u1 = 0 on x1 = 0, u2 = 0 on x2 = 0, u3 = 0 on both faces x3 = 0, t, for both bodies; every slave
+node (the ring's bore) has held components tangential to the contact (u3, and u1 or u2 on the cuts), and stays a
+contact node. Solved with the reference-configuration model (`sliding = "small"`): the motion is radial, along
+the normals of concentric circles, where the linearized gap g + n·(u_s − u_m) is exact.
+
+**Reference.** Linear elasticity on the reference geometry, plane strain (E' = E/(1 − ν²), ν' = ν/(1 − ν)): the
+shaft under the external pressure p has σr = σθ = −p, so u_shaft(b) = −p b (1 − ν')/E'; the ring (bore b_r = b − δ)
+under the internal pressure p has σr(b_r) = −p, σθ(b_r) = p (c² + b_r²)/(c² − b_r²), so
+u_ring(b_r) = p b_r [(c² + b_r²)/(c² − b_r²) + ν']/E'. Closing the interference, u_ring − u_shaft = δ:
+
+    p = δ E' / (b_r [(c² + b_r²)/(c² − b_r²) + ν'] + b (1 − ν')),   σθ(b_r) = p (c² + b_r²)/(c² − b_r²)
+
+(p = 0.415087, σθ = 0.688144 here). Measured: p = the total radial contact force over the bore's area
+(π/2) b_r t; the bore hoop stress from the hoop strain at the bore and σr = −p by plane-strain Hooke's law,
+σθ = E' ū/b_r − ν' p (ū the mean radial displacement of the bore's nodes).
+
+**Trend.** Both surfaces are faceted: a chord of angle θ lies inside its circle by up to b θ²/8, so the discrete
+interference is smaller than δ and both quantities converge from below as h²: mortar −4.3 %, −1.3 %, −0.27 % and
+node-to-surface −15.5 %, −3.8 %, −0.94 % at h = 0.1/0.08, 0.05/0.04, 0.025/0.02 (shaft/ring), measured on this
+machine (level 0 is the fast test's). Mortar meets the bounds (0.5 % and 1 %) on the finest level; node-to-surface
+transfers each slave node's force at one point of the faceted master, which sees the full sagitta: its error is
+shown, not bounded. Finite sliding (`sliding = "finite"`) re-pairs in X + u after the first solve: there the mortar
+full-coverage rule kept none of the 42 bore nodes of level 0 (23 "not fully covered"; every bore node lies on a
+face of this one-layer slice), and the geometry iteration cycled between contact and none; node-to-surface
+re-paired 40 of 42. An open issue of the mortar re-pairing of such slices, not of the interference.
 """
 
 
@@ -582,9 +726,6 @@ NOT_YET = [
          "two identical elastic spheres with mortar: a half model has slave nodes on the symmetry plane; "
          "obstacle contact nodes with tangentially held components are contact nodes now, a pair's slave "
          "nodes with a held component not yet"),
-        ("7. shrink fit (Lamé)", "interface pressure, bore hoop stress", "Lamé thick cylinders",
-         "Lamé's thick-walled cylinders (plane strain)",
-         "an initial overlap of two bodies is refused today (model change in progress)"),
         ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))",
          "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
          "docs/rolling did not reach the steady state; a longer roll is not in this table yet"),
