@@ -537,7 +537,8 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
                      "source": "Johnson, Contact Mechanics (1985), §7.4: T = 3πμPa/16 (a for the measured P)",
                      "value": f"{r['value']:.5f}", "error": r["error"], "bound": 2e-2, "unknowns": r["unknowns"],
                      "ranks": ranks, "wall": r["wall"], "agree": agree, "note": "torque–twist: " + curve})
-    lame = "Lamé's thick cylinders, plane strain (Timoshenko & Goodier, Theory of Elasticity, §28); docs/verification §7"
+    lame = ("Lamé's thick cylinders, plane strain (Timoshenko & Goodier, Theory of Elasticity, §28); "
+            "docs/verification §7")
     for method in ("mortar", "node-to-surface"):
         previous: dict[str, float] = {}
         for i, level in enumerate(SHRINK_TABLE_LEVELS):
@@ -583,9 +584,9 @@ inflated accordingly).
 
 The "not yet" rows: the cases of the verification plan not in this table yet: Cattaneo–Mindlin with β = 0
 (two identical elastic spheres, mortar), steady rolling (Carter), the incline with the slope as a second elastic
-body, and the two-elastic-sphere Hertz case. They need either model changes (an initial overlap of two bodies; slave nodes of a contact pair with a held
-component — obstacle contact nodes with components held tangentially are contact nodes now) or more time than
-this table has had.
+body, and the two-elastic-sphere Hertz case. They need either model changes (an initial overlap of two bodies; slave
+nodes of a contact pair with a held component — obstacle contact nodes with components held tangentially are contact
+nodes now) or more time than this table has had.
 
 ## 1. Block pushed up an incline (NAFEMS CGS-4 form)
 

@@ -367,9 +367,9 @@ class ContactModel:
             where = "(" + ", ".join(f"{c:.6g}" for c in cmap.coordinates[i]) + ")"
             message = (f"contact node at {where}: its support holds component(s) "
                        f"{', '.join(f'x{k + 1}' for k in np.flatnonzero(cmap.held[i]))} while it slips along them by "
-                       f"({', '.join(f'{c:.4g}' for c in slip[i])}) against its obstacle (a support moving it along the "
-                       "contact, or an obstacle moved along a symmetry plane's normal): the friction of that slip is "
-                       "not modelled; leave the node out of the support")
+                       f"({', '.join(f'{c:.4g}' for c in slip[i])}) against its obstacle (a support moving it along "
+                       "the contact, or an obstacle moved along a symmetry plane's normal): the friction of that slip "
+                       "is not modelled; leave the node out of the support")
         first = next((m for m in self.comm.allgather(message) if m), "")
         check_all(self.comm, not first, first)
 

@@ -91,11 +91,11 @@ A Dirichlet condition may hold one or two Cartesian components e_h of a contact 
 roller through the contact zone) when every held e_h is orthogonal to the node's normal (|n·e_h| <=
 :data:`HELD_NORMAL_TOL`; the normal is then projected onto the held directions' complement and normalized,
 exactly orthogonal) and the node does not slip along e_h (held at 0 against an obstacle that does not move
-along e_h: the held slip g_h − o_h is 0). The frame puts the held directions first (:func:`held_frames`): t₁ = e_h (the first held
-axis), t₂ = n × t₁ (= ±e_h' for a second held axis), so the held DOFs are local components of the frame
-(:func:`local_held`). On such a node the contact law is the law on the remaining components: the Coulomb cone
-of the free tangent (or Signorini alone with two held axes), nothing in the held ones, whose rows stay the
-Dirichlet identity rows (the support's reaction takes whatever force acts there). In the algebra:
+along e_h: the held slip g_h − o_h is 0). The frame puts the held directions first (:func:`held_frames`): t₁ = e_h
+(the first held axis), t₂ = n × t₁ (= ±e_h' for a second held axis), so the held DOFs are local components of the
+frame (:func:`local_held`). On such a node the contact law is the law on the remaining components: the Coulomb cone of
+the free tangent (or Signorini alone with two held axes), nothing in the held ones, whose rows stay the Dirichlet
+identity rows (the support's reaction takes whatever force acts there). In the algebra:
 
 * the tangential offset has no held component (o_h = 0), so dⁱ = Rᵢ sⁱ has none either (d_D = 0: the
   Dirichlet rows of A u = l hold u_D = g with l_D = s g, as for every other Dirichlet row);
@@ -133,7 +133,8 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["HELD_NORMAL_TOL", "PAIR_HELD_NORMAL_TOL", "frames_from_normals", "held_frames", "local_held", "to_local", "to_global",
+__all__ = ["HELD_NORMAL_TOL", "PAIR_HELD_NORMAL_TOL", "frames_from_normals", "held_frames", "local_held", "to_local",
+           "to_global",
            "rotate_rows", "conjugate", "local_shift"]
 
 Array = npt.NDArray[np.float64]

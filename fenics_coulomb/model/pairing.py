@@ -72,11 +72,11 @@ node's interference), counted only to the thickness of the slave's cell layer un
 the distance of that cell's centroid from the facet: deeper, S alone cannot tell the inside of the slave body
 from the space beyond a thin one) (node and depth named, the deepest over all ranks). A contact node inside
 the master body is an interference: a negative initial gap, which the solve resolves (a shrink fit; two curved
-surfaces meshed independently at the same radius overlap by their facetting). For mortar pairs this is NOT the nodal gap g̃_j / D_j: the dual basis is
-negative on part of each facet, so g̃_j can be negative beside a curved master where no point overlaps; such
-a node is a contact node with a negative initial gap, and the solve separates it. Invalid ContactPair fields
-(friction, search distance, tags, name) are rejected when the pair is created.
-A pair with no contact node is a logged warning (rank 0), not an error.
+surfaces meshed independently at the same radius overlap by their facetting). For mortar pairs this is NOT the nodal
+gap g̃_j / D_j: the dual basis is negative on part of each facet, so g̃_j can be negative beside a curved master where
+no point overlaps; such a node is a contact node with a negative initial gap, and the solve separates it. Invalid
+ContactPair fields (friction, search distance, tags, name) are rejected when the pair is created. A pair with no
+contact node is a logged warning (rank 0), not an error.
 
 Parallel
 --------

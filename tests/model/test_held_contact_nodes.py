@@ -81,8 +81,8 @@ def indent(comm, lo, hi, planes, friction):
 def test_quarter_hertz_model_equals_the_full_model(friction):
     """The quarter [1, 2]² × [0, 1] with rollers on x = 1 and y = 1 against the full [0, 2]² × [0, 1] (the same
     grid): every contact node's force equal to the full model's at the same point times its share (1, ½ on a
-    plane, ¼ on the axis) to 1e-7 of the largest force; the normal total force × 4 and the contact radius equal; the plane
-    nodes are contact nodes and carry force, none penetrates."""
+    plane, ¼ on the axis) to 1e-7 of the largest force; the normal total force × 4 and the contact radius equal; the
+    plane nodes are contact nodes and carry force, none penetrates."""
     comm = MPI.COMM_WORLD
     full, full_radius, full_held, _ = indent(comm, [0.0, 0.0, 0.0], [2.0, 2.0, 1.0], [], friction)
     quarter, radius, held, p = indent(comm, [1.0, 1.0, 0.0], [2.0, 2.0, 1.0], [(0, 1.0), (1, 1.0)], friction)

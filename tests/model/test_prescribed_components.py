@@ -8,7 +8,6 @@ and a load path blends the held values; bad values are one-line InputErrors nami
 from __future__ import annotations
 
 import csv
-import json
 
 from mpi4py import MPI
 
