@@ -20,6 +20,11 @@ Cases (the derivations are in docs/verification/README.md):
   meshes, dual mortar and node-to-surface.
 * **Lubkin**: the Hertz indenter with friction, twisted about the contact normal by an obstacle rotation:
   the torque against the full-slip torque 3πμPa/16 (Johnson, §7.4).
+* **Shrink fit (Lamé)**: a ring on a shaft with a radial interference (an initial overlap of two bodies with
+  curved non-matching gmsh meshes), plane strain on rollers, both methods: the interface pressure and the bore
+  hoop stress against Lamé's thick cylinders.
+
+The incline is also run as a user writes it, from the scene file docs/verification/incline.toml.
 
 The cases not built yet are rows saying "not yet" and why (``NOT_YET``).
 """
@@ -584,9 +589,9 @@ inflated accordingly).
 
 The "not yet" rows: the cases of the verification plan not in this table yet: Cattaneo–Mindlin with β = 0
 (two identical elastic spheres, mortar), steady rolling (Carter), the incline with the slope as a second elastic
-body, and the two-elastic-sphere Hertz case. They need either model changes (an initial overlap of two bodies; slave
-nodes of a contact pair with a held component — obstacle contact nodes with components held tangentially are contact
-nodes now) or more time than this table has had.
+body, and the two-elastic-sphere Hertz case. The incline on an elastic slope needs a body held by contact alone,
+which contact pairs refuse; the others need more time than this table has had (half models of two bodies, with
+slave nodes on the symmetry plane, and interference fits are possible now: cases 1 and 7).
 
 ## 1. Block pushed up an incline (NAFEMS CGS-4 form)
 
@@ -720,13 +725,13 @@ NOT_YET = [
      "note": note}
     for case, quantity, reference, source, note in [
         ("5. incline, two bodies", "push/weight, the slope an elastic block", "(tan α + μ)/(1 − μ tan α)",
-         "as case 1", "per-component prescribed values exist (case 1's scene file); the two-body set-up "
-         "(the slope a clamped elastic block, mortar) is not built in this version"),
+         "as case 1", "the block would rest on the slope by contact alone, which contact pairs refuse today "
+         "(every body needs supports that remove its six rigid motions); per-component prescribed values exist "
+         "(case 1's scene file)"),
         ("6. Cattaneo–Mindlin, β = 0", "stick radius c/a, tangential compliance",
          "c/a = (1 − Q/μP)^(1/3)", "Johnson, Contact Mechanics, ch. 7 (Cattaneo 1938, Mindlin 1949)",
-         "two identical elastic spheres with mortar: a half model has slave nodes on the symmetry plane; "
-         "obstacle contact nodes with tangentially held components are contact nodes now, a pair's slave "
-         "nodes with a held component not yet"),
+         "two identical elastic spheres with mortar: a half model with slave nodes on the symmetry plane is "
+         "possible now (tests/model/test_held_contact_nodes.py); not built in this version"),
         ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))",
          "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
          "docs/rolling did not reach the steady state; a longer roll is not in this table yet"),
