@@ -94,6 +94,9 @@ SCENE_BAD = [
     "type = 'cylinder'\npoint = [1.0, 0.5, 1.5]\naxis = [0, 1, 0]\nradius = 0.5\ndisplacement = [0, 0, -2.0]\n",
     "[[path.step]]\nsubsteps = 0\n", "[[path.step]]\nmove = { nothing = [0, 0, 1] }\n",
     "[body]\nclamped = ['nowhere']\n", "[body]\ncontact = ['left']\nclamped = ['left']\n[solver]\nrtol = 1e-7\n",
+    "[prescribed]\ntop = [0.01, 'loose', 0]\n", "[prescribed]\ntop = [nan, 'free', 'free']\n",
+    "[prescribed]\ntop = ['free', 'free', 'free']\n", "[prescribed]\ntop = [0.01, 'free']\n",
+    "[prescribed]\ntop = [0.01, 'free', 0]\n[[path.step]]\nprescribed = { top = [0.02, 0, 0] }\n",
 ]
 SCENE_GOOD = [
     "[body]\nlev = 1\n", "[body]\nlev = 1\ngap = 'd2'\n[friction]\ncoefficient = 0.5\n",
@@ -101,6 +104,8 @@ SCENE_GOOD = [
     "[body]\nlev = 1\ngap = '0.0*x1'\nclamped = ['bottom']\ncontact = ['top']\n[tractions]\n[[obstacle]]\n"
     "type = 'sphere'\ncenter = [1.0, 0.5, 1.6]\nradius = 0.6\ndisplacement = [0, 0, -0.005]\n[solver]\nstart = 'undeformed'\n",
     "[body]\nlev = 1\n[[path.step]]\nsubsteps = 2\n[[path.step]]\n",
+    "[body]\nlev = 1\nclamped = []\n[tractions]\n[prescribed]\ntop = [0.002, 'free', -0.01]\n[roller]\nleft = [0]\n"
+    "sides = [1]\n",
 ]
 
 

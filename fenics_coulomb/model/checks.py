@@ -104,7 +104,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     t = f_local[:, :2]
     v = to_local(cmap.frames, displacement[cmap.local_dofs]) + model.local_shift
     gap = v[:, 2]
-    slip = v[:, :2]
+    slip = np.where(cmap.held_local[:, :2], 0.0, v[:, :2])  # a held component is the support's, not a slip
 
     free = np.ones(r.size, dtype=bool)
     free[cmap.local_dofs.ravel()] = False
@@ -151,7 +151,9 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     clamped_blocks = np.unique(model.dirichlet_rows // 3)
     if not model.coupling.paired:
         full = unconstrained_residual(model, displacement)
-        local = full[clamped_blocks].sum(axis=0) + f.sum(axis=0)
+        # a contact node with held components: its block of full already holds its contact force
+        unheld = ~np.isin(cmap.blocks, clamped_blocks) if np.any(cmap.held_components) else slice(None)
+        local = full[clamped_blocks].sum(axis=0) + f[unheld].sum(axis=0)
     else:  # contact pairs, u = M z: the contact forces are internal (Σ_j φ_sj = 1), so the residual summed over
         # every node (supports, slave and master nodes; zero elsewhere) balances the applied load
         full = unconstrained_residual(model, model.physical(displacement))

@@ -25,7 +25,8 @@ so A ũ = l̃ holds in the D rows exactly when ũ_D = g, and the F rows are the 
 ``apply_lifting`` forms l̃⁰ − K_{:,D} g and ``set_bc`` with α = s writes s g into the D rows. The D rows and
 columns of A are those of an identity scaled to s = the mean diagonal of the free rows (so that the
 spectrum used for γ and the preconditioners is not polluted). The D rows belong to the non-contact block R
-of (6.4): contact nodes exclude every node with a constrained component, so d_D = 0 and (A d)_D = 0.
+of (6.4): contact nodes exclude clamped nodes and have no shift along a held component
+(:mod:`fenics_coulomb.model.frames`, "Contact nodes with held components"), so d_D = 0 and (A d)_D = 0.
 
 **Two bodies (contact pairs).** With ``contact_pairs`` the model is that of :mod:`fenics_coulomb.model.two_body`:
 A is Ã = Mᵀ A_free M with the same Dirichlet treatment, l̃ = Mᵀ(l − A_free M x_D), the contact nodes are the
@@ -54,9 +55,9 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.model.contact_map import ContactMap
+from fenics_coulomb.model.contact_map import ContactMap, held_blocks, hold
 from fenics_coulomb.model.coupling import Coupling, IdentityCoupling, PairCoupling
-from fenics_coulomb.model.frames import local_shift, to_global
+from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames, local_shift, to_global
 from fenics_coulomb.model.mesh_checks import BodyLocator, check_mesh
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, closest_obstacle, core_path
 from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
@@ -297,6 +298,10 @@ class ContactModel:
 
         self._size = comm.allreduce(float(np.abs(msh.geometry.x).max(initial=0.0)), op=MPI.MAX)
         self.dirichlet_rows = owned
+        #: Which Cartesian components a Dirichlet condition holds at every local DOF block, shape (blocks, 3).
+        self._held = held_blocks(V, dirichlet)
+        #: The local DOF blocks with all three components held (never contact nodes).
+        self._clamped = np.flatnonzero(self._held.all(axis=1)).astype(np.int32)
         self.load = None
         if pairs:
             self._create_two_body(pairs, dirichlet, prefix, obstacle_contact, friction)
@@ -304,12 +309,13 @@ class ContactModel:
             # Stiffness with the Dirichlet rows/columns replaced by a scaled identity.
             self.A = self.coupling.stiffness(self, prefix)
             self.dirichlet_diagonal = self._scale_dirichlet_rows(owned)
-            # Load vector l̃ (see the module docstring) and the contact nodes (no node with a constrained
-            # component)
+            # Load vector l̃ (see the module docstring) and the contact nodes (no clamped node; held components
+            # tangential to the contact, :mod:`fenics_coulomb.model.frames`)
             self.load = self.A.createVecRight()
             self.load.setOptionsPrefix(f"{prefix}load_")
             self.assemble_load()
-            self.contact = ContactMap.create(V, facet_tags, self.markers, np.unique(dirichlet // 3), self.obstacles)
+            self.contact = ContactMap.create(V, facet_tags, self.markers, self._not_contact(), self.obstacles,
+                                             held=self._held)
             check_not_overlapping(self.obstacles, self.contact.coordinates, comm=comm)
             self.friction = self._friction_at_contact_nodes(friction)
         #: Where the body is: rejects obstacles buried in it or moved through it (:meth:`check_motion`).
@@ -335,7 +341,8 @@ class ContactModel:
         """The bodies, their supports, A_free and the obstacles' contact nodes once; then the pairing of the
         reference configuration (:meth:`_pair`; collective)."""
         V, comm = self.V, self.comm
-        self._excluded = np.unique(dirichlet // 3)
+        #: Never slave contact nodes: clamped, or held at a non-zero value (:meth:`_not_contact`).
+        self._excluded = self._not_contact()
         #: Body of every local DOF block (connected components of the mesh) and their number.
         self.body_of_block, self.num_bodies = connected_bodies(V)
         check_rigid_support(V, self.body_of_block, self.num_bodies, self.dirichlet_rows)
@@ -345,10 +352,61 @@ class ContactModel:
         self._obstacle_map: ContactMap | None = None
         if obstacle_contact is not None:
             tags, markers = obstacle_contact
-            self._obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], self._excluded, self.obstacles)
+            self._obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], self._not_contact(),
+                                                   self.obstacles, held=self._held)
             check_not_overlapping(self.obstacles, self._obstacle_map.coordinates, comm=comm)
             self._obstacle_friction = self._friction_at_contact_nodes(friction, self._obstacle_map.blocks)
         self._pair(self._merge(pair_surfaces(V, pairs, self._excluded), None))
+
+    def _not_contact(self) -> npt.NDArray[np.int32]:
+        """The local DOF blocks that are never contact nodes of an obstacle: clamped (three held components) or held
+        at a non-zero value in some component (driven along the contact by their support; the values as
+        :meth:`assemble_load` read them)."""
+        values = np.zeros(self._held.size)
+        values[self.dirichlet_rows] = self._prescribed_values()
+        driven = np.flatnonzero(np.any(values.reshape(-1, 3) != 0.0, axis=1))
+        return np.union1d(self._clamped, driven).astype(np.int32)
+
+    def _held_slip(self, offset: npt.NDArray[np.float64]) -> None:
+        """InputError on every rank (collective) naming the first contact node that slips along a held component:
+        held value g_h minus the tangential offset o_h (:mod:`fenics_coulomb.model.frames`)."""
+        cmap = self.contact
+        if cmap.held is None or not self.comm.allreduce(bool(np.any(cmap.held)), op=MPI.LOR):
+            return
+        values = np.zeros(3 * self.V.dofmap.index_map.size_local)
+        values[self.dirichlet_rows] = self.dirichlet_values
+        slip = np.where(cmap.held, values[cmap.local_dofs] - offset, 0.0)
+        bad = np.flatnonzero(np.any(np.abs(slip) > 1e-12 * max(self._size, np.finfo(float).tiny), axis=1))
+        message = ""
+        if bad.size:
+            i = int(bad[0])
+            where = "(" + ", ".join(f"{c:.6g}" for c in cmap.coordinates[i]) + ")"
+            message = (f"contact node at {where}: its support holds component(s) "
+                       f"{', '.join(f'x{k + 1}' for k in np.flatnonzero(cmap.held[i]))} while it slips along them by "
+                       f"({', '.join(f'{c:.4g}' for c in slip[i])}) against its obstacle (a support moving it along "
+                       "the contact, or an obstacle moved along a symmetry plane's normal): the friction of that slip "
+                       "is not modelled; leave the node out of the support")
+        first = next((m for m in self.comm.allgather(message) if m), "")
+        check_all(self.comm, not first, first)
+
+    def held_pairing(self, pairing: Pairing) -> tuple[Pairing, npt.NDArray[np.bool_]]:
+        """The pairing with the frames of its slave nodes with held components (held axes first, the normal
+        projected: :func:`~fenics_coulomb.model.frames.held_frames` with the pairs' tolerance), without the nodes
+        whose held direction is not orthogonal to their normal (logged; collective), and the held components of
+        its nodes, shape (m, 3)."""
+        held = self._held[pairing.blocks]
+        if not self.comm.allreduce(bool(np.any(held)), op=MPI.LOR):
+            return pairing, held
+        frames, conflict = held_frames(pairing.frames, held, PAIR_HELD_NORMAL_TOL)
+        pairing = dataclasses.replace(pairing, frames=frames)
+        count = self.comm.allreduce(int(np.sum(conflict)), op=MPI.SUM)
+        if count:
+            if self.comm.rank == 0:
+                logger.info("%d slave node(s) with a held component not orthogonal to the contact normal are moved "
+                            "by their support, not contact nodes", count)
+            pairing = pairing.subset(~conflict, self.comm)
+            held = held[~conflict]
+        return pairing, np.ascontiguousarray(held)
 
     def _merge(self, pairing: Pairing, u: npt.NDArray[np.float64] | None) -> Pairing:
         """The pairing without the nodes that belong to a rigid obstacle: a node that is both a paired slave node
@@ -372,6 +430,7 @@ class ContactModel:
         Dirichlet rows and columns of s I (:mod:`fenics_coulomb.model.two_body` derives it), l̃_z and the
         contact map (collective)."""
         V, comm, prefix = self.V, self.comm, self.prefix
+        pairing, pair_held = self.held_pairing(pairing)
         obstacle_map = self._obstacle_map
         if obstacle_map is not None:
             keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
@@ -381,7 +440,8 @@ class ContactModel:
             pairing = dataclasses.replace(pairing, coordinates=V.tabulate_dof_coordinates()[pairing.blocks])
         self.pairing = pairing
         self.coupling.destroy()
-        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free)
+        self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free,
+                                     pair_held)
         if getattr(self, "A", None) is not None:
             self.A.destroy()
         self.A = self.coupling.stiffness(self, prefix)
@@ -396,6 +456,7 @@ class ContactModel:
         gap, frames = pairing.gap, pairing.frames
         index = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
         paired = np.ones(blocks.size, dtype=bool)
+        held = pair_held
         node_friction = pairing.friction
         if obstacle_map is not None:
             blocks = np.concatenate([blocks, obstacle_map.blocks])
@@ -403,6 +464,7 @@ class ContactModel:
             gap = np.concatenate([gap, obstacle_map.gap])
             frames = np.concatenate([frames, obstacle_map.frames])
             index = np.concatenate([index, obstacle_map.obstacle_index])
+            held = np.concatenate([held, obstacle_map.held_components])
             paired = np.concatenate([paired, np.zeros(obstacle_map.size, dtype=bool)])
             node_friction = np.concatenate([node_friction, obstacle_friction])
         order = np.argsort(blocks, kind="stable")
@@ -413,7 +475,7 @@ class ContactModel:
             global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
             coordinates=np.ascontiguousarray(coordinates[order]), gap=np.ascontiguousarray(gap[order]),
             frames=np.ascontiguousarray(frames[order]), obstacle_index=index[order],
-            num_global=comm.allreduce(int(blocks.size), op=MPI.SUM))
+            num_global=comm.allreduce(int(blocks.size), op=MPI.SUM), held=np.ascontiguousarray(held[order]))
         #: Which contact nodes are paired slave nodes (the others belong to rigid obstacles).
         self.paired = paired[order]
         self.friction = np.ascontiguousarray(np.asarray(node_friction, dtype=np.float64)[order])
@@ -648,6 +710,8 @@ class ContactModel:
             elif previous_obstacle_displacements is not None:
                 previous = np.asarray(previous_obstacle_displacements, dtype=np.float64).reshape(-1, 3)
                 offset[rigid] -= previous[index]
+        if cmap.held is not None:  # held components tangential to the contact (collective)
+            cmap.frames[rigid] = hold(cmap.frames[rigid], cmap.held[rigid], cmap.coordinates[rigid], self.comm)
         if self.pairing is not None:
             # the paired nodes' gaps: the pairing's, linearized about the configuration in the unknown w = z_s
             gap = self.pairing.gap
@@ -657,6 +721,9 @@ class ContactModel:
             cmap.gap[paired] = gap
         if previous_displacement is not None:
             offset = offset + np.asarray(previous_displacement, dtype=np.float64).reshape(-1, 3)
+        if cmap.held is not None:  # no offset along a held direction: d_D = 0 (:mod:`fenics_coulomb.model.frames`)
+            self._held_slip(offset)
+            offset = np.where(cmap.held, 0.0, offset)
         #: The tangential offset o of every contact node (the slip is T(ũ − o)), shape (m, 3).
         self.offset = offset
         #: The constant part sⁱ = (−T o, g) of the local block vⁱ = Rᵢᵀũⁱ + sⁱ, shape (m, 3).

@@ -115,17 +115,19 @@ class PairCoupling(Coupling):
         pairing: The slave nodes' stencils (blocks, master blocks, weights).
         body_of_block: The body of every local DOF block; ``num_bodies`` their number.
         prefix: Options prefix of the model's objects.
+        held: The components a Dirichlet condition holds at each slave node, shape (m, 3) (None: none).
     """
 
     paired = True
 
     def __init__(self, V: dolfinx.fem.FunctionSpace, pairing: Pairing, body_of_block: npt.NDArray[np.int64],
-                 num_bodies: int, prefix: str, A_free: PETSc.Mat | None = None) -> None:
+                 num_bodies: int, prefix: str, A_free: PETSc.Mat | None = None,
+                 held: npt.NDArray[np.bool_] | None = None) -> None:
         self.pairing = pairing
         self.body_of_block = body_of_block
         self.num_bodies = num_bodies
-        #: M = I + Φ.
-        self.M: PETSc.Mat = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix)
+        #: M = I + Φ (Φ's rows of held slave components 0).
+        self.M: PETSc.Mat = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix, held)
         #: The stiffness without boundary conditions (both bodies): given (then its owner destroys it) or
         #: assembled by :meth:`stiffness`.
         self.A_free: PETSc.Mat | None = A_free

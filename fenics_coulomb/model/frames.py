@@ -85,6 +85,38 @@ above; 4b: Mᵀ with M = 𝓡 M̂ 𝓡ᵀ is solved for the Cartesian q = 𝓡 q
 rotation alone (Bⁱ Rᵢᵀ) would be as correct but leaves zero diagonal entries where the frame permutes the
 axes (a cylinder's t₁ = a = e₂), on which ILU(0) breaks down.
 
+Contact nodes with held components
+----------------------------------
+A Dirichlet condition may hold one or two Cartesian components e_h of a contact node (a symmetry plane or a
+roller through the contact zone) when every held e_h is orthogonal to the node's normal (|n·e_h| <=
+:data:`HELD_NORMAL_TOL`; the normal is then projected onto the held directions' complement and normalized,
+exactly orthogonal) and the node does not slip along e_h (held at 0 against an obstacle that does not move
+along e_h: the held slip g_h − o_h is 0). The frame puts the held directions first (:func:`held_frames`): t₁ = e_h
+(the first held axis), t₂ = n × t₁ (= ±e_h' for a second held axis), so the held DOFs are local components of the
+frame (:func:`local_held`). On such a node the contact law is the law on the remaining components: the Coulomb cone of
+the free tangent (or Signorini alone with two held axes), nothing in the held ones, whose rows stay the Dirichlet
+identity rows (the support's reaction takes whatever force acts there). In the algebra:
+
+* the tangential offset has no held component (o_h = 0), so dⁱ = Rᵢ sⁱ has none either (d_D = 0: the
+  Dirichlet rows of A u = l hold u_D = g with l_D = s g, as for every other Dirichlet row);
+* the approximation step evaluates the resolvent on Rᵢᵀ(γ u − r) with its held local components set to 0:
+  Q̃ is invariant under the reflection v₁ → −v₁ (its graph at w₁ = 0 has v₁ = z₁ = 0), so the result is the
+  resolvent of the law on the free components (the 1D Coulomb interval in t₂, or Signorini alone); v and z
+  are 0 in the held components and e = r/γᵢ there, as on a DOF without contact;
+* the Newton blocks at such a point are block diagonal over {held} ⊕ {free} (the sliding formulas with
+  n = v₁₂/‖v₁₂‖ ⊥ e₁: C = a I + b n nᵀ, b(I − n nᵀ), F n all decouple; stick and open are diagonal), and the
+  held rows/columns are set to those of a DOF without contact, (B, C) = (1, 0): the conjugated row
+  Rᵢ Bⁱ Rᵢᵀ Aⁱ + Rᵢ Cⁱ Rᵢᵀ of the held DOF is A's Dirichlet row, the free rows do not see the held column.
+
+The SCD step is then that of the product law (free-component contact law) × (no contact in the held components)
+with the held components Dirichlet DOFs. It is the Coulomb problem with those DOFs held because the held slip is
+0: Q̃ at (0, v₂, v₃) contains the points with z₁ = 0 (sliding along t₂: z₁₂ = −Fλ (0, ±1), the only point;
+sticking: z₁ = 0 is one point of the disc, and z₁ acts only on the Dirichlet row, whose reaction absorbs it).
+A node driven along the contact by its support (a pushed face's edge: held slip ≠ 0) would need the friction
+of the prescribed slip in the held direction, which this law does not model: such nodes are no contact nodes
+(:class:`~fenics_coulomb.model.contact_map.ContactMap`), and a placement that makes a held slip non-zero is an
+InputError.
+
 Outputs: the contact force on the body is −Rᵢ zⁱ (Cartesian), its normal part λ = −z₃ ≥ 0, the tangential
 force −Rᵢ (z₁, z₂, 0) (a true 3-vector), the gap v₃ = g + n·ũ ≥ 0, the slip v₁₂.
 
@@ -101,7 +133,9 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["frames_from_normals", "to_local", "to_global", "rotate_rows", "conjugate", "local_shift"]
+__all__ = ["HELD_NORMAL_TOL", "PAIR_HELD_NORMAL_TOL", "frames_from_normals", "held_frames", "local_held", "to_local",
+           "to_global",
+           "rotate_rows", "conjugate", "local_shift"]
 
 Array = npt.NDArray[np.float64]
 
@@ -156,6 +190,58 @@ def local_shift(R: Array, g: npt.ArrayLike, offset: npt.ArrayLike | None = None)
         s[:, :2] = -to_local(R, o)[:, :2]
     s[:, 2] = g
     return s
+
+
+#: A held Cartesian direction e_h and a contact node's normal n are compatible when |n·e_h| <= this: the
+#: round-off of the normals of a geometry symmetric about the held direction's plane (an obstacle centred on a
+#: symmetry plane gives exactly 0). A normal tilted further (a tilted plane against a roller) is a conflict.
+HELD_NORMAL_TOL = 1e-6
+#: The same for the slave nodes of contact pairs, whose normals come from a faceted master surface (or, for
+#: mortar, from the slave's facets): a curved surface meshed on one side of a symmetry plane tilts them by about
+#: h/(8R) (1.2e-2 at h = R/10); the normal is projected onto the plane (a change of that order in the gap's
+#: linearization, below the facetting error itself).
+PAIR_HELD_NORMAL_TOL = 0.05
+
+
+def held_frames(frames: Array, held: npt.ArrayLike, tol: float = HELD_NORMAL_TOL
+                ) -> tuple[Array, npt.NDArray[np.bool_]]:
+    """The frames of contact nodes with held Cartesian components (see "Contact nodes with held components").
+
+    Args:
+        frames: Frames R = (t₁, t₂, n) (columns) of the nodes, shape (m, 3, 3).
+        held: Which Cartesian components a Dirichlet condition holds at each node, shape (m, 3) (at most two).
+        tol: The largest |n·e_h| of a compatible node (:data:`HELD_NORMAL_TOL`; :data:`PAIR_HELD_NORMAL_TOL` for
+            the faceted normals of contact pairs).
+
+    Returns:
+        (frames, conflict): the nodes with a held component get n projected onto the complement of the held
+        directions and t₁ = the first held axis, t₂ = n × t₁; the others keep their frames bit for bit.
+        ``conflict`` marks the nodes with a held direction not orthogonal to n (|n·e_h| > HELD_NORMAL_TOL),
+        whose frames are left unchanged.
+    """
+    held = np.asarray(held, dtype=bool).reshape(-1, 3)
+    out = np.array(frames, dtype=np.float64, copy=True)
+    conflict = np.zeros(held.shape[0], dtype=bool)
+    rows = np.flatnonzero(held.any(axis=1))
+    if not rows.size:
+        return out, conflict
+    n = out[rows, :, 2]
+    h = held[rows]
+    conflict[rows] = np.any(h & (np.abs(n) > tol), axis=1)
+    ok = ~conflict[rows]
+    rows, n, h = rows[ok], n[ok], h[ok]
+    n = np.where(h, 0.0, n)
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    t1 = _E[np.argmax(h, axis=1)]  # the first held axis
+    out[rows] = frames_from_normals(n, t1)
+    return out, conflict
+
+
+def local_held(held: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+    """The held LOCAL components (t₁, t₂, n) of nodes whose frames :func:`held_frames` made: the first one or two
+    tangents, as many as Cartesian components are held, shape (m, 3)."""
+    count = np.asarray(held, dtype=bool).reshape(-1, 3).sum(axis=1)
+    return np.stack([count >= 1, count >= 2, np.zeros(count.size, dtype=bool)], axis=1)
 
 
 # -- frames ---------------------------------------------------------------------------------------------

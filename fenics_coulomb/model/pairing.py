@@ -64,16 +64,19 @@ master surfaces with a common facet (slave = master, or one containing the other
 configuration) both on one connected part of the mesh (:func:`fenics_coulomb.model.two_body.connected_bodies`;
 a slave node of that body named); Φ² ≠ 0 (a contact node that is itself a vertex of a master facet used by
 any contact node — with two bodies per pair only possible across pairs — both nodes named by coordinates);
-an overlap at the reference configuration, on the true geometry: a contact node whose node-to-surface
-distance to M (the rules above) is g < −1e-6 × the diagonal of the bounding box of M ∪ S, or a master node
-over S within the search distance whose node-to-surface distance to S is as negative, counted only to the
-thickness of the slave's cell layer under its closest point (twice the distance of that cell's centroid from
-the facet: deeper, S alone cannot tell the inside of the slave body from the space beyond a thin one) (node
-and depth named, the deepest over all ranks). For mortar pairs this is NOT the nodal gap g̃_j / D_j: the dual basis is
-negative on part of each facet, so g̃_j can be negative beside a curved master where no point overlaps; such
-a node is a contact node with a negative initial gap, and the solve separates it. Invalid ContactPair fields
-(friction, search distance, tags, name) are rejected when the pair is created.
-A pair with no contact node is a logged warning (rank 0), not an error.
+an overlap at the reference configuration that cannot be an interference, on the true geometry: a slave node
+over M, not a contact node, whose node-to-surface distance to M (the rules above) is below −(the search
+distance) (a body inside the other), or a master node over S within the search distance whose node-to-surface
+distance to S is below −max(1e-6 × the diagonal of the bounding box of M ∪ S, twice the deepest contact
+node's interference), counted only to the thickness of the slave's cell layer under its closest point (twice
+the distance of that cell's centroid from the facet: deeper, S alone cannot tell the inside of the slave body
+from the space beyond a thin one) (node and depth named, the deepest over all ranks). A contact node inside
+the master body is an interference: a negative initial gap, which the solve resolves (a shrink fit; two curved
+surfaces meshed independently at the same radius overlap by their facetting). For mortar pairs this is NOT the nodal
+gap g̃_j / D_j: the dual basis is negative on part of each facet, so g̃_j can be negative beside a curved master where
+no point overlaps; such a node is a contact node with a negative initial gap, and the solve separates it. Invalid
+ContactPair fields (friction, search distance, tags, name) are rejected when the pair is created. A pair with no
+contact node is a logged warning (rank 0), not an error.
 
 Parallel
 --------
@@ -608,8 +611,8 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     Args:
         V: Vector P1/Q1 function space (block size 3) of the mesh carrying both bodies.
         pairs: The contact pairs (their facet tags on V's mesh).
-        excluded: Local DOF-block indices (owned and ghost) with any Dirichlet component — never contact
-            nodes.
+        excluded: Local DOF-block indices (owned and ghost) that are never contact nodes (clamped, or held at a
+            non-zero value; nodes with components held at 0 stay, :mod:`fenics_coulomb.model.frames`).
         coordinates: The configuration to pair in: the position X + u of every local DOF block (owned and
             ghost), shape (number of blocks, 3); None for the reference configuration X. Only the reference
             configuration is checked for overlapping bodies (a deformed one is an iterate of finite sliding).
@@ -751,7 +754,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         go = _dot(X_dofs[others] - ro["closest"], ro["normal"])
         over = ro["paired"]
         per_pair.append(dict(nodes=nodes, g=g, R=R, contact=contact, closest=closest, blocks=stencil_blocks,
-                             weights=stencil, D=D, body=body, pointwise=pointwise,
+                             weights=stencil, D=D, body=body, pointwise=pointwise, search=search,
                              master_depth=_master_overlap(imap, slave, _thickness(comm, V, slave_facets, X_dofs),
                                                           master, search) if reference else None,
                              free=dict(blocks=others[over], gap=go[over], normals=ro["normal"][over],
@@ -807,31 +810,48 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                    "(check the pairs' slave and master tags)")
     check_all(comm, not message, message)
 
-    # overlap at the reference configuration, on the true geometry: the pointwise (node-to-surface) distance of
-    # each contact node to M and of each master node to S — not the mortar nodal gap g̃_j / D_j, which can be
-    # negative beside a curved master without any overlap (ψ_j < 0 on part of each facet)
+    # overlap at the reference configuration, on the true geometry (the pointwise node-to-surface distance, not
+    # the mortar nodal gap g̃_j / D_j, which can be negative beside a curved master without any overlap): a contact
+    # node inside the master body is an interference (a negative initial gap, which the solve resolves, as an
+    # obstacle's indentation). Refused: a slave node over M inside it deeper than the search distance (no contact
+    # node, and none can be: a body inside the other, or an overlap the search distance does not reach), and a
+    # master node inside the slave body deeper than twice the deepest slave node's interference (an overlap
+    # between the slave nodes, which they do not see: a master bump poking into the slave)
     worst = None
+    local = 0.0
     for i, p in enumerate(per_pair if reference else []):
         sel = np.flatnonzero(winner == i)
-        depth = -p["pointwise"][np.searchsorted(p["nodes"], blocks[sel])]
-        if sel.size and depth.max() > OVERLAP_TOL * p["body"]:
-            k = int(np.argmax(depth))
-            j = sel[k]
-            if worst is None or depth[k] > worst[0]:
-                worst = (float(depth[k]), f"{labels[i]}: the bodies overlap at the reference configuration: "
-                                          f"contact node {_where(coordinates[j])} lies {depth[k]:.6g} inside the "
-                                          f"master body (more than {OVERLAP_TOL:g} × the surfaces' size "
-                                          f"{p['body']:.6g})")
+        if sel.size:
+            local = max(local, float(np.max(-p["pointwise"][np.searchsorted(p["nodes"], blocks[sel])])))
+    interference = comm.allreduce(local, op=MPI.MAX)
+    for i, p in enumerate(per_pair if reference else []):
+        free = p["free"]
+        deep = np.flatnonzero((-free["gap"] > p["search"]) & ~np.isin(free["blocks"], blocks))
+        if deep.size:
+            k = deep[int(np.argmax(-free["gap"][deep]))]
+            depth = float(-free["gap"][k])
+            if worst is None or depth > worst[0]:
+                worst = (depth, f"{labels[i]}: the bodies overlap at the reference configuration beyond the search "
+                                f"distance: slave node {_where(X_dofs[free['blocks'][k]])} lies {depth:.6g} inside "
+                                f"the master body (search distance {p['search']:.6g}): not an interference the pair "
+                                "can resolve (a body inside the other?); enlarge search_distance or fix the geometry")
         x, d = p["master_depth"]
-        if d.size and d.max() > OVERLAP_TOL * p["body"]:
+        allowed = max(OVERLAP_TOL * p["body"], 2.0 * interference)
+        if d.size and d.max() > allowed:
             k = int(np.argmax(d))
             if worst is None or d[k] > worst[0]:
                 worst = (float(d[k]), f"{labels[i]}: the bodies overlap at the reference configuration: master "
-                                      f"node {_where(x[k])} lies {d[k]:.6g} inside the slave body (more than "
-                                      f"{OVERLAP_TOL:g} × the surfaces' size {p['body']:.6g})")
+                                      f"node {_where(x[k])} lies {d[k]:.6g} inside the slave body, between its "
+                                      f"nodes (more than {allowed:.6g}: twice the deepest slave node's "
+                                      "interference, or 1e-6 × the surfaces' size): the slave's nodes do not see "
+                                      "that overlap")
     everyone = [w for w in comm.allgather(worst) if w is not None]
     if everyone:
         raise InputError(max(everyone, key=lambda w: w[0])[1])
+    if reference and interference > OVERLAP_TOL * max((p["body"] for p in per_pair), default=0.0) \
+            and comm.rank == 0:
+        logger.info("contact pairs: the bodies overlap at the reference configuration by up to %.6g: an "
+                    "interference (negative initial gaps)", interference)
 
     count = comm.allreduce(np.bincount(winner, minlength=len(pairs)).astype(np.int64), op=MPI.SUM) \
         if pairs else np.zeros(0, np.int64)

@@ -209,7 +209,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     old_nodes, new_nodes = [cmap.blocks[rigid] + r0], [cmap.blocks[rigid] + r0]
     old_rows, new_rows = [cmap.obstacle_index[rigid].reshape(-1, 1)], [index.reshape(-1, 1)]
     if model.pairing is not None:
-        pairing = model.pair_in(u)
+        pairing, held = model.held_pairing(model.pair_in(u))  # as ContactModel.configure would make it
         old = model.pairing
         sel = np.flatnonzero(paired)
         local_same = bool(np.array_equal(old.blocks, pairing.blocks))
@@ -236,7 +236,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         if same_nodes:  # every rank: the coupling matrix of the new stencils is collective
             size_local = model.V.dofmap.index_map.size_local
             M = coupling_matrix(model.V, pairing.blocks, pairing.master_blocks, pairing.weights,
-                                f"{model.prefix}geometry_")
+                                f"{model.prefix}geometry_", held)
             x, y = M.createVecs()
             x.array[:] = step[:3 * size_local]
             M.mult(x, y)

@@ -165,7 +165,8 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
 
 
 def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
-                    master_blocks: npt.NDArray[np.int64], weights: Array, prefix: str) -> PETSc.Mat:
+                    master_blocks: npt.NDArray[np.int64], weights: Array, prefix: str,
+                    held: npt.NDArray[np.bool_] | None = None) -> PETSc.Mat:
     """M = I + Φ as a PETSc AIJ matrix (collective; owned rows of V's DOF layout).
 
     Args:
@@ -174,6 +175,9 @@ def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
         master_blocks: Global block indices of the master facet's nodes, shape (m, k) (−1: none).
         weights: φ_sj, shape (m, k).
         prefix: Options prefix of the problem; the matrix gets ``<prefix>coupling_``.
+        held: The components a Dirichlet condition holds at each slave node, shape (m, 3) (None: none): their
+            rows of Φ are 0, so u = z there and the condition holds z (the contact law does not act on them:
+            :mod:`fenics_coulomb.model.frames`, "Contact nodes with held components").
     """
     comm = V.mesh.comm
     imap = V.dofmap.index_map
@@ -189,6 +193,8 @@ def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
     cols = 3 * master_blocks[:, :, None] + np.arange(3)[None, None, :]
     vals = np.broadcast_to(weights[:, :, None], cols.shape)
     keep = np.broadcast_to(present[:, :, None], cols.shape)
+    if held is not None and np.any(held):
+        keep = keep & ~np.asarray(held, dtype=bool)[:, None, :]
     local = sp.csr_matrix((np.concatenate([np.ones(diag.size), vals[keep]]),
                            (np.concatenate([diag, rows[keep]]) - 3 * r0, np.concatenate([diag, cols[keep]]))),
                           shape=(3 * n, size[1]))

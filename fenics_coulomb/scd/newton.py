@@ -320,9 +320,26 @@ class SCDNewtonSolver:
         gamma = self.node_gamma
         e = r / self.gamma
         uc = u[self.cdofs]
-        v, z = resolvent(to_local(self.frames, gamma[:, None] * uc - r[self.cdofs]), gamma, self.model.friction)
+        w = to_local(self.frames, gamma[:, None] * uc - r[self.cdofs])
+        held = self._held
+        if held is not None:  # the law of the free components (model/frames.py, "held components")
+            w[held[0]] = 0.0
+        v, z = resolvent(w, gamma, self.model.friction)
         e[self.cdofs] = uc - to_global(self.frames, v)
+        if held is not None:  # e = r/γᵢ on a held DOF, as on a DOF without contact
+            nodes = np.flatnonzero(held[1].any(axis=1))
+            rows = self.cdofs[nodes][held[1][nodes]]
+            e[rows] = r[rows] / np.broadcast_to(gamma[nodes, None], (nodes.size, 3))[held[1][nodes]]
         return Iterate(u, r, e, v, z, self.norm(e))
+
+    @property
+    def _held(self) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]] | None:
+        """(local, Cartesian) held components of the contact nodes, shape (m, 3) each, or None when no owned contact
+        node has one (see "Contact nodes with held components" in :mod:`fenics_coulomb.model.frames`)."""
+        cmap = self.model.contact
+        if cmap.held is None or not np.any(cmap.held):
+            return None
+        return cmap.held_local, cmap.held
 
     def norm(self, e: Array) -> float:
         """‖ŷ‖ = ‖(Γ e, e)‖ over all ranks: √(1 + γ²)·‖e‖ for one γ, with γᵢ on the contact nodes' DOFs."""
@@ -356,6 +373,14 @@ class SCDNewtonSolver:
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.node_gamma)
+        held = self._held
+        if held is not None:  # held local components: the rows of a DOF without contact, (B, C) = (1, 0)
+            node, k = np.nonzero(held[0])
+            left[node, k, :] = 0.0
+            left[node, :, k] = 0.0
+            left[node, k, k] = 1.0
+            right[node, k, :] = 0.0
+            right[node, :, k] = 0.0
         if self._galerkin is not None:  # rows scaled to A's diagonal for the Galerkin coarse operators
             left, right = self._galerkin.scale(left, right)
         # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see

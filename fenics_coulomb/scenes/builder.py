@@ -30,7 +30,7 @@ from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, Body, GapFunction, create_cuboid
 from fenics_coulomb.scenes.meshes import read_gmsh_tags
 from fenics_coulomb.scenes.path import StepLoads, scene_state, step_state
-from fenics_coulomb.scenes.scene import Scene
+from fenics_coulomb.scenes.scene import Scene, held_components
 from fenics_coulomb.settings import COMMAND_PREFIX, START_RULES
 
 __all__ = ["QUADRATURE_DEGREE", "cuboid_gap", "build_body", "lame_fields", "isotropic_forms", "boundary_nodes",
@@ -142,6 +142,7 @@ def clamp(V: dolfinx.fem.FunctionSpace, body: Body) -> dolfinx.fem.DirichletBC:
 
 def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene,
                          prescribed: dict[str, dolfinx.fem.Constant] | None = None,
+                         prescribed_components: dict[str, list[dolfinx.fem.Constant]] | None = None,
                          ) -> tuple[list[dolfinx.fem.DirichletBC], dict[str, np.ndarray]]:
     """The scene's clamped, prescribed and roller conditions and the DOF blocks each boundary owns.
 
@@ -149,7 +150,9 @@ def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene,
     so a clamped boundary wins over a prescribed one on shared edges. Returns the conditions and, per
     boundary name, its local DOF blocks (for its reaction force). ``prescribed`` (boundary name → a vector
     Constant) makes the prescribed conditions hold those Constants (changed in place along a load path)
-    instead of the scene's fixed values.
+    instead of the scene's fixed values; a prescribed boundary with "free" components gets a condition on each
+    held component (``V.sub(i)``; its values the scalar Constants of ``prescribed_components``), and its nodes
+    belong to it as a roller's do.
     """
     bcs: list[dolfinx.fem.DirichletBC] = []
     groups: dict[str, np.ndarray] = {}
@@ -159,13 +162,24 @@ def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene,
         bcs.append(dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V))
         groups[",".join(body.dirichlet)] = dofs
         taken = dofs
+    fdim = body.mesh.topology.dim - 1
     for name, value in scene.prescribed.items():
         dofs = np.setdiff1d(boundary_nodes(V, body, [name], "prescribed"), taken).astype(np.int32)
-        held = prescribed[name] if prescribed is not None else np.asarray(value, dtype=PETSc.ScalarType)
-        bcs.append(dolfinx.fem.dirichletbc(held, dofs, V))
+        components = held_components(value)
+        if len(components) == 3:
+            held = prescribed[name] if prescribed is not None else np.asarray(value, dtype=PETSc.ScalarType)
+            bcs.append(dolfinx.fem.dirichletbc(held, dofs, V))
+        else:  # "free" components: a condition on each held component (V.sub(i)) of the boundary's nodes
+            facets = body.facet_tags.find(body.tag(name))
+            for c in components:
+                sub = V.sub(c)
+                sub_dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
+                sub_dofs = sub_dofs[np.isin(sub_dofs // 3, dofs)]
+                held = prescribed_components[name][c] if prescribed_components is not None else \
+                    PETSc.ScalarType(value[c])
+                bcs.append(dolfinx.fem.dirichletbc(held, sub_dofs, sub))
         groups[name] = dofs
         taken = np.union1d(taken, dofs).astype(np.int32)
-    fdim = body.mesh.topology.dim - 1
     for name, components in scene.roller.items():
         blocks = np.setdiff1d(boundary_nodes(V, body, [name], "roller"), taken).astype(np.int32)
         facets = body.facet_tags.find(body.tag(name))
@@ -211,7 +225,7 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     names = {name for state in states for name in state.tractions} | set(scene.traction_table())
     loads = StepLoads(V, body.facet_tags, {name: body.tag(name) for name in names}, scene_state(scene), states)
     L = loads.form(ufl.TestFunction(V))
-    bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed)
+    bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed, loads.prescribed_components)
     friction = float(scene.friction.coefficient)
     settings = scene.solver
     if scene.start in START_RULES and settings.start != scene.start:  # a start file is the solve's u0 instead

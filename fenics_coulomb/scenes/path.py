@@ -40,7 +40,7 @@ import ufl
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model.obstacles import _rotation
 from fenics_coulomb.scd.records import SolveResult
-from fenics_coulomb.scenes.scene import MAX_LOAD, PathStep, Scene
+from fenics_coulomb.scenes.scene import FREE, MAX_LOAD, PathStep, Scene
 
 __all__ = ["ZERO", "LoadState", "scene_state", "zero_state", "step_state", "blend_vector", "PathSolve", "plan",
            "obstacle_labels", "StepLoads", "StepRecord", "run_path"]
@@ -75,10 +75,15 @@ def _vec(value: Sequence[float]) -> tuple[float, float, float]:
     return (float(value[0]), float(value[1]), float(value[2]))
 
 
+def _held(value: Sequence[float | str]) -> tuple[float, float, float]:
+    """A ``[prescribed]`` value as 3 numbers ("free" components, which no condition holds, as 0)."""
+    return _vec([0.0 if c == FREE else c for c in value])  # type: ignore[misc]
+
+
 def scene_state(scene: Scene) -> LoadState:
     """The scene's own loads (its static problem)."""
     return LoadState(tractions=dict(scene.traction_table()), body_force=_vec(scene.load.body_force),
-                     prescribed={k: _vec(v) for k, v in scene.prescribed.items()},
+                     prescribed={k: _held(v) for k, v in scene.prescribed.items()},
                      obstacles=tuple(_vec(o.displacement) for o in scene.obstacles),
                      rotations=tuple(getattr(o, "rotation", None) for o in scene.obstacles))
 
@@ -102,7 +107,7 @@ def step_state(scene: Scene, step: PathStep) -> LoadState:
                       for name, rotation in zip(names, base.rotations, strict=True))
     return LoadState(tractions=tractions,
                      body_force=base.body_force if step.body_force is None else _vec(step.body_force),
-                     prescribed={k: _vec(step.prescribed.get(k, v)) for k, v in base.prescribed.items()},
+                     prescribed={k: _held(step.prescribed.get(k, v)) for k, v in base.prescribed.items()},
                      obstacles=obstacles, rotations=rotations)
 
 
@@ -251,6 +256,10 @@ class StepLoads:
         #: Prescribed boundary name → the Constant its DirichletBC holds.
         self.prescribed = {name: dolfinx.fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType))
                            for name in initial.prescribed}
+        #: Prescribed boundary name → a scalar Constant per component (the values of the conditions on single
+        #: components, ``V.sub(i)``, of a boundary with "free" components), set with :attr:`prescribed`.
+        self.prescribed_components = {name: [dolfinx.fem.Constant(msh, PETSc.ScalarType(0.0)) for _ in range(3)]
+                                      for name in initial.prescribed}
         # keyed by the traction itself (numbers and callables, held by the key): an id() of a state could be
         # reused by a later state once the first is freed, and hand it the first state's field
         self._cache: dict[Traction, npt.NDArray[np.float64]] = {}
@@ -308,6 +317,8 @@ class StepLoads:
         self.body_force.value[:] = blend_vector(start.body_force, end.body_force, weight)
         for name, constant in self.prescribed.items():
             constant.value[:] = blend_vector(start.prescribed.get(name, ZERO), end.prescribed.get(name, ZERO), weight)
+            for component, value in zip(self.prescribed_components[name], constant.value, strict=True):
+                component.value = value
 
 
 @dataclass

@@ -64,6 +64,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -110,7 +111,7 @@ KINDS: dict[str, dict[str, str]] = {
     "contact": {"sliding": "str"},
     "load": {"case": "str", "scale": "number", "body_force": "vector"},
     "tractions": {"*": "traction"},
-    "prescribed": {"*": "vector"},
+    "prescribed": {"*": "prescription"},
     "roller": {"*": "components"},
     "obstacle": {"name": "str", "type": "str", "point": "vector", "normal": "vector", "center": "vector",
                  "axis": "vector", "radius": "number", "displacement": "vector", "file": "str", "side": "str"},
@@ -130,6 +131,7 @@ _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number
               "surface": "a boundary name or a non-empty list of boundary names", "vector": "a list of 3 numbers, all finite",
               "traction": "a list of 3 numbers (finite) or expressions in x1, x2, x3",
               "components": "a list of distinct components 0, 1, 2",
+              "prescription": 'a list of 3 entries, each a finite number or "free", at least one a number',
               "table": "a table (name = value, ...)"}
 
 #: Largest scene file read (a scene is a few hundred bytes; /dev/zero or a mesh given by mistake is refused).
@@ -145,6 +147,16 @@ MAX_LOAD = 1e12
 #: Largest level of the cuboid accepted at all (lev 40 has ~10^13 unknowns); the memory check in the CLI
 #: refuses far smaller ones on an ordinary machine.
 MAX_LEV = 40
+
+
+#: A ``[prescribed]`` component left free (not held by the support).
+FREE = "free"
+__all__ += ["FREE", "held_components"]
+
+
+def held_components(value: Sequence[Any]) -> list[int]:
+    """The components a ``[prescribed]`` value holds (its numbers; "free" entries are not held)."""
+    return [i for i, c in enumerate(value) if c != FREE]
 
 
 def check_kind(where: str, value: Any, kind: str) -> None:
@@ -171,6 +183,8 @@ def check_kind(where: str, value: Any, kind: str) -> None:
         "components": lambda v: isinstance(v, list) and bool(v) and len(set(map(repr, v))) == len(v)
         and all(isinstance(c, int) and not isinstance(c, bool) and c in (0, 1, 2) for c in v),
         "table": lambda v: isinstance(v, dict),
+        "prescription": lambda v: isinstance(v, list | tuple) and len(v) == 3
+        and all(is_number(c) or c == FREE for c in v) and any(is_number(c) for c in v),
     }[kind](value)
     if not ok:
         raise InputError(f"{where} = {value!r}: must be {_KIND_TEXT[kind]}")
@@ -470,8 +484,9 @@ class Scene:
     given: frozenset[str] = frozenset()
     #: The rigid obstacles (``[[obstacle]]``); empty: the paper's plane x3 = 0.
     obstacles: list[Obstacle] = field(default_factory=list)
-    #: ``[prescribed]``: boundary name → its displacement (all three components).
-    prescribed: dict[str, list[float]] = field(default_factory=dict)
+    #: ``[prescribed]``: boundary name → its displacement, per component a number or "free" (not held; at least one
+    #: held). Only the held components carry a Dirichlet condition (and a reaction).
+    prescribed: dict[str, list[float | str]] = field(default_factory=dict)
     #: ``[roller]``: boundary name → the components held at 0 (0 = x1, 1 = x2, 2 = x3).
     roller: dict[str, list[int]] = field(default_factory=dict)
     #: ``[[path.step]]``: the steps of a quasi-static load path; empty: one static solve.
@@ -615,9 +630,7 @@ class Scene:
             raise InputError("no Dirichlet boundary: name clamped, [prescribed] or [roller] boundaries "
                              "(rigid motions)")
         for name, value in self.prescribed.items():
-            if not isinstance(value, list) or len(value) != 3:
-                raise InputError(f"prescribed displacement on {name!r} = {value!r}: must be 3 numbers")
-            _vector(f"prescribed displacement on {name!r}", value)
+            check_kind(f"prescribed displacement on {name!r}", value, "prescription")
         for name, value in self.roller.items():
             if (not isinstance(value, list) or not value or len(set(map(repr, value))) != len(value)
                     or any(isinstance(c, bool) or c not in (0, 1, 2) for c in value)):
@@ -720,7 +733,11 @@ class Scene:
                         f"{at} prescribed: boundary {name!r} is not in the scene's [prescribed] "
                         f"({', '.join(self.prescribed) or 'empty'}): the Dirichlet boundaries cannot change "
                         "along a path; give it its initial value in [prescribed]")
-                check_kind(f"{at} prescribed displacement on {name!r}", value, "vector")
+                check_kind(f"{at} prescribed displacement on {name!r}", value, "prescription")
+                if held_components(value) != held_components(self.prescribed[name]):
+                    raise InputError(f"{at} prescribed displacement on {name!r} = {value!r}: must leave the same "
+                                     f"components free as [prescribed] {name} = {self.prescribed[name]!r} (the held "
+                                     "components cannot change along a path)")
             for name, value in step.move.items():
                 if name not in named:
                     raise InputError(f"{at} move: no obstacle named {name!r} (named obstacles: "

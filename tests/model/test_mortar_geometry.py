@@ -11,8 +11,8 @@ clip polygons' exact areas, the overlap check on the true geometry, and pairs th
   coarse block the swapped pair has negative weighted gaps beside the fillet but no pointwise overlap, and is
   accepted.
 * Pairs within one body (slave = master, a slave containing the master, two surfaces of one block) refused
-  with one line on every rank, for both methods; a real overlap (slave or master node inside the other body)
-  refused.
+  with one line on every rank, for both methods; an overlap of the slave nodes is an interference (negative
+  gaps), refused beyond the search distance, and a master node inside the slave body between its nodes refused.
 """
 
 from __future__ import annotations
@@ -360,14 +360,16 @@ def test_pairs_within_one_body_are_refused(method, slave, master, match):
 
 
 @pytest.mark.parametrize("cell", ["hexahedron", "tetrahedron"])
-def test_mortar_overlap_rejected_on_the_true_geometry(cell):
-    """A slave surface 0.01 inside the master body is an overlap for mortar as for node-to-surface (the
-    pointwise distance named: of a contact node, or of a master node as deep inside the slave body)."""
+def test_mortar_overlap_is_an_interference(cell):
+    """A slave surface 0.01 inside the master body is an interference for mortar as for node-to-surface: the
+    fully covered slave nodes are contact nodes with the weighted gap −0.01; out of the search distance's reach it
+    is refused on the true geometry (a slave node and its depth named)."""
     b = two_blocks(MPI.COMM_WORLD, cell_type=cell, gap=-0.01, n_upper=(2, 2, 1), upper_origin=(0.3, 0.3))
     V = dolfinx.fem.functionspace(b.mesh, ("Lagrange", 1, (3,)))
-    with pytest.raises(InputError,
-                       match=r"overlap .* (contact|master) node .* lies 0\.01 inside the (master|slave) body"):
-        pair_surfaces(V, [ContactPair(b.facet_tags, slave=SLAVE, master=MASTER)], NONE)
+    P = pair_surfaces(V, [ContactPair(b.facet_tags, slave=SLAVE, master=MASTER)], NONE)
+    assert P.num_global == 9 and np.allclose(P.gap, -0.01, rtol=1e-9, atol=0)
+    with pytest.raises(InputError, match=r"beyond the search distance: slave node .* lies 0\.01 inside the master"):
+        pair_surfaces(V, [ContactPair(b.facet_tags, slave=SLAVE, master=MASTER, search_distance=0.005)], NONE)
 
 
 def test_master_node_inside_the_slave_body_rejected():

@@ -397,11 +397,19 @@ def test_small_penetration_has_negative_gap():
 
 
 @pytest.mark.parametrize("cell", CELLS)
-def test_overlap_rejected(cell):
+def test_overlap_is_an_interference(cell):
+    """The upper block 0.01 inside the lower one: every slave node is a contact node with the gap −0.01 (an
+    interference, resolved by the solve); with a search distance of 0.005 the overlap is out of reach: refused,
+    one line naming a node and its depth."""
     b = two_blocks(MPI.COMM_WORLD, cell_type=cell, gap=-0.01, n_upper=(2, 2, 1), upper_origin=(0.3, 0.3))
     V = space(b.mesh)
-    with pytest.raises(InputError, match=r"overlap .* lies 0\.01 inside"):
-        pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"])], NONE)
+    pair = ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"], method="node-to-surface")
+    P = pair_surfaces(V, [pair], NONE)
+    assert P.num_global == 9 and np.allclose(P.gap, -0.01, rtol=1e-9, atol=0)
+    near = ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"], search_distance=0.005)
+    with pytest.raises(InputError, match=r"^contact pair 1: the bodies overlap at the reference configuration "
+                       r"beyond the search distance: slave node \(.*\) lies 0\.01 inside the master body"):
+        pair_surfaces(V, [near], NONE)
 
 
 def test_phi_squared_rejected():

@@ -3,12 +3,17 @@
 Coarse meshes of every case, each with its own bound derived from the reference:
 
 * the incline is statics once every contact node slides: push/weight = (tan α + μ)/(1 − μ tan α) to the
-  solver's tolerance on any mesh;
+  solver's tolerance on any mesh — built through the API, and as the scene file docs/verification/incline.toml
+  (a per-component push, rollers through the contact face);
 * the mortar patch test is exact (round-off); node-to-surface fails it on non-matching meshes;
 * Hertz on the coarse block (h₀ = a/3): the contact radius within the mesh's resolution h₀/2 of Hertz's
   a = (3PR/4E*)^{1/3}; linear tetrahedra are stiffer than the exact solution and the clamped block stiffer than
   a half-space, so under the imposed δ the force lies ABOVE Hertz's P(δ) (by 11.6 % at h₀ = a/3, 6.9 % at a/4,
   2.6 % at a/11.3), and p₀ above 3P/(2πa²);
+* the shrink fit (Lamé, a quarter slice on rollers, interference δ = 0.5 % of b) on the coarse level: faceted
+  curved surfaces lie inside their circles, so the discrete interference is smaller and the pressure and hoop
+  stress lie BELOW Lamé's, by the facetting's O(h²): within 6 % (mortar, −4.3 %) and 20 % (node-to-surface,
+  −15.5 %); the table's finer levels meet 0.5 %/1 % with mortar;
 * Lubkin on the same coarse block: after the twist every contact node off the axis slips, and the torque lies
   within 5 % of the full-slip torque 3πμPa/16 (−3.4 % at h₀ = a/3; the table's 2 % is for its finer levels).
 """
@@ -30,8 +35,10 @@ from verification import (  # noqa: E402
     hertz_indentation,
     incline,
     incline_reference,
+    incline_scene,
     lubkin,
     patch,
+    shrink_fit,
 )
 
 #: The coarse block of the Hertz and Lubkin tests: (h₀/a, growth of the edge per unit distance).
@@ -44,6 +51,19 @@ def test_incline_reference_values():
     assert incline_reference(0.3) == pytest.approx(0.412371, abs=5e-7)
     assert incline_reference(0.0) == pytest.approx(TAN_ALPHA, rel=1e-15)
     assert incline_reference(0.3, tan_alpha=0.0) == pytest.approx(0.3, rel=1e-15)
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_block_pushed_up_an_incline_as_a_scene(friction):
+    """docs/verification/incline.toml (meshes/incline.msh): every contact node slides, the push's reaction over
+    the weight is the statics' ratio to 1e-9, the rollers' bottom-edge nodes are contact nodes (20 of the 25
+    bottom nodes: the pushed end's 5 are driven along the contact), the rollers balance each other, all balances."""
+    r = incline_scene(MPI.COMM_WORLD, friction, level=0)
+    assert r["converged"] and r["all_slide"] and r["open"] == 0
+    assert abs(r["error"]) <= 1e-9
+    assert r["contact_nodes"] == 20
+    assert r["weight"] == pytest.approx(0.5, rel=1e-12)
+    assert r["hold"] <= 1e-9 and r["balance"] <= 1e-9
 
 
 @pytest.mark.parametrize("friction", FRICTIONS)
@@ -89,3 +109,15 @@ def test_lubkin_coarse():
     assert step["closed"] > 20 and step["stick"] <= 1
     assert abs(r["error"]) <= 0.05
     assert np.isfinite(r["value"]) and r["value"] > 0
+
+
+@pytest.mark.parametrize(("method", "bound"), [("mortar", 0.06), ("node-to-surface", 0.2)])
+def test_shrink_fit_coarse(method, bound):
+    """The interference is resolved (every bore node a contact node with held components), the pressure and the
+    bore hoop stress lie below Lamé's within the coarse mesh's facetting bound, and agree with each other's
+    error (the same facetting: the hoop stress is p's Lamé multiple to 1e-2)."""
+    r = shrink_fit(MPI.COMM_WORLD, method, 0)
+    assert r["converged"] and r["held"] == r["contact_nodes"] > 0
+    for key in ("err_pressure", "err_hoop"):
+        assert -bound <= r[key] < 0.0, (key, r[key])
+    assert abs(r["err_hoop"] - r["err_pressure"]) <= 1e-2

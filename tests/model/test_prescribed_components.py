@@ -1,0 +1,142 @@
+"""Per-component prescribed values in scenes: ``[prescribed] top = [0.004, "free", -0.03]`` (1 and 2 ranks).
+
+A "free" component carries no condition: the support holds only the numbers, its reaction has only those
+components (our own assembly over the held DOFs, tests/model/reaction_reference.py), the free components move,
+and a load path blends the held values; bad values are one-line InputErrors naming the value.
+"""
+
+from __future__ import annotations
+
+import csv
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+from reaction_reference import assembled_reactions, held_dofs
+
+from fenics_coulomb import write_results
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.scenes.builder import build_problem
+from fenics_coulomb.scenes.scene import Scene
+
+SCENE = """
+[body]
+lev = 2
+gap = "d3"
+clamped = []
+[tractions]
+[prescribed]
+top = [0.004, "free", -0.03]
+left = [0.0, "free", "free"]
+[roller]
+sides = [1]
+[friction]
+coefficient = 0.3
+[[obstacle]]
+name = "floor"
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+[solver]
+rtol = 1e-11
+"""
+
+HELD = {"top": [0, 2], "left": [0], "sides": [1]}
+
+
+def contact_forces(problem, result):
+    n = problem.V.dofmap.index_map.size_local
+    out = np.zeros((n, 3))
+    out[problem.model.contact.blocks] = result.contact_force
+    return out
+
+
+def write(comm, path, text):
+    if comm.rank == 0:
+        path.write_text(text)
+    comm.barrier()
+
+
+def test_free_components_are_not_held(mpi_tmp_path):
+    """The held components take their values bit for bit, the free ones move; each reaction in summary.json equals
+    our assembly over the held components of its nodes (1e-10) and is exactly 0 in the free ones; supports, floor
+    balance (no applied load)."""
+    comm = MPI.COMM_WORLD
+    path = mpi_tmp_path / "free.toml"
+    write(comm, path, SCENE)
+    built = build_problem(Scene.from_toml(path))
+    with built.problem as problem:
+        uh, result = problem.solve()
+        assert result.converged and result.counts["open"] < problem.p
+        data = write_results(mpi_tmp_path / "out", problem, result, reactions=built.dirichlet_groups)
+        groups = built.dirichlet_groups
+        a, L = built.forms
+        supports = {name: held_dofs(problem.V, groups[name], HELD[name]) for name in groups}
+        ours = assembled_reactions(a, L, result.displacement, supports, comm, minus=contact_forces(problem, result))
+        n = problem.V.dofmap.index_map.size_local
+        u = uh.x.array[: 3 * n].reshape(-1, 3)
+        top = groups["top"][groups["top"] < n]
+        left = groups["left"][groups["left"] < n]
+        assert np.all(u[top, 0] == 0.004) and np.all(u[top, 2] == -0.03) and np.all(u[left, 0] == 0.0)
+        moved_y = comm.allreduce(float(np.abs(u[top, 1]).max(initial=0.0)), op=MPI.MAX)
+        moved_left = comm.allreduce(float(np.abs(u[left, 1:]).max(initial=0.0)), op=MPI.MAX)
+        assert moved_y > 1e-6 and moved_left > 1e-4
+    reactions = {name: np.asarray(v) for name, v in data["reactions"].items()}
+    assert set(reactions) == set(HELD)
+    scale = np.linalg.norm(reactions["top"])
+    for name, value in reactions.items():
+        assert np.allclose(value, ours[name], rtol=0, atol=1e-10 * scale), name
+        assert np.all(np.delete(value, HELD[name]) == 0.0), name
+    assert abs(reactions["left"][0]) > 1e-3 * scale
+    assert np.linalg.norm(sum(reactions.values()) + np.asarray(data["contact_force"])) <= 1e-8 * scale
+
+
+def test_a_load_path_blends_the_held_values(mpi_tmp_path):
+    """``[[path.step]] prescribed = { top = [0.008, "free", -0.03] }`` on the command line in two solves: the
+    held x value reaches 0.008, the free y component still has no reaction, each step balances."""
+    from fenics_coulomb.cli import main
+
+    comm = MPI.COMM_WORLD
+    path, out = mpi_tmp_path / "path.toml", mpi_tmp_path / "path"
+    write(comm, path, SCENE + '[[path.step]]\n[[path.step]]\nprescribed = { top = [0.008, "free", -0.03] }\n')
+    assert main(["--scene", str(path), "--out", str(out), "--no-plots", "--quiet"]) == 0
+    comm.barrier()
+    rows = list(csv.DictReader((out / "path.csv").read_text().splitlines()))
+    assert len(rows) == 2
+    for row in rows:
+        reactions = {name: np.array([float(row[f"reaction_{name}_{c} [GPa*L^2]"]) for c in "xyz"]) for name in HELD}
+        for name, held in HELD.items():
+            assert np.all(np.delete(reactions[name], held) == 0.0), name
+        contact = np.array([float(row[f"contact_force_{c} [GPa*L^2]"]) for c in "xyz"])
+        assert np.linalg.norm(sum(reactions.values()) + contact) <= 1e-8 * np.linalg.norm(reactions["top"])
+    first, last = (float(r["reaction_top_x [GPa*L^2]"]) for r in rows)
+    assert abs(last) > abs(first) > 0  # the push grew
+
+
+@pytest.mark.parametrize(("value", "message"), [
+    ('[0.01, "free"]', r"^\[prescribed\] top = \[0.01, 'free'\]: must be a list of 3 entries"),
+    ('[0.01, "loose", 0]', r"\[0.01, 'loose', 0\]: must be a list of 3 entries, each a finite number or \"free\""),
+    ('["free", "free", "free"]', r"at least one a number"),
+    ('[nan, "free", "free"]', r"\[nan, 'free', 'free'\]: must be"),
+    ('[inf, 0, 0]', r"\[inf, 0, 0\]: must be"),
+    ('[true, "free", "free"]', r"\[True, 'free', 'free'\]: must be"),
+    ('"free"', r"= 'free': must be"),
+    ('[0.01, "FREE", 0]', r"must be a list of 3 entries"),
+])
+def test_bad_per_component_values_are_one_line_errors(mpi_tmp_path, value, message):
+    comm = MPI.COMM_WORLD
+    path = mpi_tmp_path / "bad.toml"
+    write(comm, path, SCENE.replace('top = [0.004, "free", -0.03]', f"top = {value}"))
+    with pytest.raises(InputError, match=message) as err:
+        Scene.from_toml(path)
+    assert "\n" not in str(err.value)
+
+
+def test_a_path_step_may_not_change_which_components_are_free(mpi_tmp_path):
+    comm = MPI.COMM_WORLD
+    path = mpi_tmp_path / "bad_path.toml"
+    write(comm, path, SCENE + '[[path.step]]\nprescribed = { top = [0.008, 0.0, -0.03] }\n')
+    with pytest.raises(InputError, match=r"^\[\[path.step\]\] 1 prescribed displacement on 'top' = \[0.008, 0.0, "
+                       r"-0.03\]: must leave the same components free as \[prescribed\] top"):
+        Scene.from_toml(path)
