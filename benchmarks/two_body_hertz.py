@@ -123,7 +123,7 @@ class _Timed:
             self.seconds += time.perf_counter() - t
 
 
-def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar") -> dict[str, Any]:
+def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar", sliding: str = "finite") -> dict[str, Any]:
     """Solve one refinement; return its numbers and (on rank 0) the nodal profile."""
     import fenics_coulomb.model.contact_model as contact_model
     import fenics_coulomb.model.mortar as mortar
@@ -139,12 +139,13 @@ def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar") -> dict
             return vertices, normals
         mortar.nodal_normals = vertical
     try:
-        return _run(comm, h, delta, method, variant, timed)
+        return _run(comm, h, delta, method, variant, timed, sliding)
     finally:
         contact_model.pair_surfaces, mortar.nodal_normals = original_pairing, original_normals
 
 
-def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, timed: _Timed) -> dict[str, Any]:
+def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, timed: _Timed, sliding: str
+         ) -> dict[str, Any]:
     t0 = time.perf_counter()
     msh, cell_tags, facet_tags = mesh(comm, h)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
@@ -155,7 +156,7 @@ def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, time
     pair = ContactPair(facet_tags, slave=TAGS["curved"], master=TAGS["block_top"], friction=0.0,
                        search_distance=0.25 * R, name="hertz", method=method)
     with ContactProblem(elasticity(V, cell_tags), None, bcs, contact_pairs=[pair], settings={"rtol": 1e-10},
-                        petsc_options_prefix="hertz2_") as problem:
+                        petsc_options_prefix="hertz2_", sliding=sliding) as problem:
         t1 = time.perf_counter()
         _, result = problem.solve()
         solve_seconds = comm.allreduce(time.perf_counter() - t1, op=MPI.MAX)
@@ -180,7 +181,7 @@ def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, time
     inside = r < a_h
     shape = np.sqrt(1 - (r[inside] / a_h) ** 2)
     p0_fit = float(shape @ pressure[inside] / (shape @ shape))
-    return {"variant": variant, "h": h, "dofs": int(n_dofs), "pairing_seconds": pairing_seconds,
+    return {"variant": f"{variant}, {sliding} sliding", "h": h, "geometry_updates": result.geometry_updates, "dofs": int(n_dofs), "pairing_seconds": pairing_seconds,
             "solve_seconds": solve_seconds, "contact_nodes": int(result.p), "closed_nodes": int(closed.sum()),
             "newton_iterations": result.iterations, "converged": bool(result.converged), "delta": delta, "P": P,
             "balance": forces["balance"], "a_hertz": a_H, "a": a_h, "r_closed": r_c, "r_open": r_o,
@@ -195,7 +196,7 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     if comm.rank != 0:
         return
     out.mkdir(parents=True, exist_ok=True)
-    keys = ["variant", "h", "dofs", "pairing_seconds", "solve_seconds", "contact_nodes", "closed_nodes", "newton_iterations", "delta", "P", "balance", "a_hertz",
+    keys = ["variant", "h", "dofs", "pairing_seconds", "solve_seconds", "contact_nodes", "closed_nodes", "newton_iterations", "geometry_updates", "delta", "P", "balance", "a_hertz",
             "a", "r_closed", "r_open", "a_error", "p0_hertz", "p0", "p0_error", "p0_fit", "p0_fit_error", "seconds"]
     lines = [",".join(keys)] + [",".join(f"{row[k]:.10g}" if isinstance(row[k], float) else f'"{row[k]}"' if k == "variant" else str(row[k])
                                          for k in keys) for row in rows]
@@ -205,13 +206,13 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     (out / "hertz_profile.csv").write_text("\n".join(profile) + "\n")
     E_star = effective_modulus()
     table = ["| method | contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ "
-             "(largest nodal) | error | p₀ (fit) | error | Newton its | balance | pairing / solve |", "|" + "---|" * 15]
+             "(largest nodal) | error | p₀ (fit) | error | Newton its (geometry updates) | balance | pairing / solve |", "|" + "---|" * 15]
     for row in rows:
         table.append(f"| {row['variant']} | {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | {row['a']:.4f} "
                      f"[{row['r_closed']:.4f}, {row['r_open']:.4f}] | {100 * row['a_error']:+.2f} % | "
                      f"{row['p0_hertz']:.4g} | {row['p0']:.4g} | {100 * row['p0_error']:+.2f} % | "
                      f"{row['p0_fit']:.4g} | {100 * row['p0_fit_error']:+.2f} % | "
-                     f"{row['newton_iterations']} | {row['balance']:.1e} | "
+                     f"{row['newton_iterations']} ({row['geometry_updates']}) | {row['balance']:.1e} | "
                      f"{row['pairing_seconds']:.2f} s / {row['solve_seconds']:.1f} s |")
     worst = max(max(row["checks"].values()) for row in rows)
     (out / "hertz.md").write_text(f"""# Frictionless Hertz contact between two elastic bodies
@@ -245,8 +246,11 @@ What the rows show:
   the contact radius, θ ≈ 0.18), and the relative radial slip of the two bodies enters with sin θ. The contact
   is therefore narrower and more peaked than Hertz: a −1.6 %, the fitted p₀ +4 % at h = 0.02, not falling with
   h. The same integrals with the block's normal e₃ as every node's frame normal (the diagnostic row, not a
-  library option) give a −0.9 %, fitted p₀ +1.5 %, largest nodal pressure +3.9 %. With finite rotations
-  (normals updated with the deformation) the slave normal is the standard choice; here the normals are fixed.
+  library option) give a −0.9 %, fitted p₀ +1.5 %, largest nodal pressure +3.9 %. With finite sliding (the
+  default; the rows "finite sliding") the normals and the mortar segmentation follow the deformation: the
+  effective-gap error of the reference configuration goes, and mortar's contact radius moves from −1.6 % to
+  −0.7 % at h = 0.02 (the fitted p₀ stays +4 %: the nodal scatter above). "geometry updates" counts the
+  re-evaluations of the contact geometry; "pairing" then includes every re-pairing.
 
 {chr(10).join(table)}
 
@@ -282,14 +286,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sizes", type=float, nargs="+", default=[0.04, 0.02], help="contact element sizes")
     parser.add_argument("--delta", type=float, default=0.03, help="the flat face's downward displacement")
     parser.add_argument("--variants", nargs="+", default=list(VARIANTS), choices=VARIANTS)
+    parser.add_argument("--sliding", nargs="+", default=["finite", "small"], choices=["finite", "small"])
     parser.add_argument("--out", default=str(ROOT / "docs" / "two-bodies"))
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     rows = []
     for variant in args.variants:
-        for h in args.sizes:
-            row = run(comm, h, args.delta, variant)
-            rows.append(row)
+        for sliding in args.sliding:
+            for h in args.sizes:
+                row = run(comm, h, args.delta, variant, sliding)
+                rows.append(row)
         if comm.rank == 0:
             print({k: v for k, v in row.items() if k != "profile"}, flush=True)
     write(Path(args.out), rows, comm)

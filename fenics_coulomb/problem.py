@@ -48,6 +48,7 @@ from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration
                                           largest_slide)
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
+from fenics_coulomb.scd.resolvent import OPEN
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
 
@@ -576,7 +577,7 @@ class ContactProblem:
         while True:
             z = np.array(result.displacement, dtype=np.float64)
             u = model.physical(z)
-            step = iteration.after(u, z, reduction, result.iterations)
+            step = iteration.after(u, z, reduction, result.iterations, result.states != OPEN)
             if step.change is not None:
                 logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
                              step.change.new_signature[:8], step.action)

@@ -100,6 +100,8 @@ if __name__ == "__main__":
     parser.add_argument("--contact", type=float, default=0.04, help="element size at the contact point")
     parser.add_argument("--size", type=float, default=0.3, help="largest element size (default 0.3)")
     parser.add_argument("--radius", type=float, default=1.0, help="radius R (default 1)")
+    parser.add_argument("--refined", type=float, default=0.4,
+                        help="radius (relative to R) of the ball around the contact point meshed at --contact")
     parser.add_argument("--out", default="hemisphere_on_block.msh")
     args = parser.parse_args()
-    build(args.contact, Path(args.out), args.size, args.radius)
+    build(args.contact, Path(args.out), args.size, args.radius, refined=args.refined)

@@ -34,6 +34,14 @@ displacement accuracy, e = ERROR_PER_RTOL·rtol (:data:`fenics_coulomb.settings.
 largest ratio measured in docs/tradeoff, the bound ``--accuracy`` uses). At most :data:`MAX_GEOMETRY_UPDATES`
 updates; then the solve fails (exit 3) naming the nodes whose pairing keeps changing.
 
+**Open nodes.** The rules above are checked on the nodes the solution presses, and on every node that
+penetrates its partner in the new geometry (gap < −ε at X + u⁽ᵐ⁺¹⁾, gained candidates included). An open node
+(no force) whose new gap is ≥ −ε satisfies the new geometry's constraint with the force it has, zero, whatever
+its partner or stencil; solving again would not move u on its account. Without this, the candidates beside a
+contact patch (every slave node within the search distance) change their stencils with every update while
+nothing presses them (the two-body demo: 29 of 87 candidates changed partner in its first update, 5 nodes in
+contact).
+
 **Accuracy of the intermediate solves.** Only the last solve's accuracy reaches the answer: an intermediate
 solution serves to place the next geometry, and the iteration damps its error (u⁽ᵐ⁺¹⁾'s error moves G(u⁽ᵐ⁺¹⁾) and
 with it u⁽ᵐ⁺²⁾ by the iteration's contraction, measured 1/30–1/100 per update). :class:`GeometryIteration`
@@ -171,8 +179,8 @@ def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
     return [tuple(float(c) for c in everyone[i]) for i in order[:3]]
 
 
-def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float
-                    ) -> GeometryChange:
+def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float,
+                    active: npt.NDArray[np.bool_] | None = None) -> GeometryChange:
     """Compare the contact geometry of X + u with the linearization the solve used (collective).
 
     Args:
@@ -181,6 +189,9 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         z: The solution in the model's unknown (z = M⁻¹u; u for one body), owned DOFs.
         previous: The previous step's physical displacement (owned DOFs), None for 0.
         accuracy: The solve's relative displacement accuracy e (ε = e·‖u‖_∞).
+        active: Per contact node of the model, whether the solution presses it (not open); None: every node.
+            An open node whose gap in the new geometry is ≥ −ε is satisfied by the solution whatever its
+            partner: its changes do not count (see the module docstring, "Open nodes").
     """
     comm = model.comm
     cmap = model.contact
@@ -188,6 +199,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     U = ug.reshape(-1, 3)
     scale = comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
     tolerance = accuracy * scale
+    pressed = np.ones(cmap.size, dtype=bool) if active is None else np.asarray(active, dtype=bool)
     paired = model.paired if model.pairing is not None else np.zeros(cmap.size, dtype=bool)
     rigid = np.flatnonzero(~paired)
     delta = np.zeros(cmap.size)
@@ -197,12 +209,13 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     if rigid.size:
         uc = U[cmap.blocks[rigid]]
         index, g, n, _ = model.closest(model.obstacles, x_now[rigid])
-        moved[rigid] = index != cmap.obstacle_index[rigid]
+        relevant = pressed[rigid] | (g < -tolerance)
+        moved[rigid] = (index != cmap.obstacle_index[rigid]) & relevant
         n_old = cmap.frames[rigid][:, :, 2]
         linear = cmap.gap[rigid] + np.einsum("ij,ij->i", n_old, uc)
         v = uc - model.offset[rigid]
         dt = _tangential(n, v) - _tangential(n_old, v)
-        delta[rigid] = np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt))
+        delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt)), 0.0)
     pairing: Pairing | None = None
     gained_at = np.zeros((0, 3))
     r0 = model.V.dofmap.index_map.local_range[0]
@@ -211,9 +224,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     if model.pairing is not None:
         pairing, held = model.held_pairing(model.pair_in(u))  # as ContactModel.configure would make it
         old = model.pairing
-        sel = np.flatnonzero(paired)
-        local_same = bool(np.array_equal(old.blocks, pairing.blocks))
-        same_nodes = comm.allreduce(local_same, op=MPI.LAND)
+        sel = np.flatnonzero(paired)  # the paired nodes of the contact map, in the order of old.blocks
         threshold = tolerance / model.node_size()[old.blocks]
         old_support = supports(old.master_blocks, old.weights, threshold)
         new_support = supports(pairing.master_blocks, pairing.weights,
@@ -222,31 +233,37 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         new_nodes.append(pairing.blocks + r0)
         old_rows.append(old_support)
         new_rows.append(new_support)
-        if local_same:
-            moved[sel] = ~_same_supports(old_support, new_support)
-        else:
-            moved[sel] = ~np.isin(old.blocks, pairing.blocks)
-            gained = np.setdiff1d(pairing.blocks, old.blocks)
-            gained_at = model.V.tabulate_dof_coordinates()[gained] + U[gained]
+        _, i_old, i_new = np.intersect1d(old.blocks, pairing.blocks, assume_unique=True, return_indices=True)
+        lost = np.ones(old.blocks.size, dtype=bool)
+        lost[i_old] = False
+        gained = np.ones(pairing.blocks.size, dtype=bool)
+        gained[i_new] = False
+        penetrating = pairing.gap < -tolerance  # in the new geometry, at X + u
+        relevant = pressed[sel][i_old] | penetrating[i_new]
+        moved[sel[i_old]] = ~_same_supports(old_support[i_old], new_support[i_new]) & relevant
+        moved[sel[lost]] = pressed[sel][lost]  # a pressed node lost its partner
+        gained &= penetrating  # a new candidate that penetrates
+        gained_at = model.V.tabulate_dof_coordinates()[pairing.blocks[gained]] + U[pairing.blocks[gained]]
         step = u if previous is None else u - np.asarray(previous, dtype=np.float64)
         n_old = cmap.frames[sel][:, :, 2]
         dofs = cmap.local_dofs[sel]
         linear = cmap.gap[sel] + np.einsum("ij,ij->i", n_old, np.asarray(z).reshape(-1)[dofs])
         s_old = model.coupling.relative(step)[dofs]
-        if same_nodes:  # every rank: the coupling matrix of the new stencils is collective
-            size_local = model.V.dofmap.index_map.size_local
-            M = coupling_matrix(model.V, pairing.blocks, pairing.master_blocks, pairing.weights,
-                                f"{model.prefix}geometry_", held)
-            x, y = M.createVecs()
-            x.array[:] = step[:3 * size_local]
-            M.mult(x, y)
-            s_new = (2.0 * step - y.getArray(readonly=True))[dofs]
-            for obj in (x, y, M):
-                obj.destroy()
-            dt = _tangential(pairing.frames[:, :, 2], s_new) - _tangential(n_old, s_old)
-            delta[sel] = np.sqrt((pairing.gap - linear) ** 2 + np.einsum("ij,ij->i", dt, dt))
+        size_local = model.V.dofmap.index_map.size_local
+        M = coupling_matrix(model.V, pairing.blocks, pairing.master_blocks, pairing.weights,
+                            f"{model.prefix}geometry_", held)  # collective
+        x, y = M.createVecs()
+        x.array[:] = step[:3 * size_local]
+        M.mult(x, y)
+        new_dofs = 3 * pairing.blocks[:, None] + np.arange(3)
+        s_new = (2.0 * step - y.getArray(readonly=True))[new_dofs]
+        for obj in (x, y, M):
+            obj.destroy()
+        dt = _tangential(pairing.frames[i_new][:, :, 2], s_new[i_new]) - _tangential(n_old[i_old], s_old[i_old])
+        change = np.sqrt((pairing.gap[i_new] - linear[i_old]) ** 2 + np.einsum("ij,ij->i", dt, dt))
+        delta[sel[i_old]] = np.where(relevant, change, 0.0)
     delta[moved] = 0.0
-    changed = comm.allreduce(int(np.sum(moved)) + int(gained_at.shape[0]), op=MPI.SUM)
+    changed = comm.allreduce(int(np.sum(moved)) + int(gained_at.shape[0]), op=MPI.SUM)  # pressed or penetrating
     discrepancy = comm.allreduce(float(np.max(delta, initial=0.0)), op=MPI.MAX)
     if changed:
         where = _gather_where(comm, np.concatenate([x_now[moved], gained_at]))
@@ -318,9 +335,11 @@ class GeometryIteration:
         off = model.comm.allreduce(float(np.max(np.abs(u - configuration), initial=0.0)), op=MPI.MAX)
         return off <= 1e-12 * scale
 
-    def after(self, u: Array, z: Array, reduction: float, iterations: int) -> Step:
+    def after(self, u: Array, z: Array, reduction: float, iterations: int,
+              active: npt.NDArray[np.bool_] | None = None) -> Step:
         """Decide after a solve to ``reduction`` with ``iterations`` Newton steps whose solution is ``u``
-        (physical) / ``z`` (the model's unknown), both on the owned DOFs (collective)."""
+        (physical) / ``z`` (the model's unknown), both on the owned DOFs, pressing the contact nodes ``active``
+        (None: every node counts; collective)."""
         model, rtol = self.model, self.rtol
         if self._last:  # the kept geometry of an accepted 2-cycle, solved once more
             return Step("settled")
@@ -330,7 +349,7 @@ class GeometryIteration:
             self.reduction = rtol
             return Step("continue", None, f"the start meets the loose reduction {reduction:.3g}: solved on to rtol "
                                           f"{rtol:g}")
-        change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol)
+        change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active)
         self._solved.append((change.old_signature, u, reduction))
         if change.settled:
             if reduction <= rtol:
