@@ -211,7 +211,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
     from fenics_coulomb.io.figures import write_path_figure
-    from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
+    from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
+    from fenics_coulomb.io.view import contact_bodies, largest_force_normal, warp_scale, write_view_script
     from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_initial_grid, write_result_grid
     from fenics_coulomb.io.summary import write_path_csv
     from fenics_coulomb.scenes.path import obstacle_labels, run_path
@@ -251,8 +252,12 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
             t_write = 0.0
             with out.writing() as tmp:
                 xdmf = XDMFTimeSeries(tmp / "solution.xdmf", model.V.mesh)
+                surfaces = ObstacleSeries(tmp / "obstacles.xdmf", model.obstacles,
+                                          body_box(model.V.mesh.geometry.x, comm), comm) if model.obstacles else None
                 if start_step is None:  # the unloaded body as t = 0 (a resumed path has it in its first part)
                     write_initial_grid(xdmf, model)
+                    if surfaces is not None:  # the obstacles at their scene positions
+                        surfaces.write(0.0, [o.at_scene_position().rotated(None) for o in model.obstacles])
 
                 def write_grid(solve, record, result) -> None:  # noqa: ANN001
                     nonlocal t_write
@@ -260,6 +265,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                     step = (f"step {solve.step}" if solve.substeps == 1
                             else f"step {solve.step} ({solve.substep}/{solve.substeps})")
                     write_result_grid(xdmf, model, result, solve.time, step)
+                    if surfaces is not None:  # as placed for this solve
+                        surfaces.write(solve.time, model.obstacles)
                     t_write += time.perf_counter() - t
 
                 records, result, failure = run_path(problem, built.loads, todo, labels,
@@ -271,8 +278,10 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 write_convergence_csv(tmp / "convergence.csv", result, comm)
                 write_path_csv(tmp / "path.csv", steps, comm)
                 write_view_script(tmp / "view.py", warp_scale(model, [result.displacement] if result else []),
-                                  largest_force_normal(model, result.contact_force) if result else None, comm)
+                                  largest_force_normal(model, result.contact_force) if result else None, comm,
+                                  contact_bodies(model))
                 files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
+                files += ["obstacles.xdmf", "obstacles.h5"] if surfaces is not None else []
                 if not args.no_plots:
                     from fenics_coulomb.io.figures import write_figures
 

@@ -34,6 +34,7 @@ import ufl
 
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
+from fenics_coulomb.model.obstacles import obstacle_names
 from fenics_coulomb.report import nodal_pressure
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, ContactState
@@ -136,7 +137,7 @@ def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any
 def group_names(model: ContactModel) -> tuple[list[str], list[str]]:
     """The names of the obstacles (``name``, or "KIND N" by position as in the report) and of the contact pairs
     (``name``, or "pair N")."""
-    obstacles = [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(model.obstacles)]
+    obstacles = obstacle_names(model.obstacles)
     pairs = [getattr(q, "name", None) or f"pair {k + 1}" for k, q in enumerate(model.pairs)]
     return obstacles, pairs
 

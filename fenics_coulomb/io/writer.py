@@ -6,7 +6,9 @@ The command line and the Python API write the same files the same way::
     data = write_results("out/press", problem, result, reactions={"bottom": clamp})
 
 Files: ``solution.xdmf`` + ``solution.h5`` (the displacement and every contact field, :mod:`.xdmf`), ``view.py``
-(``pvpython view.py``: the body warped and coloured by contact state, :mod:`.view`),
+(``pvpython view.py``: the body warped and coloured by contact state beside the obstacles, :mod:`.view`),
+``obstacles.xdmf`` + ``obstacles.h5`` (the rigid obstacles' surfaces as placed, when there are obstacles,
+:mod:`.obstacle_surfaces`),
 ``convergence.csv`` (one row per Newton iteration), ``summary.json`` (the result's summary, the total contact
 force, the applied load, the reactions of the named supports, per-pair forces, software versions) and, with
 ``plots=True``, the PNG figures. The directory is written whole or not at all (:class:`.results.ResultDirectory`);
@@ -23,9 +25,10 @@ from typing import TYPE_CHECKING, Any
 from mpi4py import MPI
 
 from fenics_coulomb.errors import InputError
+from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
 from fenics_coulomb.io.results import ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
-from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
+from fenics_coulomb.io.view import contact_bodies, largest_force_normal, warp_scale, write_view_script
 from fenics_coulomb.io.xdmf import write_xdmf
 from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
 from fenics_coulomb.report import reaction_groups
@@ -60,8 +63,12 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     write_xdmf(directory / "solution.xdmf", model, result)
     write_convergence_csv(directory / "convergence.csv", result, comm)
     write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
-                      largest_force_normal(model, result.contact_force), comm)
+                      largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
     files = ["solution.xdmf", "solution.h5", "convergence.csv", "view.py"]
+    if model.obstacles:
+        ObstacleSeries(directory / "obstacles.xdmf", model.obstacles, body_box(model.V.mesh.geometry.x, comm),
+                       comm).write(0.0, model.obstacles)
+        files += ["obstacles.xdmf", "obstacles.h5"]
     if plots:
         from fenics_coulomb.io.figures import write_figures
 

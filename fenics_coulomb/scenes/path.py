@@ -38,7 +38,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.model.obstacles import _rotation
+from fenics_coulomb.model.obstacles import _rotation, obstacle_names
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scenes.scene import MAX_LOAD, PathStep, Scene
 
@@ -207,8 +207,8 @@ def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
 
 
 def obstacle_labels(scene: Scene) -> list[str]:
-    """Names of the scene's obstacles for records and columns (``<type><i>`` for an unnamed one)."""
-    return [getattr(o, "name", None) or f"{o.kind}{i + 1}" for i, o in enumerate(scene.obstacles)]
+    """Names of the scene's obstacles for records and columns (:func:`~fenics_coulomb.model.obstacles.obstacle_names`)."""
+    return obstacle_names(scene.obstacles)
 
 
 class StepLoads:

@@ -157,7 +157,8 @@ def test_solution_file(mpi_tmp_path):
     assert "contact_pressure GPa" in info["units"] and "contact_force GPa*L^2" in info["units"]
     counts = {name: int(np.sum(state == code)) for code, name in enumerate(("open", "stick", "slip"))}
     assert counts == summary["state_counts"] and np.sum(state == -1) == state.size - summary["p"]
-    assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "view.py", "summary.json"]
+    assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "view.py", "obstacles.xdmf",
+                                "obstacles.h5", "summary.json"]
 
 
 def test_not_converged_is_marked(mpi_tmp_path):
