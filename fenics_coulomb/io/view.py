@@ -1,6 +1,7 @@
 """A ParaView script in every result directory: ``pvpython view.py`` (or *Run Script* in ParaView's Python shell).
 
-It opens ``solution.xdmf`` beside it with the reader ParaView picks for .xdmf files, warps the body by the
+It opens ``solution.xdmf`` beside it with Xdmf3ReaderS (the reader pvpython picks for .xdmf files; named, so that
+the GUI asks nothing), warps the body by the
 displacement (by the true displacement beside obstacles, which the body then meets where it touches them; else
 by the scale that makes the largest displacement a tenth of the body; written into the script),
 colours it by ``contact_state`` as categories with the labels open / stick / slip (grey: not a contact node)
@@ -79,10 +80,10 @@ if not os.environ.get("DISPLAY"):
     virtual_display()
 
 from paraview import servermanager
-from paraview.simple import (ColorBy, GetActiveViewOrCreate, GetAnimationScene, GetColorTransferFunction,
-                             GetScalarBar, GetSources, OpenDataFile, Render, SaveScreenshot,
-                             Show, Threshold, WarpByVector)
+from paraview.simple import (ColorBy, GetActiveViewOrCreate, GetColorTransferFunction, GetScalarBar, GetSources,
+                             GetTimeKeeper, Render, SaveScreenshot, Show, Threshold, WarpByVector, Xdmf3ReaderS)
 
+# beside this file; ParaView's GUI (paraview --script=view.py) gives a script no __file__: then the current directory
 HERE = os.path.dirname(os.path.abspath(__file__)) if "__file__" in globals() else os.getcwd()
 SCALE = {scale!r}
 VIEW, UP = {view!r}, {up!r}  # the camera looks at the contact side (fenics_coulomb.io.figures.contact_view)
@@ -108,16 +109,14 @@ def state_colours(display, view):
 
 
 view = GetActiveViewOrCreate("RenderView")
-reader = OpenDataFile(os.path.join(HERE, "solution.xdmf"))
+reader = Xdmf3ReaderS(registrationName="solution.xdmf", FileName=[os.path.join(HERE, "solution.xdmf")])
 obstacles = None
 if os.path.exists(os.path.join(HERE, "obstacles.xdmf")):
-    obstacles = OpenDataFile(os.path.join(HERE, "obstacles.xdmf"))
-scene = GetAnimationScene()
-scene.UpdateAnimationUsingDataTimeSteps()
+    obstacles = Xdmf3ReaderS(registrationName="obstacles.xdmf", FileName=[os.path.join(HERE, "obstacles.xdmf")])
 times = list(getattr(reader, "TimestepValues", []) or [])
-if times:
-    scene.AnimationTime = times[-1]
 time = times[-1] if times else 0.0
+GetTimeKeeper().Time = time  # the last solve (the time keeper, not the animation scene: that hangs the GUI)
+view.ViewTime = time
 warp = WarpByVector(Input=reader)
 warp.Vectors = ["POINTS", "displacement"]
 warp.ScaleFactor = SCALE
@@ -180,6 +179,8 @@ if "--screenshot" in sys.argv:
         report["bodies"][str(body)] = {{
             "points": data.GetNumberOfPoints(), "bounds": list(data.GetBounds()),
             "state_range": list(states.GetRange()) if states is not None else None,
+            "state_counts": {{str(k): sum(1 for i in range(states.GetNumberOfTuples()) if states.GetTuple1(i) == k)
+                             for k, _ in STATES}} if states is not None else None,
             "colored_by": list(servermanager.GetRepresentation(part, view).ColorArrayName),
             "opacity": servermanager.GetRepresentation(part, view).Opacity}}
     if obstacles is not None:
