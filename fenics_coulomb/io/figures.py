@@ -240,7 +240,9 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
     When an obstacle moves, the total contact force component along each of its varying displacement
     components is drawn against that component (the tangential force against the tangential displacement
     traces a friction hysteresis loop); otherwise the contact force components against the path's time (the
-    step number; the load factor for ``--steps``). Both start at the unloaded state 0.
+    step number; the load factor for ``--steps``). Both start at the unloaded state 0. With the steps' "groups"
+    a second row shows per obstacle and contact pair the normal and tangential force, the peak pressure and the
+    stick/slip nodes against the step.
     """
     plt = _pyplot()
     force = np.array([[0.0, 0.0, 0.0]] + [s["contact_force"] for s in steps])
@@ -249,17 +251,21 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
     ranges = {(n, c): float(np.ptp(d[:, c])) for n, d in deltas.items() for c in range(3)}
     moving = [key for key, r in ranges.items() if r > 0]
     marker = {"marker": "o", "ms": 3}
+    groups = list(steps[0].get("groups", {})) if steps else []
+    top = max(ranges.values(), default=0.0)
+    moving = [key for key in moving if ranges[key] >= 1e-3 * top]
+    columns = max(len(moving), 1, 3 if groups else 1)
+    fig = plt.figure(figsize=(5.5 * columns, 4.5 * (2 if groups else 1)))
+    rows = fig.subfigures(2, 1) if groups else [fig]
     if moving:
-        top = max(ranges.values())
-        moving = [key for key in moving if ranges[key] >= 1e-3 * top]
-        fig, axes = plt.subplots(1, len(moving), figsize=(5.5 * len(moving), 4.5), squeeze=False)
+        axes = rows[0].subplots(1, len(moving), squeeze=False)
         for ax, (name, c) in zip(axes[0], moving, strict=True):
             ax.plot(deltas[name][:, c], force[:, c], **marker)
             ax.set_xlabel(f"displacement δ{c + 1} of obstacle {name} (L)")
             ax.set_ylabel(f"total contact force F{c + 1} on the body (GPa·L²)")
         ax = axes[0][0]
     else:
-        fig, ax = plt.subplots(figsize=(6, 4.5))
+        ax = rows[0].subplots()
         ramp = all(s["substeps"] == 1 for s in steps) and all(
             abs(s["load_factor"] - s["time"] / steps[-1]["time"]) < 1e-12 for s in steps)
         x = np.array([0.0] + [s["load_factor"] if ramp else s["time"] for s in steps])
@@ -267,6 +273,27 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
             ax.plot(x, force[:, c], label=f"F{c + 1}", **marker)
         ax.set_xlabel("load factor" if ramp else "step")
         ax.set_ylabel("total contact force on the body (GPa·L²)")
+    if groups:  # per obstacle and contact pair against the path's time
+        t = np.array([0.0] + [s["time"] for s in steps])
+
+        def history(name: str, key: str) -> npt.NDArray[np.float64]:
+            return np.array([0.0] + [float(s["groups"][name][key]) for s in steps])
+
+        forces, peaks, states = rows[1].subplots(1, 3)
+        for name in groups:
+            line, = forces.plot(t, history(name, "normal_force"), label=f"{name}: normal", **marker)
+            forces.plot(t, history(name, "tangential_force"), ls="--", color=line.get_color(),
+                        label=f"{name}: tangential", **marker)
+            peaks.plot(t, history(name, "peak_pressure"), label=name, **marker)
+            line, = states.plot(t, history(name, "stick"), label=f"{name}: stick", **marker)
+            states.plot(t, history(name, "slip"), ls="--", color=line.get_color(), label=f"{name}: slip", **marker)
+        forces.set_ylabel("contact force per obstacle / pair (GPa·L²)")
+        peaks.set_ylabel("peak contact pressure (GPa)")
+        states.set_ylabel("nodes")
+        for axis in (forces, peaks, states):
+            axis.set_xlabel("step")
+            for text in axis.legend(fontsize=7).get_texts():
+                text.set_parse_math(False)
     for axis in fig.axes:
         axis.grid(True, alpha=0.3)
     if not steps[-1]["converged"]:
@@ -276,7 +303,8 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
             text.set_parse_math(False)
     if title:
         fig.suptitle(title, parse_math=False)
-    fig.tight_layout()
+    if not groups:
+        fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
 

@@ -241,3 +241,6 @@ def test_view_script_shows_the_two_body_interface_by_state(tmp_path):
     assert hemisphere["state_counts"] == {"-1": hemisphere["points"] - summary["p"], "0": counts["open"],
                                           "1": counts["stick"], "2": counts["slip"]}
     assert counts["stick"] > 0 and counts["slip"] > 0
+    (pair,) = summary["contact_pairs"]  # the pair's own history entries: all of the contact nodes are its
+    assert (pair["stick"], pair["slip"], pair["open"]) == (counts["stick"], counts["slip"], counts["open"])
+    assert 0 < pair["tangential_force"] <= 0.3 * pair["normal_force"]
