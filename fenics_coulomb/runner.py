@@ -33,7 +33,8 @@ from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_for_accuracy
 
 __all__ = ["BYTES_PER_UNKNOWN", "BYTES_PER_RANK", "scene_from_args", "prepare_output", "run",
-           "check_path_arguments", "run_load_path", "friction_text", "check_memory", "available_memory"]
+           "check_path_arguments", "run_load_path", "friction_text", "force_lines", "contact_lines", "check_memory",
+           "available_memory"]
 
 logger = logging.getLogger("fenics_coulomb")
 
@@ -157,8 +158,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
             flush=True,
         )
-        print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
-              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+        print("\n".join(force_lines(data, scene)), flush=True)
         print("\n".join(contact_lines(data)), flush=True)
     return status
 
@@ -319,8 +319,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
               f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
               f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
               f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
-        print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
-              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+        print("\n".join(f"last step: {line}" for line in force_lines(data, scene)), flush=True)
         print("\n".join(f"last step: {line}" for line in contact_lines(data)), flush=True)
     return status
 
@@ -339,6 +338,35 @@ def friction_text(scene: Scene) -> str:
         name = f"{pair.name!r}" if pair.name else str(i + 1)
         parts.append(f"pair {name} F = {default if pair.friction is None else float(pair.friction):g}")
     return ", ".join(parts)
+
+
+def force_lines(data: dict, scene: Scene) -> list[str]:
+    """The force lines of the result, each naming what the force acts on: one body against obstacles: the total
+    contact force on the body (and each obstacle's when there are several); contact pairs: each pair's force on
+    its slave and on its master side (named by their boundaries) and each obstacle's force on its body; then the
+    reaction of every support (summary.json's entries)."""
+    obstacles = data.get("obstacles", {})
+    pairs = data.get("contact_pairs", [])
+    lines = []
+    if not pairs:
+        lines.append(f"total contact force on the body {_vector_text(data['contact_force'])}")
+        if len(obstacles) > 1:
+            lines += [f"  obstacle {name!r} on the body {_vector_text(d['force'])}" for name, d in obstacles.items()]
+    else:
+        sections = list(scene.contact_pairs)
+        for k, d in enumerate(pairs):
+            section = sections[k] if k < len(sections) else None
+            slave = f" {'+'.join(section.slave)!r}" if section is not None else ""
+            master = f" {'+'.join(section.master)!r}" if section is not None else ""
+            name = d.get("name") or k + 1
+            lines.append(f"pair {name!r}: contact force on the slave side{slave} "
+                         f"{_vector_text(d['force_on_slave_body'])}, on the master side{master} "
+                         f"{_vector_text(d['force_on_master_body'])}")
+        lines += [f"obstacle {name!r}: contact force on the body {_vector_text(d['force'])}"
+                  for name, d in obstacles.items()]
+    lines.append("reactions: " + ", ".join(f"{name} {_vector_text(v)}"
+                                    for name, v in data["reactions"].items()))
+    return lines
 
 
 def contact_lines(data: dict) -> list[str]:

@@ -91,11 +91,10 @@ def plot_contact_states(
     ax.set_aspect("equal")
     ax.set_xlabel(labels[0])
     ax.set_ylabel(labels[1])
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3, frameon=False)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, frameon=False)
     if title:
         ax.set_title(title, parse_math=False)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight", pad_inches=0.2)  # the legend below the axes included
     plt.close(fig)
 
 
@@ -105,9 +104,10 @@ def gather_deformed(
     contact_coordinates: npt.NDArray[np.float64],
     contact_displacement: npt.NDArray[np.float64],
     states: npt.NDArray[np.int8],
+    body: npt.NDArray[np.int64] | None = None,
 ) -> tuple[list, tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]]] | None:
-    """Gather the VTK pieces of the displaced body and the contact nodes on rank 0 (collective; None
-    elsewhere)."""
+    """Gather the VTK pieces of the displaced body (with ``body``, the body number of each local DOF block, as a
+    fifth item) and the contact nodes on rank 0 (collective; None elsewhere)."""
     import dolfinx.fem
     import dolfinx.plot
 
@@ -117,7 +117,9 @@ def gather_deformed(
     u.x.scatter_forward()
     topology, cell_types, x = dolfinx.plot.vtk_mesh(V)
     values = u.x.array.reshape(-1, 3)[: x.shape[0]]
-    parts = comm.gather((topology, cell_types, x, values), root=0)
+    piece = (topology, cell_types, x, values) if body is None else (
+        topology, cell_types, x, values, np.asarray(body, dtype=np.int64)[: x.shape[0]])
+    parts = comm.gather(piece, root=0)
     contact = gather_contact(comm, np.hstack([contact_coordinates, contact_displacement]), states)
     if comm.rank != 0:
         return None
@@ -144,16 +146,20 @@ def contact_view(normal: npt.ArrayLike | None) -> tuple[npt.NDArray[np.float64],
 
 
 def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDArray[np.int8]], path: Path,
-                    title: str = "", normal: npt.ArrayLike | None = None) -> None:
+                    title: str = "", normal: npt.ArrayLike | None = None, slaves: tuple[int, ...] = ()) -> None:
     """Render the pieces gathered by :func:`gather_deformed` to ``path`` (one process), seen from the contact
-    side: :func:`contact_view` of ``normal`` (the contact normal of the node with the largest force)."""
+    side: :func:`contact_view` of ``normal`` (the contact normal of the node with the largest force). With the
+    pieces' body numbers and the ``slaves`` (the bodies with contact nodes), the other bodies are drawn
+    translucent: the camera, on the master side, sees the slave surface through them."""
     import pyvista
 
     pyvista.OFF_SCREEN = True
     grids = []
-    for top, types, pts, vals in parts:
+    for top, types, pts, vals, *body in parts:
         grid = pyvista.UnstructuredGrid(top, types, pts)
         grid.point_data["u"] = vals
+        if body:
+            grid.point_data["body"] = body[0]
         grids.append(grid)
     grid = grids[0].merge(grids[1:]) if len(grids) > 1 else grids[0]
     size = float(np.max(np.ptp(grid.points, axis=0)))
@@ -164,8 +170,15 @@ def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDA
     with virtual_display():
         plotter = pyvista.Plotter(off_screen=True, window_size=(1200, 800))
         try:
-            plotter.add_mesh(warped, scalars="|u|", cmap="viridis", show_edges=True, edge_color="grey",
+            others = np.zeros(warped.n_points, dtype=bool)
+            if slaves and "body" in warped.point_data:
+                others = ~np.isin(warped.point_data["body"], slaves)
+            shown = warped.extract_points(~others, adjacent_cells=False) if others.any() else warped
+            plotter.add_mesh(shown, scalars="|u|", cmap="viridis", show_edges=True, edge_color="grey",
                              line_width=0.5, scalar_bar_args={"title": "|displacement|"})
+            if others.any():  # the master sides, translucent
+                plotter.add_mesh(warped.extract_points(others, adjacent_cells=False), color="lightgrey",
+                                 opacity=0.25, show_edges=False)
             data, st = contact
             if st.size:
                 points = data[:, :3] + factor * data[:, 3:]
@@ -174,7 +187,7 @@ def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDA
                     if np.any(mask):
                         plotter.add_points(points[mask], color=colour, point_size=8,
                                            render_points_as_spheres=True, label=label)
-                plotter.add_legend(bcolor="white", size=(0.15, 0.1), loc="upper left")
+                plotter.add_legend(bcolor="white", size=(0.15, 0.1), loc="lower left")
             if title:
                 # VTK renders $...$ as math text: escape user text so it is shown literally
                 plotter.add_title(f"{title} (displacement x{factor:.3g})".replace("$", "\\$"), font_size=10)
@@ -199,8 +212,12 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
     comm: MPI.Comm = model.V.mesh.comm  # type: ignore[attr-defined]
     contact = model.contact  # type: ignore[attr-defined]
     displacement = result.displacement  # type: ignore[attr-defined]
+    from fenics_coulomb.io.view import contact_bodies
+
+    bodies, slaves = contact_bodies(model)  # type: ignore[arg-type]
     deformed = gather_deformed(model.V, displacement, contact.coordinates,  # type: ignore[attr-defined]
-                               displacement[contact.local_dofs], result.states)  # type: ignore[attr-defined]
+                               displacement[contact.local_dofs], result.states,  # type: ignore[attr-defined]
+                               np.asarray(model.body_of_block) + 1 if bodies else None)  # type: ignore[attr-defined]
     # the contact surface in its own projection: onto the plane ⊥ the mean contact normal (x1, x2 for the
     # paper's plane)
     from fenics_coulomb.model.frames import frames_from_normals, to_local
@@ -222,7 +239,9 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
             ("convergence.png", lambda p: plot_convergence({label: result.residual_history}, p,  # type: ignore
                                                            f"Convergence, {label}")),
             ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}", axes)),
-            ("deformed.png", lambda p: render_deformed(*deformed, p, f"Deformed body, {label}", view_normal)),
+            ("deformed.png", lambda p: render_deformed(
+                *deformed, p, f"Deformed bodies, {label} (master translucent)" if bodies else f"Deformed body, {label}",
+                view_normal, tuple(slaves))),
         ]
         for name, draw in jobs:
             try:

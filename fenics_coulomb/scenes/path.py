@@ -207,7 +207,8 @@ def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
 
 
 def obstacle_labels(scene: Scene) -> list[str]:
-    """Names of the scene's obstacles for records and columns (:func:`~fenics_coulomb.model.obstacles.obstacle_names`)."""
+    """Names of the scene's obstacles for records and columns
+    (:func:`~fenics_coulomb.model.obstacles.obstacle_names`)."""
     return obstacle_names(scene.obstacles)
 
 

@@ -284,10 +284,33 @@ def test_the_deformed_figure_looks_at_the_contact_side(mpi_tmp_path, monkeypatch
     above, _ = contact_view((0.0, 0.0, -1.0))  # the sphere's normal points down into the block
     assert below[2] < -0.7 and above[2] > 0.7
     seen = []
-    monkeypatch.setattr(figures, "render_deformed", lambda parts, contact, path, title="", normal=None:
-                        seen.append(normal))
+    monkeypatch.setattr(figures, "render_deformed",
+                        lambda parts, contact, path, title="", normal=None, slaves=(): seen.append(normal))
     scene = ROOT / "demos" / "scenes" / "sphere_indentation.toml"
     assert main(["--scene", str(scene), "--lev", "1", "--out", str(mpi_tmp_path / "s"), "--quiet"]) == 0
     if MPI.COMM_WORLD.rank == 0:
         (normal,) = seen
         assert contact_view(normal)[0][2] > 0  # the camera is above the indented top, looking down
+
+
+def test_the_state_legend_survives_a_round_patch(tmp_path):
+    """contact_states.png of a round patch (as tall as wide) keeps its whole legend below the axes: with no
+    sliding node the gold of "sliding" can only come from the legend's marker, and no row at the figure's lower
+    edge is drawn on (the legend was cut there)."""
+    import matplotlib.image
+
+    if MPI.COMM_WORLD.rank:
+        return
+    angle = np.linspace(0.0, 2 * np.pi, 200, endpoint=False)
+    radius = np.sqrt(np.linspace(0.0, 1.0, 200))
+    xy = np.column_stack([radius * np.cos(7 * angle), radius * np.sin(7 * angle)])
+    states = np.where(radius < 0.5, 1, 0).astype(np.int8)  # stick inside, open outside, no slip
+    png = tmp_path / "states.png"
+    figures.plot_contact_states(xy, states, png, "round")
+    image = matplotlib.image.imread(png)[..., :3]
+    gold = np.all(np.abs(image - np.array([1.0, 0.843, 0.0])) < 0.03, axis=-1)
+    assert gold.sum() > 20
+    rows = np.flatnonzero(gold.any(axis=1))
+    assert rows.min() > 0.8 * image.shape[0]  # below the patch
+    assert rows.max() < image.shape[0] - 10  # and whole: not cut by the figure's edge
+    assert np.all(image[-5:] > 0.95)  # nothing drawn on the last rows

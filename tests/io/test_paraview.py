@@ -225,13 +225,23 @@ def test_view_script_shows_the_body_and_the_rolling_ball(tmp_path):
     assert done.returncode == 0 and "Traceback" not in done.stdout + done.stderr, done.stderr[-3000:]
 
 
-def test_view_script_shows_the_two_body_interface_by_state(tmp_path):
+def test_view_script_shows_the_two_body_interface_by_state(tmp_path, capsys):
     """The two-body demo in the real ParaView: one part per body; the hemisphere (the slave side) coloured by
-    contact_state with the run's open/stick/slip counts on its points, the block translucent and uncoloured."""
+    contact_state with the run's open/stick/slip counts on its points, the block translucent and uncoloured. The
+    command's force lines name the pair's sides; deformed.png (the master translucent) is written."""
     out = tmp_path / "two"
     scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "two_bodies.toml"
-    assert main(["--scene", str(scene), "--out", str(out), "--quiet", "--no-plots"]) == 0
+    assert main(["--scene", str(scene), "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
+    assert "deformed.png" in summary["files"] and "contact_states.png" in summary["files"]
+    assert "total contact force on the body" not in printed
+    (pair,) = summary["contact_pairs"]
+    slave, master = (", ".join(f"{c:.6g}" for c in pair[key])
+                     for key in ("force_on_slave_body", "force_on_master_body"))
+    assert f"pair 1: contact force on the slave side 'curved' ({slave}), on the master side 'block_top' ({master})" \
+        in printed
+    assert "reactions: block_bottom (" in printed
     report = view_report(out, tmp_path / "two.png")
     assert "obstacles" not in report and report["sources"] == ["WarpByVector1", "body 1", "body 2", "solution.xdmf"]
     block, hemisphere = report["bodies"]["1"], report["bodies"]["2"]
@@ -241,6 +251,6 @@ def test_view_script_shows_the_two_body_interface_by_state(tmp_path):
     assert hemisphere["state_counts"] == {"-1": hemisphere["points"] - summary["p"], "0": counts["open"],
                                           "1": counts["stick"], "2": counts["slip"]}
     assert counts["stick"] > 0 and counts["slip"] > 0
-    (pair,) = summary["contact_pairs"]  # the pair's own history entries: all of the contact nodes are its
+    # the pair's own history entries: all of the contact nodes are its
     assert (pair["stick"], pair["slip"], pair["open"]) == (counts["stick"], counts["slip"], counts["open"])
     assert 0 < pair["tangential_force"] <= 0.3 * pair["normal_force"]

@@ -2,8 +2,8 @@
 entries, on the paper's path (one plane), the rolling demo and a contact pair beside a floor (1 and 2 ranks).
 
 Physics asserted: against a plane the normal force is the contact force's normal component and the tangential
-force its tangential length; for any group |Σ tᵢ| ≤ Σ |tᵢ| ≤ F Σ λᵢ (Coulomb at every node); the groups' stick and
-slip nodes add up to the step's counts; the last row equals summary.json."""
+force its tangential length; for any group |Σ tᵢ| ≤ Σ |tᵢ| ≤ F Σ λᵢ (Coulomb at every node); the groups' stick
+and slip nodes add up to the step's counts; the last row equals summary.json."""
 
 from __future__ import annotations
 
