@@ -3,8 +3,9 @@
 :func:`run` validates the scene's values before any collective call (memory, start file, path arguments,
 nested levels), builds the problem (:func:`~fenics_coulomb.scenes.builder.build_problem`), solves (from the
 coarse levels of nested iteration when they apply) and writes the result set with
-:func:`~fenics_coulomb.io.writer.write_result_set`; :func:`run_load_path` solves the steps of a path, one grid
-per solve in ``solution.xdmf``. Each returns the exit status."""
+:func:`~fenics_coulomb.io.writer.write_result_set`; :func:`run_load_path` solves the steps of a path into a
+:class:`~fenics_coulomb.io.writer.PathResultSet` (one grid per solve). Both run check → build → solve or path →
+write → print. Each returns the exit status."""
 
 from __future__ import annotations
 
@@ -24,8 +25,7 @@ from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.errors import EXIT_DIVERGED
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
-from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
-from fenics_coulomb.io.writer import write_result_set
+from fenics_coulomb.io.writer import PathResultSet, write_result_set
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
 from fenics_coulomb.scenes.nested import NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels, start_from_coarse
@@ -210,11 +210,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     solution.xdmf with one grid per solve (time = the step number), path.csv, summary.json with "steps",
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
-    from fenics_coulomb.io.figures import write_path_figure
-    from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
-    from fenics_coulomb.io.view import contact_bodies, largest_force_normal, warp_scale, write_view_script
-    from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_initial_grid, write_result_grid
-    from fenics_coulomb.io.summary import write_path_csv
+    from fenics_coulomb.io.xdmf import read_displacement
     from fenics_coulomb.scenes.path import obstacle_labels, run_path
 
     out = prepare_output(comm, args.out)
@@ -249,63 +245,26 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
             else:
                 u0 = start_function(scene.start, problem.V)
                 todo = solves
-            t_write = 0.0
             with out.writing() as tmp:
-                xdmf = XDMFTimeSeries(tmp / "solution.xdmf", model.V.mesh)
-                surfaces = ObstacleSeries(tmp / "obstacles.xdmf", model.obstacles,
-                                          body_box(model.V.mesh.geometry.x, comm), comm) if model.obstacles else None
-                if start_step is None:  # the unloaded body as t = 0 (a resumed path has it in its first part)
-                    write_initial_grid(xdmf, model)
-                    if surfaces is not None:  # the obstacles at their scene positions
-                        surfaces.write(0.0, [o.at_scene_position().rotated(None) for o in model.obstacles])
+                results = PathResultSet(tmp, problem, initial=start_step is None)
 
                 def write_grid(solve, record, result) -> None:  # noqa: ANN001
-                    nonlocal t_write
-                    t = time.perf_counter()
                     step = (f"step {solve.step}" if solve.substeps == 1
                             else f"step {solve.step} ({solve.substep}/{solve.substeps})")
-                    write_result_grid(xdmf, model, result, solve.time, step)
-                    if surfaces is not None:  # as placed for this solve
-                        surfaces.write(solve.time, model.obstacles)
-                    t_write += time.perf_counter() - t
+                    results.write_solve(solve.time, step, result)
 
                 records, result, failure = run_path(problem, built.loads, todo, labels,
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
                 out.failed = bool(failure)
-                t = time.perf_counter()
-                steps = [r.as_dict() for r in records]
-                write_convergence_csv(tmp / "convergence.csv", result, comm)
-                write_path_csv(tmp / "path.csv", steps, comm)
-                write_view_script(tmp / "view.py", warp_scale(model, [result.displacement] if result else []),
-                                  largest_force_normal(model, result.contact_force) if result else None, comm,
-                                  contact_bodies(model))
-                files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
-                files += ["obstacles.xdmf", "obstacles.h5"] if surfaces is not None else []
-                if not args.no_plots:
-                    from fenics_coulomb.io.figures import write_figures
-
-                    files += write_figures(tmp, model, result, scene.label)
-                    files += write_path_figure(tmp, steps, scene.label, comm)
-                data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
-                                               "body": built.body.description})
-                data["converged"] = not failure
-                data["reason"] = failure or "converged"
-                data["path"] = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
-                                "start_step": start_step, "start": scene.start if start_step is not None else None,
-                                "ramp_steps": getattr(args, "steps", None)}
-                data["steps"] = steps
-                data["reactions"] = records[-1].reactions
-                data["contact_force"] = records[-1].contact_force
-                data["newton_iterations_total"] = sum(r.newton_iterations for r in records)
-                data["krylov_iterations_total"] = sum(r.krylov_iterations for r in records)
-                data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-                data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
-                data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
-                data["timings_s"]["output"] = comm.allreduce(t_write + time.perf_counter() - t, op=MPI.MAX)
-                data["wall_time_s"] = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-                data["files"] = [*files, "summary.json"]
-                write_summary(tmp / "summary.json", data, comm)
+                path = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
+                        "start_step": start_step, "start": scene.start if start_step is not None else None,
+                        "ramp_steps": getattr(args, "steps", None)}
+                data = results.finish(
+                    [r.as_dict() for r in records], result, label=scene.label, plots=not args.no_plots,
+                    extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
+                           "converged": not failure, "reason": failure or "converged", "path": path},
+                    timings={"model": t_model, "mesh": built.mesh_time, "assembly": problem.model_time}, wall_start=t0)
     finally:
         problem_logger.setLevel(level)
     status = 0

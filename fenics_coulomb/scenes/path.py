@@ -404,7 +404,7 @@ def run_path(
         The records, the last solve's result (None if ``solves`` is empty) and "" or the reason the path
         stopped.
     """
-    from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
+    from fenics_coulomb.report import make_report
 
     model = problem.model
     comm: MPI.Comm = model.comm
@@ -430,14 +430,14 @@ def run_path(
             failure = result.reason
         wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
         counts = result.counts
+        report = make_report(model, result, model.obstacles, groups)  # the forces: one definition
         record = StepRecord(
             index=solve.index, time=solve.time, step=solve.step, substep=solve.substep, substeps=solve.substeps,
             load_factor=solve.load_factor, converged=not failure, reason=failure or result.reason,
             newton_iterations=int(result.iterations), krylov_iterations=int(result.krylov_iterations),
-            counts=dict(counts), contact_force=total_contact_force(model, result.contact_force),
-            applied_load=[float(c) for c in model.total_load()],
-            reactions=boundary_reactions(model, result.displacement, groups, result.master_force,
-                                         result.contact_force),
+            counts=dict(counts), contact_force=[float(c) for c in report.total_force],
+            applied_load=[float(c) for c in report.applied_load],
+            reactions={name: [float(c) for c in v] for name, v in report.reactions.items()},
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
             obstacle_rotations={name: _plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
             wall_time_s=wall, residual_history=[float(r) for r in result.residual_history],
