@@ -3,7 +3,9 @@
 ``convergence.png``  ‖ŷ⁽ᵏ⁾‖/‖ŷ⁽⁰⁾‖ against the Newton iteration (like the paper's Fig. 3);
 ``contact_states.png``  the contact nodes over the bottom (x1, x2), coloured as in the paper's Fig. 2:
 no contact blue, sliding yellow, sticking red;
-``deformed.png``  the deformed body (pyvista, off screen) with the contact nodes in the same categorical colours.
+``deformed.png``  the deformed body (pyvista, off screen) with the contact nodes in the same categorical colours;
+``contact_pressure.png``  the contact pressure (force per area) of the contact nodes seen along the mean contact
+normal, zoomed onto the patch in contact.
 
 ``contact_state`` is categorical: the figures colour it with :data:`STATE_COLOURS` (one colour per state, never a
 continuous map). User text (scene names) is shown literally: matplotlib's math text is not parsed in it. A
@@ -24,7 +26,8 @@ import numpy.typing as npt
 from fenics_coulomb.io.display import virtual_display
 from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK
 
-__all__ = ["STATE_COLOURS", "contact_view", "plot_convergence", "gather_contact", "plot_contact_states", "gather_deformed",
+__all__ = ["STATE_COLOURS", "contact_view", "plot_convergence", "gather_contact", "plot_contact_states",
+           "plot_contact_pressure", "gather_deformed",
            "render_deformed", "write_figures", "plot_path", "write_path_figure"]
 
 logger = logging.getLogger(__name__)
@@ -96,6 +99,59 @@ def plot_contact_states(
         ax.set_title(title, parse_math=False)
     fig.savefig(path, dpi=120, bbox_inches="tight", pad_inches=0.2)  # the legend below the axes included
     plt.close(fig)
+
+
+def plot_contact_pressure(
+    coordinates: npt.NDArray[np.float64], pressure: npt.NDArray[np.float64], states: npt.NDArray[np.int8],
+    path: Path, title: str = "", labels: tuple[str, str] = ("$x_1$", "$x_2$"),
+) -> tuple[float, float, float, float]:
+    """Draw the contact pressure of the contact nodes over their first two (projected) coordinates to ``path``,
+    zoomed onto the nodes in contact (their box, widened by half its size and by the node spacing around it; the
+    whole surface without contact): a pressure map seen along the contact normal, the open nodes hollow.
+
+    Returns:
+        The window shown (x₀, x₁, y₀, y₁), a square.
+    """
+    plt = _pyplot()
+    xy = np.asarray(coordinates, dtype=np.float64)[:, :2]
+    pressure = np.asarray(pressure, dtype=np.float64).reshape(-1)
+    closed = (np.asarray(states) != OPEN) & (pressure > 0)
+    inside = xy[closed] if closed.any() else xy
+    lo, hi = inside.min(axis=0, initial=np.inf), inside.max(axis=0, initial=-np.inf)
+    if not np.all(np.isfinite(hi - lo)):
+        lo, hi = np.zeros(2), np.ones(2)
+    spacing = 0.0
+    if xy.shape[0] > 1:  # the median distance to the nearest node
+        from scipy.spatial import cKDTree
+
+        spacing = float(np.median(cKDTree(xy).query(xy, k=2)[0][:, 1]))
+    pad = 0.5 * (hi - lo) + spacing
+    lo, hi = lo - pad, hi + pad
+    half = 0.5 * float(np.max(hi - lo))
+    centre = 0.5 * (lo + hi)
+    fig, ax = plt.subplots(figsize=(7, 6))
+    near = np.all(np.abs(xy - centre) <= half * 1.05, axis=1)
+    size = float(np.clip(2.0e4 / max(int(near.sum()), 1), 8.0, 200.0))
+    ax.scatter(*xy[near & ~closed].T, s=size, facecolors="none", edgecolors="grey", linewidths=0.6,
+               label="open or no pressure")
+    shown = ax.scatter(*xy[closed].T, c=pressure[closed], s=size, cmap="viridis", marker="s", edgecolors="none")
+    if closed.any():
+        fig.colorbar(shown, ax=ax, label="contact pressure (GPa)")
+        peak = int(np.argmax(np.where(closed, pressure, -np.inf)))
+        ax.plot(*xy[peak], marker="+", color="red", ms=14, mew=2, ls="none",
+                label=f"peak {pressure[peak]:.4g} GPa ({int(closed.sum())} nodes in contact)")
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_aspect("equal")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    for text in ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2, frameon=False).get_texts():
+        text.set_parse_math(False)
+    if title:
+        ax.set_title(title, parse_math=False)
+    fig.savefig(path, dpi=120, bbox_inches="tight", pad_inches=0.2)
+    plt.close(fig)
+    return (float(centre[0] - half), float(centre[0] + half), float(centre[1] - half), float(centre[1] + half))
 
 
 def gather_deformed(
@@ -228,17 +284,24 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
     axes = ("$x_1$", "$x_2$") if np.allclose(frame[0], np.eye(3)) else ("$t_1$", "$t_2$")
     projected = to_local(np.broadcast_to(frame, (contact.size, 3, 3)), contact.coordinates)
     states = gather_contact(comm, projected, result.states)  # type: ignore[attr-defined]
+    from fenics_coulomb.model.forces import contact_areas
+    from fenics_coulomb.report import nodal_pressure
+
+    pressure = nodal_pressure(result.normal_force, contact_areas(model))  # type: ignore[arg-type, attr-defined]
+    pressures = gather_contact(comm, np.column_stack([projected[:, :2], pressure]), result.states)  # type: ignore
     # the camera's normal: that of the node with the largest contact force (on every rank, then rank 0 draws)
     from fenics_coulomb.io.view import largest_force_normal
 
     view_normal = largest_force_normal(model, result.contact_force)  # type: ignore[arg-type, attr-defined]
     written: list[str] = []
     if comm.rank == 0:
-        assert deformed is not None and states is not None
+        assert deformed is not None and states is not None and pressures is not None
         jobs = [
             ("convergence.png", lambda p: plot_convergence({label: result.residual_history}, p,  # type: ignore
                                                            f"Convergence, {label}")),
             ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}", axes)),
+            ("contact_pressure.png", lambda p: plot_contact_pressure(
+                pressures[0][:, :2], pressures[0][:, 2], pressures[1], p, f"Contact pressure, {label}", axes)),
             ("deformed.png", lambda p: render_deformed(
                 *deformed, p, f"Deformed bodies, {label} (master translucent)" if bodies else f"Deformed body, {label}",
                 view_normal, tuple(slaves))),

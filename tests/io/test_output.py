@@ -314,3 +314,22 @@ def test_the_state_legend_survives_a_round_patch(tmp_path):
     assert rows.min() > 0.8 * image.shape[0]  # below the patch
     assert rows.max() < image.shape[0] - 10  # and whole: not cut by the figure's edge
     assert np.all(image[-5:] > 0.95)  # nothing drawn on the last rows
+
+
+def test_the_pressure_map_zooms_onto_the_patch(tmp_path):
+    """contact_pressure.png of a small round patch on a large contact surface shows the patch: a square window
+    holding every node in contact, a fraction of the surface wide; without contact the whole surface."""
+    if MPI.COMM_WORLD.rank:
+        return
+    x1, x2 = np.meshgrid(np.linspace(0.0, 2.0, 81), np.linspace(0.0, 1.0, 41), indexing="ij")
+    xy = np.column_stack([x1.ravel(), x2.ravel()])
+    r = np.hypot(xy[:, 0] - 1.2, xy[:, 1] - 0.4)
+    pressure = np.where(r < 0.1, 5.0 * np.sqrt(np.clip(1 - (r / 0.1) ** 2, 0, 1)), 0.0)  # Hertz-like
+    states = np.where(pressure > 0, 1, 0).astype(np.int8)
+    x0, x1_, y0, y1 = figures.plot_contact_pressure(xy, pressure, states, tmp_path / "p.png", "patch")
+    assert (tmp_path / "p.png").stat().st_size > 10_000
+    inside = xy[pressure > 0]
+    assert np.all((inside[:, 0] > x0) & (inside[:, 0] < x1_) & (inside[:, 1] > y0) & (inside[:, 1] < y1))
+    assert x1_ - x0 == pytest.approx(y1 - y0) and 0.2 < x1_ - x0 < 0.5  # the patch is 0.2 wide, the surface 2
+    x0, x1_, y0, y1 = figures.plot_contact_pressure(xy, 0 * pressure, 0 * states, tmp_path / "q.png")
+    assert x0 < 0.0 and x1_ > 2.0
