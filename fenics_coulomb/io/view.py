@@ -121,6 +121,7 @@ warp = WarpByVector(Input=reader)
 warp.Vectors = ["POINTS", "displacement"]
 warp.ScaleFactor = SCALE
 parts = {{}}
+lut = GetColorTransferFunction("contact_state")
 if BODIES:
     for body in BODIES:
         part = Threshold(Input=warp, registrationName=f"body {{body}}")
@@ -170,8 +171,7 @@ if "--screenshot" in sys.argv:
     report = {{"sources": sorted(name for name, _ in GetSources()), "arrays": [a.GetName() for a in warp.PointData],
               "times": times, "time": time, "annotations": list(lut.Annotations),
               "categorical": int(lut.InterpretValuesAsCategories), "scale": SCALE, "view": list(VIEW),
-              "colored_by": list(GetActiveViewOrCreate("RenderView").Representations[0].ColorArrayName)
-              if not BODIES else list(servermanager.GetRepresentation(colored, view).ColorArrayName),
+              "colored_by": list(servermanager.GetRepresentation(colored, view).ColorArrayName),
               "bodies": {{}}}}
     for body, part in parts.items():
         data = fetched(part)
