@@ -142,3 +142,21 @@ def test_a_rolling_path_writes_the_obstacle_at_every_time(mpi_tmp_path):
     # the ball turned by 22.9° at the end: its rest points moved by up to 2 R sin(θ/2) plus δ, far beyond δ
     turned = np.linalg.norm(x[-1] - rest - steps[-1]["obstacle_displacements"]["ball"], axis=1).max()
     assert turned == pytest.approx(2 * 0.5 * np.sin(np.radians(22.918311805232932) / 2), rel=1e-2)
+
+
+@pytest.mark.parametrize("obstacle", [
+    Sphere(center=(1.0, 0.5, 1.0 + 2e-9), radius=1e-9), Sphere(center=(1e12, -1e12, 1e12), radius=1.0),
+    Sphere(center=(1.0, 0.5, 1e9 + 1.0), radius=1e9),
+    Cylinder(point=(0.0, 0.0, 1e9 + 1.0), axis=(1e-300, 1.0, 0.0), radius=1e9),
+    Plane(point=(1e15, 0.0, -1e15), normal=(1.0, 1.0, 1.0), rotation=[1e6, [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]),
+], ids=["tiny sphere", "far sphere", "huge sphere", "huge cylinder", "far turned plane"])
+def test_hostile_obstacles_give_finite_surfaces(obstacle):
+    """Obstacles far away, tiny or huge (as the fuzz tests' scenes have them): finite points, proper triangles,
+    the placed points on the obstacle to the round-off of its own coordinates."""
+    rest, triangles, octant = tessellate(obstacle, *BOX)
+    points = placed(rest, obstacle.rotation, obstacle.displacement)
+    assert np.all(np.isfinite(points)) and triangles.max() < rest.shape[0] and octant.shape == (rest.shape[0],)
+    a, b, c = (points[triangles[:, i]] for i in range(3))
+    assert np.all(np.linalg.norm(np.cross(b - a, c - a), axis=1) > 0)
+    scale = max(float(np.abs(points).max()), float(np.abs(obstacle.placed).max()), getattr(obstacle, "radius", 1.0))
+    assert np.abs(obstacle.signed_distance(points)).max() <= 1e-12 * scale
