@@ -45,7 +45,7 @@ from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.checks import boundary_reactions
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import contact_areas, pair_forces
-from fenics_coulomb.model.obstacles import Obstacle
+from fenics_coulomb.model.obstacles import Obstacle, obstacle_names
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN, ContactState
 
@@ -262,8 +262,7 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
         partner=position - gap[:, None] * normal,
     )
     per_obstacle: dict[str, Array] = {}
-    for i, obstacle in enumerate(obstacles):
-        name = getattr(obstacle, "name", None) or f"{obstacle.kind} {i + 1}"
+    for i, name in enumerate(obstacle_names(obstacles)):
         per_obstacle[name] = nodes.force[nodes.obstacle == i].sum(axis=0)
     groups = reaction_groups(model.V, reactions or {})
     support = boundary_reactions(model, result.displacement, groups, result.master_force,

@@ -3,8 +3,9 @@
 :func:`run` validates the scene's values before any collective call (memory, start file, path arguments,
 nested levels), builds the problem (:func:`~fenics_coulomb.scenes.builder.build_problem`), solves (from the
 coarse levels of nested iteration when they apply) and writes the result set with
-:func:`~fenics_coulomb.io.writer.write_result_set`; :func:`run_load_path` solves the steps of a path, one grid
-per solve in ``solution.xdmf``. Each returns the exit status."""
+:func:`~fenics_coulomb.io.writer.write_result_set`; :func:`run_load_path` solves the steps of a path into a
+:class:`~fenics_coulomb.io.writer.PathResultSet` (one grid per solve). Both run check → build → solve or path →
+write → print. Each returns the exit status."""
 
 from __future__ import annotations
 
@@ -24,8 +25,7 @@ from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.errors import EXIT_DIVERGED
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
-from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
-from fenics_coulomb.io.writer import write_result_set
+from fenics_coulomb.io.writer import PathResultSet, write_result_set
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
 from fenics_coulomb.scenes.nested import NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels, start_from_coarse
@@ -33,7 +33,8 @@ from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_for_accuracy
 
 __all__ = ["BYTES_PER_UNKNOWN", "BYTES_PER_RANK", "scene_from_args", "prepare_output", "run",
-           "check_path_arguments", "run_load_path", "friction_text", "check_memory", "available_memory"]
+           "check_path_arguments", "run_load_path", "friction_text", "force_lines", "contact_lines", "check_memory",
+           "available_memory"]
 
 logger = logging.getLogger("fenics_coulomb")
 
@@ -157,8 +158,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
             flush=True,
         )
-        print(f"total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
-              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+        print("\n".join(force_lines(data, scene)), flush=True)
         print("\n".join(contact_lines(data)), flush=True)
     return status
 
@@ -210,10 +210,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     solution.xdmf with one grid per solve (time = the step number), path.csv, summary.json with "steps",
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
-    from fenics_coulomb.io.figures import write_path_figure
-    from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
-    from fenics_coulomb.io.xdmf import XDMFTimeSeries, read_displacement, write_initial_grid, write_result_grid
-    from fenics_coulomb.io.summary import write_path_csv
+    from fenics_coulomb.io.xdmf import read_displacement
     from fenics_coulomb.scenes.path import obstacle_labels, run_path
 
     out = prepare_output(comm, args.out)
@@ -248,55 +245,26 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
             else:
                 u0 = start_function(scene.start, problem.V)
                 todo = solves
-            t_write = 0.0
             with out.writing() as tmp:
-                xdmf = XDMFTimeSeries(tmp / "solution.xdmf", model.V.mesh)
-                if start_step is None:  # the unloaded body as t = 0 (a resumed path has it in its first part)
-                    write_initial_grid(xdmf, model)
+                results = PathResultSet(tmp, problem, initial=start_step is None)
 
                 def write_grid(solve, record, result) -> None:  # noqa: ANN001
-                    nonlocal t_write
-                    t = time.perf_counter()
                     step = (f"step {solve.step}" if solve.substeps == 1
                             else f"step {solve.step} ({solve.substep}/{solve.substeps})")
-                    write_result_grid(xdmf, model, result, solve.time, step)
-                    t_write += time.perf_counter() - t
+                    results.write_solve(solve.time, step, result)
 
                 records, result, failure = run_path(problem, built.loads, todo, labels,
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
                 out.failed = bool(failure)
-                t = time.perf_counter()
-                steps = [r.as_dict() for r in records]
-                write_convergence_csv(tmp / "convergence.csv", result, comm)
-                write_path_csv(tmp / "path.csv", steps, comm)
-                write_view_script(tmp / "view.py", warp_scale(model, [result.displacement] if result else []),
-                                  largest_force_normal(model, result.contact_force) if result else None, comm)
-                files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
-                if not args.no_plots:
-                    from fenics_coulomb.io.figures import write_figures
-
-                    files += write_figures(tmp, model, result, scene.label)
-                    files += write_path_figure(tmp, steps, scene.label, comm)
-                data = summary(model, result, {"scene": scene.as_dict(), "settings": vars(problem.settings),
-                                               "body": built.body.description})
-                data["converged"] = not failure
-                data["reason"] = failure or "converged"
-                data["path"] = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
-                                "start_step": start_step, "start": scene.start if start_step is not None else None,
-                                "ramp_steps": getattr(args, "steps", None)}
-                data["steps"] = steps
-                data["reactions"] = records[-1].reactions
-                data["contact_force"] = records[-1].contact_force
-                data["newton_iterations_total"] = sum(r.newton_iterations for r in records)
-                data["krylov_iterations_total"] = sum(r.krylov_iterations for r in records)
-                data["timings_s"]["model"] = comm.allreduce(t_model, op=MPI.MAX)
-                data["timings_s"]["mesh"] = comm.allreduce(built.mesh_time, op=MPI.MAX)
-                data["timings_s"]["assembly"] = comm.allreduce(problem.model_time, op=MPI.MAX)
-                data["timings_s"]["output"] = comm.allreduce(t_write + time.perf_counter() - t, op=MPI.MAX)
-                data["wall_time_s"] = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-                data["files"] = [*files, "summary.json"]
-                write_summary(tmp / "summary.json", data, comm)
+                path = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
+                        "start_step": start_step, "start": scene.start if start_step is not None else None,
+                        "ramp_steps": getattr(args, "steps", None)}
+                data = results.finish(
+                    [r.as_dict() for r in records], result, label=scene.label, plots=not args.no_plots,
+                    extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
+                           "converged": not failure, "reason": failure or "converged", "path": path},
+                    timings={"model": t_model, "mesh": built.mesh_time, "assembly": problem.model_time}, wall_start=t0)
     finally:
         problem_logger.setLevel(level)
     status = 0
@@ -310,8 +278,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
               f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
               f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
               f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
-        print(f"last step: total contact force on the body {_vector_text(data['contact_force'])}; reactions: "
-              + ", ".join(f"{name} {_vector_text(v)}" for name, v in data["reactions"].items()), flush=True)
+        print("\n".join(f"last step: {line}" for line in force_lines(data, scene)), flush=True)
         print("\n".join(f"last step: {line}" for line in contact_lines(data)), flush=True)
     return status
 
@@ -330,6 +297,35 @@ def friction_text(scene: Scene) -> str:
         name = f"{pair.name!r}" if pair.name else str(i + 1)
         parts.append(f"pair {name} F = {default if pair.friction is None else float(pair.friction):g}")
     return ", ".join(parts)
+
+
+def force_lines(data: dict, scene: Scene) -> list[str]:
+    """The force lines of the result, each naming what the force acts on: one body against obstacles: the total
+    contact force on the body (and each obstacle's when there are several); contact pairs: each pair's force on
+    its slave and on its master side (named by their boundaries) and each obstacle's force on its body; then the
+    reaction of every support (summary.json's entries)."""
+    obstacles = data.get("obstacles", {})
+    pairs = data.get("contact_pairs", [])
+    lines = []
+    if not pairs:
+        lines.append(f"total contact force on the body {_vector_text(data['contact_force'])}")
+        if len(obstacles) > 1:
+            lines += [f"  obstacle {name!r} on the body {_vector_text(d['force'])}" for name, d in obstacles.items()]
+    else:
+        sections = list(scene.contact_pairs)
+        for k, d in enumerate(pairs):
+            section = sections[k] if k < len(sections) else None
+            slave = f" {'+'.join(section.slave)!r}" if section is not None else ""
+            master = f" {'+'.join(section.master)!r}" if section is not None else ""
+            name = d.get("name") or k + 1
+            lines.append(f"pair {name!r}: contact force on the slave side{slave} "
+                         f"{_vector_text(d['force_on_slave_body'])}, on the master side{master} "
+                         f"{_vector_text(d['force_on_master_body'])}")
+        lines += [f"obstacle {name!r}: contact force on the body {_vector_text(d['force'])}"
+                  for name, d in obstacles.items()]
+    lines.append("reactions: " + ", ".join(f"{name} {_vector_text(v)}"
+                                    for name, v in data["reactions"].items()))
+    return lines
 
 
 def contact_lines(data: dict) -> list[str]:

@@ -34,9 +34,10 @@ import ufl
 
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
+from fenics_coulomb.model.obstacles import obstacle_names
 from fenics_coulomb.report import nodal_pressure
 from fenics_coulomb.scd.records import SolveResult
-from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, ContactState
+from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, SLIP, STICK, ContactState
 
 __all__ = ["CONTACT_STATES", "FIELD_UNITS", "UNITS", "contact_functions", "contact_statistics", "group_names",
            "stress_from_form", "stress_functions", "stress_statistics"]
@@ -136,7 +137,7 @@ def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any
 def group_names(model: ContactModel) -> tuple[list[str], list[str]]:
     """The names of the obstacles (``name``, or "KIND N" by position as in the report) and of the contact pairs
     (``name``, or "pair N")."""
-    obstacles = [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(model.obstacles)]
+    obstacles = obstacle_names(model.obstacles)
     pairs = [getattr(q, "name", None) or f"pair {k + 1}" for k, q in enumerate(model.pairs)]
     return obstacles, pairs
 
@@ -151,8 +152,10 @@ def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, An
 
     Returns:
         ``{"contact_area", "contact_nodes" (nodes in contact), "peak_pressure", "peak_pressure_at" (or None
-        without contact), "obstacles": {name: {the same keys, "force"}}, "contact_pairs": [{"name", the same
-        keys}]}``; units :data:`UNITS`.
+        without contact), "obstacles": {name: {the same keys, "force", the group's keys}}, "contact_pairs":
+        [{"name", the same keys, the group's keys}]}``, the group's keys being "nodes", "normal_force" (Σ λ, the
+        normal parts of the nodal forces), "tangential_force" (the length of the sum of their tangential parts),
+        "open", "stick", "slip" (nodes); units :data:`UNITS`.
     """
     comm = model.comm
     cmap = model.contact
@@ -168,14 +171,24 @@ def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, An
         group[paired] = n_obstacles + np.asarray(model.pairing.pair_index, dtype=np.int64)
     groups = n_obstacles + len(pair_names)
     force = _nodal_forces(result, cmap.size)
-    # per group (and the total as the last row): area in contact, nodes in contact, nodes, force
-    local = np.zeros((groups + 1, 6))
+    normal = np.asarray(result.normal_force, dtype=np.float64).reshape(-1)
+    normal = normal if normal.size == cmap.size else np.zeros(cmap.size)
+    tangential = np.asarray(result.tangential_force, dtype=np.float64).reshape(-1, 2) \
+        if np.size(result.tangential_force) == 2 * cmap.size else np.zeros((cmap.size, 2))
+    tangential = np.einsum("iab,ib->ia", cmap.frames[:, :, :2], tangential)  # t₁, t₂ → x, y, z
+    # per group (and the total as the last row): area in contact, nodes in contact, nodes, force, Σ λ, the
+    # tangential force vector, open / stick / slip nodes
+    local = np.zeros((groups + 1, 13))
     valid = (group >= 0) & (group < groups)
     for target, mask in ((group[valid], valid), (np.full(int(np.count_nonzero(valid)), groups), valid)):
         np.add.at(local[:, 0], target, np.where(closed[mask], area[mask], 0.0))
         np.add.at(local[:, 1], target, closed[mask].astype(float))
         np.add.at(local[:, 2], target, 1.0)
         np.add.at(local[:, 3:6], target, force[mask])
+        np.add.at(local[:, 6], target, normal[mask])
+        np.add.at(local[:, 7:10], target, tangential[mask])
+        for column, code in ((10, OPEN), (11, STICK), (12, SLIP)):
+            np.add.at(local[:, column], target, (state[mask] == code).astype(float))
     totals = np.asarray(comm.allreduce(local, op=MPI.SUM))
     peaks, where = _peaks(comm, pressure, np.asarray(cmap.coordinates, dtype=np.float64).reshape(-1, 3),
                           np.where(valid, group, -1), groups)
@@ -185,12 +198,15 @@ def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, An
                 "peak_pressure": float(peaks[g]),
                 "peak_pressure_at": None if peaks[g] <= 0.0 else [float(c) for c in where[g]]}
 
+    def group_entry(g: int) -> dict[str, Any]:
+        return {**entry(g), "nodes": int(round(totals[g, 2])), "normal_force": float(totals[g, 6]),
+                "tangential_force": float(np.linalg.norm(totals[g, 7:10])),
+                **{key: int(round(totals[g, column])) for column, key in ((10, "open"), (11, "stick"), (12, "slip"))}}
+
     data = entry(groups)
-    data["obstacles"] = {name: {**entry(i), "nodes": int(round(totals[i, 2])),
-                                "force": [float(c) for c in totals[i, 3:6]]}
+    data["obstacles"] = {name: {**group_entry(i), "force": [float(c) for c in totals[i, 3:6]]}
                          for i, name in enumerate(obstacle_names)}
-    data["contact_pairs"] = [{"name": name, **entry(n_obstacles + k), "nodes": int(round(totals[n_obstacles + k, 2]))}
-                             for k, name in enumerate(pair_names)]
+    data["contact_pairs"] = [{"name": name, **group_entry(n_obstacles + k)} for k, name in enumerate(pair_names)]
     return data
 
 

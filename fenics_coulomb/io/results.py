@@ -222,7 +222,8 @@ def rank0_file(write: Callable[..., None]) -> Callable[..., None]:
 
 #: Files of a result set written before the manifest (``summary.json`` "files") existed.
 RESULT_FILES = ("solution.xdmf", "solution.h5", "summary.json", "convergence.csv", "convergence.png",
-                "contact_states.png", "deformed.png", "path.csv", "path.png", "view.py")
+                "contact_states.png", "deformed.png", "path.csv", "path.png", "view.py", "obstacles.xdmf",
+                "obstacles.h5", "contact_pressure.png")
 
 
 #: A run that did not converge writes its set here, beside the output directory, when that holds a converged set.

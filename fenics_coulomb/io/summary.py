@@ -26,7 +26,7 @@ from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.forces import pair_forces
 from fenics_coulomb.scd.records import SolveResult
 
-__all__ = ["summary", "write_summary", "write_convergence_csv", "write_path_csv", "software_versions"]
+__all__ = ["GROUP_COLUMNS", "summary", "write_summary", "write_convergence_csv", "write_path_csv", "software_versions"]
 
 
 def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
@@ -77,25 +77,36 @@ def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> No
     path.write_text("\n".join(lines) + "\n")
 
 
+#: The per-obstacle and per-pair columns of path.csv (of the steps' "groups").
+GROUP_COLUMNS = ("normal_force", "tangential_force", "peak_pressure", "contact_area", "contact_nodes", "stick", "slip")
+
+
 @rank0_file
 def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Comm) -> None:
     """One row per solve of a load path on rank 0 (``steps``: summary.json's "steps"): solve, time (the step
     number), step, substep, load factor, converged, Newton and Krylov iterations, the geometry updates of finite
     sliding, open/stick/slip, the total
     contact force, the applied load's resultant, the reaction per Dirichlet boundary and δ per obstacle (x, y,
-    z components each; a boundary group "a,b" is named "a+b"), wall time. Columns of a quantity with a unit
-    carry it after the name: ``contact_force_x [GPa*L^2]``, ``delta_ball_z [L]``."""
+    z components each; a boundary group "a,b" is named "a+b"), per obstacle and contact pair (the steps'
+    "groups") the normal and tangential force, peak pressure, contact area, nodes in contact and stick/slip
+    nodes, wall time. Columns of a quantity with a unit carry it after the name: ``contact_force_x [GPa*L^2]``,
+    ``delta_ball_z [L]``, ``normal_force_ball [GPa*L^2]``, ``peak_pressure_pair 1 [GPa]``."""
     if comm.rank != 0 or not steps:
         return
     FORCE, LENGTH = f"[{UNITS['force']}]", f"[{UNITS['length']}]"  # noqa: N806
     xyz = ("x", "y", "z")
     reactions = list(steps[0]["reactions"])
     obstacles = list(steps[0]["obstacle_displacements"])
+    groups = list(steps[0].get("groups", {}))
+    units = {"normal_force": f" {FORCE}", "tangential_force": f" {FORCE}", "peak_pressure": f" [{UNITS['pressure']}]",
+             "contact_area": f" [{UNITS['area']}]", "contact_nodes": "", "stick": "", "slip": ""}
     header = ["solve", "time", "step", "substep", "load_factor", "converged", "newton_iterations",
               "krylov_iterations", "geometry_updates", "open", "stick", "slip",
               *[f"contact_force_{c} {FORCE}" for c in xyz], *[f"applied_load_{c} {FORCE}" for c in xyz],
               *[f"reaction_{name.replace(',', '+')}_{c} {FORCE}" for name in reactions for c in xyz],
-              *[f"delta_{name.replace(',', '+')}_{c} {LENGTH}" for name in obstacles for c in xyz], "wall_time_s"]
+              *[f"delta_{name.replace(',', '+')}_{c} {LENGTH}" for name in obstacles for c in xyz],
+              *[f"{key}_{name.replace(',', '+')}{units[key]}" for name in groups for key in GROUP_COLUMNS],
+              "wall_time_s"]
     lines = [",".join(header)]
     for s in steps:
         counts = s["state_counts"]
@@ -105,6 +116,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
                *[f"{c:.17g}" for c in s["contact_force"]], *[f"{c:.17g}" for c in s["applied_load"]],
                *[f"{c:.17g}" for name in reactions for c in s["reactions"][name]],
                *[f"{c:.17g}" for name in obstacles for c in s["obstacle_displacements"][name]],
+               *[format(s["groups"][name][key], ".17g") for name in groups for key in GROUP_COLUMNS],
                f"{s['wall_time_s']:.6g}"]
         lines.append(",".join(map(str, row)))
     path.write_text("\n".join(lines) + "\n")

@@ -1,4 +1,5 @@
-"""The one writer of a solve's result set: fields, convergence history, summary.json and (optionally) figures.
+"""The one writer of a result set — a solve's or a load path's: fields, histories, summary.json and (optionally)
+figures.
 
 The command line and the Python API write the same files the same way::
 
@@ -6,11 +7,19 @@ The command line and the Python API write the same files the same way::
     data = write_results("out/press", problem, result, reactions={"bottom": clamp})
 
 Files: ``solution.xdmf`` + ``solution.h5`` (the displacement and every contact field, :mod:`.xdmf`), ``view.py``
-(``pvpython view.py``: the body warped and coloured by contact state, :mod:`.view`),
+(``pvpython view.py``: the body warped and coloured by contact state beside the obstacles, :mod:`.view`),
+``obstacles.xdmf`` + ``obstacles.h5`` (the rigid obstacles' surfaces as placed, when there are obstacles,
+:mod:`.obstacle_surfaces`),
 ``convergence.csv`` (one row per Newton iteration), ``summary.json`` (the result's summary, the total contact
 force, the applied load, the reactions of the named supports, per-pair forces, software versions) and, with
 ``plots=True``, the PNG figures. The directory is written whole or not at all (:class:`.results.ResultDirectory`);
 a result that did not converge goes to ``PATH.not-converged`` when PATH holds a converged set.
+
+A load path's set (:class:`PathResultSet`) grows by one grid of ``solution.xdmf`` and of ``obstacles.xdmf`` per
+solve and ends with ``path.csv`` (one row per solve, per obstacle and contact pair too), ``path.png``,
+``convergence.csv`` of the last solve and summary.json with its ``steps``. The forces of summary.json are those of
+:class:`~fenics_coulomb.report.ContactReport` (one definition: summed in the contact nodes' global order, the
+same bits on any number of ranks).
 """
 
 from __future__ import annotations
@@ -23,18 +32,18 @@ from typing import TYPE_CHECKING, Any
 from mpi4py import MPI
 
 from fenics_coulomb.errors import InputError
+from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
 from fenics_coulomb.io.results import ResultDirectory
-from fenics_coulomb.io.summary import summary, write_convergence_csv, write_summary
-from fenics_coulomb.io.view import largest_force_normal, warp_scale, write_view_script
-from fenics_coulomb.io.xdmf import write_xdmf
-from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
-from fenics_coulomb.report import reaction_groups
+from fenics_coulomb.io.summary import summary, write_convergence_csv, write_path_csv, write_summary
+from fenics_coulomb.io.view import contact_bodies, largest_force_normal, warp_scale, write_view_script
+from fenics_coulomb.io.xdmf import XDMFTimeSeries, write_initial_grid, write_result_grid, write_xdmf
+from fenics_coulomb.report import make_report
 from fenics_coulomb.scd.records import SolveResult
 
 if TYPE_CHECKING:
     from fenics_coulomb.problem import ContactProblem
 
-__all__ = ["write_result_set", "write_results"]
+__all__ = ["PathResultSet", "write_result_set", "write_results"]
 
 
 def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
@@ -60,24 +69,107 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     write_xdmf(directory / "solution.xdmf", model, result)
     write_convergence_csv(directory / "convergence.csv", result, comm)
     write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
-                      largest_force_normal(model, result.contact_force), comm)
+                      largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
     files = ["solution.xdmf", "solution.h5", "convergence.csv", "view.py"]
+    if model.obstacles:
+        ObstacleSeries(directory / "obstacles.xdmf", model.obstacles, body_box(model.V.mesh.geometry.x, comm),
+                       comm).write(0.0, model.obstacles)
+        files += ["obstacles.xdmf", "obstacles.h5"]
     if plots:
         from fenics_coulomb.io.figures import write_figures
 
         files += write_figures(directory, model, result, label)
     data = summary(model, result, dict(extra or {}))
-    data["reactions"] = boundary_reactions(model, result.displacement, reaction_groups(model.V, reactions or {}),
-                                           result.master_force, result.contact_force)
-    data["contact_force"] = total_contact_force(model, result.contact_force)
-    data["applied_load"] = [float(c) for c in model.total_load()]
+    report = make_report(model, result, model.obstacles, reactions or {})
+    data["reactions"] = {name: [float(c) for c in v] for name, v in report.reactions.items()}
+    data["contact_force"] = [float(c) for c in report.total_force]
+    data["applied_load"] = [float(c) for c in report.applied_load]
+    return _finish(directory, data, comm, files, timings, started)
+
+
+def _finish(directory: Path, data: dict[str, Any], comm: MPI.Comm, files: list[str],
+            timings: Mapping[str, float] | None, started: float | None, seconds: float = 0.0) -> dict[str, Any]:
+    """The end of every result set: the phases' timings (the maximum over the ranks; ``output`` since
+    ``started`` plus ``seconds`` spent writing before), the file list, summary.json (collective)."""
     for key, value in (timings or {}).items():
         data["timings_s"][key] = comm.allreduce(float(value), op=MPI.MAX)
     if started is not None:
-        data["timings_s"]["output"] = comm.allreduce(time.perf_counter() - started, op=MPI.MAX)
+        data["timings_s"]["output"] = comm.allreduce(seconds + time.perf_counter() - started, op=MPI.MAX)
     data["files"] = [*files, "summary.json"]
     write_summary(directory / "summary.json", data, comm)
     return data
+
+
+class PathResultSet:
+    """The result set of a load path, written while the path is solved (every method is collective).
+
+    ``solution.xdmf`` and ``obstacles.xdmf`` (when there are obstacles) get one grid per solve
+    (:meth:`write_solve`, the obstacles as placed for it), starting with the unloaded body at t = 0 (``initial``;
+    a resumed path has it in its first part); :meth:`finish` writes the rest.
+
+    Args:
+        directory: Where the files go (a :class:`~fenics_coulomb.io.results.ResultDirectory`'s temporary set).
+        problem: The problem that solves the path.
+        initial: Write the unloaded state as t = 0 (the obstacles at their scene positions).
+    """
+
+    def __init__(self, directory: Path, problem: ContactProblem, *, initial: bool = True) -> None:
+        start = time.perf_counter()
+        self.directory = Path(directory)
+        self.problem = problem
+        model = problem.model
+        self.xdmf = XDMFTimeSeries(self.directory / "solution.xdmf", model.V.mesh)
+        self.surfaces = ObstacleSeries(self.directory / "obstacles.xdmf", model.obstacles,
+                                       body_box(model.V.mesh.geometry.x, model.comm), model.comm) \
+            if model.obstacles else None
+        if initial:
+            write_initial_grid(self.xdmf, model)
+            if self.surfaces is not None:
+                self.surfaces.write(0.0, [o.at_scene_position().rotated(None) for o in model.obstacles])
+        #: Seconds spent writing so far (this rank).
+        self.seconds = time.perf_counter() - start
+
+    def write_solve(self, t: float, name: str, result: SolveResult) -> None:
+        """Append the grids of the solve at time ``t`` (its grid's ``name``, e.g. "step 2 (1/3)")."""
+        start = time.perf_counter()
+        model = self.problem.model
+        write_result_grid(self.xdmf, model, result, t, name)
+        if self.surfaces is not None:  # as placed for this solve
+            self.surfaces.write(t, model.obstacles)
+        self.seconds += time.perf_counter() - start
+
+    def finish(self, steps: list[dict[str, Any]], result: SolveResult, *, label: str = "", plots: bool = False,
+               extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
+               wall_start: float | None = None) -> dict[str, Any]:
+        """Write convergence.csv (of the last solve ``result``), path.csv (``steps``: one record per solve,
+        :meth:`~fenics_coulomb.scenes.path.StepRecord.as_dict`), view.py, the figures (``plots``) and summary.json
+        (the last solve's summary, ``steps``, the last step's reactions and contact force, the iteration totals
+        and ``extra``; ``wall_time_s`` since ``wall_start``, a ``time.perf_counter()``); return summary.json's
+        data."""
+        started = time.perf_counter()
+        model = self.problem.model
+        comm = model.comm
+        directory = self.directory
+        write_convergence_csv(directory / "convergence.csv", result, comm)
+        write_path_csv(directory / "path.csv", steps, comm)
+        write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
+                          largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
+        files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
+        files += ["obstacles.xdmf", "obstacles.h5"] if self.surfaces is not None else []
+        if plots:
+            from fenics_coulomb.io.figures import write_figures, write_path_figure
+
+            files += write_figures(directory, model, result, label)
+            files += write_path_figure(directory, steps, label, comm)
+        data = summary(model, result, dict(extra or {}))
+        data["steps"] = steps
+        data["reactions"] = steps[-1]["reactions"]
+        data["contact_force"] = steps[-1]["contact_force"]
+        data["newton_iterations_total"] = sum(s["newton_iterations"] for s in steps)
+        data["krylov_iterations_total"] = sum(s["krylov_iterations"] for s in steps)
+        if wall_start is not None:
+            data["wall_time_s"] = comm.allreduce(time.perf_counter() - wall_start, op=MPI.MAX)
+        return _finish(directory, data, comm, files, timings, started, self.seconds)
 
 
 def write_results(path: str | Path, problem: ContactProblem, result: SolveResult, *, label: str = "",

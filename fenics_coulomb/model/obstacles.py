@@ -35,7 +35,7 @@ from fenics_coulomb.model.frames import _E, _NOISE, _perpendicular, frames_from_
 
 __all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "closest_obstacle",
            "find_overlap", "check_not_overlapping", "check_solid_side", "core_path", "motion_placements",
-           "rotation_text", "obstacle_from_dict", "obstacles_from_list"]
+           "rotation_text", "obstacle_from_dict", "obstacles_from_list", "obstacle_names"]
 
 Array = npt.NDArray[np.float64]
 Vector = tuple[float, float, float]
@@ -373,6 +373,12 @@ def _check_name(name: Any, owner: str) -> None:
 DEFAULT_PLANE = Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
 
 OBSTACLE_TYPES: dict[str, type[Obstacle]] = {"plane": Plane, "sphere": Sphere, "cylinder": Cylinder}
+
+
+def obstacle_names(obstacles: Sequence[Obstacle]) -> list[str]:
+    """The name of each obstacle in the outputs (report, summary.json, CSV columns, figures): its ``name``, or
+    ``"<kind> <i>"`` (1-based position) for an unnamed one, e.g. ``"sphere 1"``."""
+    return [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(obstacles)]
 
 
 # -- several obstacles ---------------------------------------------------------------------------------

@@ -38,12 +38,12 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.model.obstacles import _rotation
+from fenics_coulomb.model.obstacles import _rotation, obstacle_names
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scenes.scene import FREE, MAX_LOAD, PathStep, Scene
 
-__all__ = ["ZERO", "LoadState", "scene_state", "zero_state", "step_state", "blend_vector", "PathSolve", "plan",
-           "obstacle_labels", "StepLoads", "StepRecord", "run_path"]
+__all__ = ["ZERO", "GROUP_KEYS", "LoadState", "scene_state", "zero_state", "step_state", "blend_vector", "PathSolve",
+           "plan", "obstacle_labels", "StepLoads", "StepRecord", "contact_groups", "run_path"]
 
 logger = logging.getLogger(__name__)
 
@@ -212,8 +212,9 @@ def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
 
 
 def obstacle_labels(scene: Scene) -> list[str]:
-    """Names of the scene's obstacles for records and columns (``<type><i>`` for an unnamed one)."""
-    return [getattr(o, "name", None) or f"{o.kind}{i + 1}" for i, o in enumerate(scene.obstacles)]
+    """Names of the scene's obstacles for records and columns
+    (:func:`~fenics_coulomb.model.obstacles.obstacle_names`)."""
+    return obstacle_names(scene.obstacles)
 
 
 class StepLoads:
@@ -346,6 +347,9 @@ class StepRecord:
     obstacle_rotations: dict[str, Any] = field(default_factory=dict)
     #: Finite sliding: the geometry updates of this solve (:mod:`fenics_coulomb.model.sliding`).
     geometry_updates: int = 0
+    #: Per obstacle (its name) and contact pair ("pair NAME"): normal and tangential force, peak pressure, contact
+    #: area, nodes in contact, open/stick/slip nodes (:func:`contact_groups`).
+    groups: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         """The record as plain data (summary.json "steps")."""
@@ -357,9 +361,27 @@ class StepRecord:
             "state_counts": dict(self.counts),
             "contact_force": self.contact_force, "applied_load": self.applied_load, "reactions": self.reactions,
             "obstacle_displacements": self.obstacle_displacements, "obstacle_rotations": self.obstacle_rotations,
-            "wall_time_s": self.wall_time_s,
+            "groups": self.groups, "wall_time_s": self.wall_time_s,
             "residual_history": self.residual_history,
         }
+
+
+#: The quantities of each obstacle and contact pair a path records per solve (:func:`contact_groups`).
+GROUP_KEYS = ("normal_force", "tangential_force", "peak_pressure", "contact_area", "contact_nodes", "open", "stick",
+              "slip")
+
+
+def contact_groups(model: Any, result: SolveResult) -> dict[str, dict[str, Any]]:
+    """Per obstacle (keyed by its name) and per contact pair (keyed "pair NAME", or "pair N" unnamed) the
+    :data:`GROUP_KEYS` of :func:`~fenics_coulomb.io.fields.contact_statistics` (collective)."""
+    from fenics_coulomb.io.fields import contact_statistics
+
+    statistics = contact_statistics(model, result)
+    groups = {name: {key: entry[key] for key in GROUP_KEYS} for name, entry in statistics["obstacles"].items()}
+    for entry in statistics["contact_pairs"]:
+        name = entry["name"] if entry["name"].startswith("pair ") else f"pair {entry['name']}"
+        groups[name] = {key: entry[key] for key in GROUP_KEYS}
+    return groups
 
 
 def run_path(
@@ -393,7 +415,7 @@ def run_path(
         The records, the last solve's result (None if ``solves`` is empty) and "" or the reason the path
         stopped.
     """
-    from fenics_coulomb.model.checks import boundary_reactions, total_contact_force
+    from fenics_coulomb.report import make_report
 
     model = problem.model
     comm: MPI.Comm = model.comm
@@ -419,18 +441,18 @@ def run_path(
             failure = result.reason
         wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
         counts = result.counts
+        report = make_report(model, result, model.obstacles, groups)  # the forces: one definition
         record = StepRecord(
             index=solve.index, time=solve.time, step=solve.step, substep=solve.substep, substeps=solve.substeps,
             load_factor=solve.load_factor, converged=not failure, reason=failure or result.reason,
             newton_iterations=int(result.iterations), krylov_iterations=int(result.krylov_iterations),
-            counts=dict(counts), contact_force=total_contact_force(model, result.contact_force),
-            applied_load=[float(c) for c in model.total_load()],
-            reactions=boundary_reactions(model, result.displacement, groups, result.master_force,
-                                         result.contact_force),
+            counts=dict(counts), contact_force=[float(c) for c in report.total_force],
+            applied_load=[float(c) for c in report.applied_load],
+            reactions={name: [float(c) for c in v] for name, v in report.reactions.items()},
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
             obstacle_rotations={name: _plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
             wall_time_s=wall, residual_history=[float(r) for r in result.residual_history],
-            geometry_updates=int(result.geometry_updates))
+            geometry_updates=int(result.geometry_updates), groups=contact_groups(model, result))
         records.append(record)
         if solve.substeps == 1:
             where = f"step {solve.step}/{last_step} (load factor {solve.load_factor:.4g})"

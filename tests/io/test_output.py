@@ -157,7 +157,8 @@ def test_solution_file(mpi_tmp_path):
     assert "contact_pressure GPa" in info["units"] and "contact_force GPa*L^2" in info["units"]
     counts = {name: int(np.sum(state == code)) for code, name in enumerate(("open", "stick", "slip"))}
     assert counts == summary["state_counts"] and np.sum(state == -1) == state.size - summary["p"]
-    assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "view.py", "summary.json"]
+    assert summary["files"] == ["solution.xdmf", "solution.h5", "convergence.csv", "view.py", "obstacles.xdmf",
+                                "obstacles.h5", "summary.json"]
 
 
 def test_not_converged_is_marked(mpi_tmp_path):
@@ -283,10 +284,52 @@ def test_the_deformed_figure_looks_at_the_contact_side(mpi_tmp_path, monkeypatch
     above, _ = contact_view((0.0, 0.0, -1.0))  # the sphere's normal points down into the block
     assert below[2] < -0.7 and above[2] > 0.7
     seen = []
-    monkeypatch.setattr(figures, "render_deformed", lambda parts, contact, path, title="", normal=None:
-                        seen.append(normal))
+    monkeypatch.setattr(figures, "render_deformed",
+                        lambda parts, contact, path, title="", normal=None, slaves=(): seen.append(normal))
     scene = ROOT / "demos" / "scenes" / "sphere_indentation.toml"
     assert main(["--scene", str(scene), "--lev", "1", "--out", str(mpi_tmp_path / "s"), "--quiet"]) == 0
     if MPI.COMM_WORLD.rank == 0:
         (normal,) = seen
         assert contact_view(normal)[0][2] > 0  # the camera is above the indented top, looking down
+
+
+def test_the_state_legend_survives_a_round_patch(tmp_path):
+    """contact_states.png of a round patch (as tall as wide) keeps its whole legend below the axes: with no
+    sliding node the gold of "sliding" can only come from the legend's marker, and no row at the figure's lower
+    edge is drawn on (the legend was cut there)."""
+    import matplotlib.image
+
+    if MPI.COMM_WORLD.rank:
+        return
+    angle = np.linspace(0.0, 2 * np.pi, 200, endpoint=False)
+    radius = np.sqrt(np.linspace(0.0, 1.0, 200))
+    xy = np.column_stack([radius * np.cos(7 * angle), radius * np.sin(7 * angle)])
+    states = np.where(radius < 0.5, 1, 0).astype(np.int8)  # stick inside, open outside, no slip
+    png = tmp_path / "states.png"
+    figures.plot_contact_states(xy, states, png, "round")
+    image = matplotlib.image.imread(png)[..., :3]
+    gold = np.all(np.abs(image - np.array([1.0, 0.843, 0.0])) < 0.03, axis=-1)
+    assert gold.sum() > 20
+    rows = np.flatnonzero(gold.any(axis=1))
+    assert rows.min() > 0.8 * image.shape[0]  # below the patch
+    assert rows.max() < image.shape[0] - 10  # and whole: not cut by the figure's edge
+    assert np.all(image[-5:] > 0.95)  # nothing drawn on the last rows
+
+
+def test_the_pressure_map_zooms_onto_the_patch(tmp_path):
+    """contact_pressure.png of a small round patch on a large contact surface shows the patch: a square window
+    holding every node in contact, a fraction of the surface wide; without contact the whole surface."""
+    if MPI.COMM_WORLD.rank:
+        return
+    x1, x2 = np.meshgrid(np.linspace(0.0, 2.0, 81), np.linspace(0.0, 1.0, 41), indexing="ij")
+    xy = np.column_stack([x1.ravel(), x2.ravel()])
+    r = np.hypot(xy[:, 0] - 1.2, xy[:, 1] - 0.4)
+    pressure = np.where(r < 0.1, 5.0 * np.sqrt(np.clip(1 - (r / 0.1) ** 2, 0, 1)), 0.0)  # Hertz-like
+    states = np.where(pressure > 0, 1, 0).astype(np.int8)
+    x0, x1_, y0, y1 = figures.plot_contact_pressure(xy, pressure, states, tmp_path / "p.png", "patch")
+    assert (tmp_path / "p.png").stat().st_size > 10_000
+    inside = xy[pressure > 0]
+    assert np.all((inside[:, 0] > x0) & (inside[:, 0] < x1_) & (inside[:, 1] > y0) & (inside[:, 1] < y1))
+    assert x1_ - x0 == pytest.approx(y1 - y0) and 0.2 < x1_ - x0 < 0.5  # the patch is 0.2 wide, the surface 2
+    x0, x1_, y0, y1 = figures.plot_contact_pressure(xy, 0 * pressure, 0 * states, tmp_path / "q.png")
+    assert x0 < 0.0 and x1_ > 2.0

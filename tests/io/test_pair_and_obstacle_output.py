@@ -145,3 +145,36 @@ def test_report_and_write_results_with_a_pair_and_an_obstacle(mesh_file, mpi_tmp
     assert np.allclose(data["reactions"]["block_sides"], sides, rtol=1e-12, atol=1e-14 * scale)
     assert np.allclose(data["contact_pairs"][0]["force_on_master_body"], master, rtol=1e-12, atol=1e-14 * scale)
     assert all((mpi_tmp_path / "set" / name).is_file() for name in data["files"])
+
+
+def test_path_history_per_pair_and_obstacle(mesh_file, mpi_tmp_path):
+    """The pair beside the touching floor as a 2-step path: path.csv has the columns of the floor and of the pair
+    (units in the headers); per row the groups' stick/slip nodes add up to the row's, each group obeys Coulomb
+    (|Σ tᵢ| ≤ F Σ λᵢ), the floor's normal force is its force's x₃ component (a plane); the last row equals
+    summary.json's groups."""
+    import csv
+
+    out = mpi_tmp_path / "path"
+    assert main(["--scene", str(scene_file(mesh_file, "touching")), "--steps", "2", "--out", str(out), "--quiet",
+                 "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    summary = json.loads((out / "summary.json").read_text())
+    with open(out / "path.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    units = {"normal_force": " [GPa*L^2]", "tangential_force": " [GPa*L^2]", "peak_pressure": " [GPa]",
+             "contact_area": " [L^2]", "contact_nodes": "", "stick": "", "slip": ""}
+    friction = {"floor": summary["scene"]["friction"]["coefficient"], "pair 1": 0.3}
+    for row in rows:
+        groups = {name: {key: float(row[f"{key}_{name}{unit}"]) for key, unit in units.items()} for name in friction}
+        for key in ("stick", "slip"):
+            assert sum(g[key] for g in groups.values()) == int(row[key])
+        for name, g in groups.items():
+            assert g["normal_force"] > 0 and g["contact_nodes"] == g["stick"] + g["slip"]
+            assert g["tangential_force"] <= friction[name] * g["normal_force"] * (1 + 1e-8)
+    last = summary["steps"][-1]["groups"]
+    assert last["floor"]["normal_force"] == float(rows[-1]["normal_force_floor [GPa*L^2]"])
+    floor = summary["obstacles"]["floor"]
+    assert floor["normal_force"] == pytest.approx(floor["force"][2], rel=1e-12)
+    assert floor["tangential_force"] == pytest.approx(np.hypot(*floor["force"][:2]), rel=1e-9, abs=1e-15)
+    (pair,) = summary["contact_pairs"]
+    assert pair["normal_force"] == last["pair 1"]["normal_force"] and pair["stick"] == last["pair 1"]["stick"]

@@ -177,3 +177,80 @@ def test_view_script_of_a_load_path_in_pvpython(tmp_path):
     assert report["times"] == pytest.approx([0.0, *times])
     assert report["view"][2] > 0  # above the plate: the cylinder's side
     assert shot.stat().st_size > 10_000
+
+
+def view_report(out: Path, shot: Path) -> dict:
+    """`pvpython view.py --screenshot` in the result directory as a user runs it, without a display (the script
+    starts its own Xvfb); its JSON report of the pipeline."""
+    env = {k: v for k, v in clean_env().items() if k != "DISPLAY"}
+    done = subprocess.run(["pvpython", "view.py", "--screenshot", str(shot)], cwd=out, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
+    (line,) = [line for line in done.stdout.splitlines() if line.startswith("VIEW ")]
+    assert shot.stat().st_size > 10_000
+    return json.loads(line[len("VIEW "):])
+
+
+def test_view_script_shows_the_body_and_the_rolling_ball(tmp_path):
+    """The rolling ball in the real ParaView, headless: the body and the ball are both in the pipeline and shown,
+    with the same times; at the last time the ball's points in the pipeline are its rest points turned about its
+    centre by the last step's angle and moved by its δ (scipy's rotation), not the first step's placement."""
+    from scipy.spatial.transform import Rotation
+
+    out = tmp_path / "rolling"
+    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "ball_rolling_path.toml"
+    assert main(["--scene", str(scene), "--lev", "2", "--out", str(out), "--quiet", "--no-plots"]) == 0
+    steps = json.loads((out / "summary.json").read_text())["steps"]
+    report = view_report(out, tmp_path / "rolling.png")
+    assert report["sources"] == ["WarpByVector1", "obstacles.xdmf", "solution.xdmf"]
+    assert report["scale"] == 1.0 and report["colored_by"] == ["POINTS", "contact_state"]
+    ball = report["obstacles"]
+    assert ball["visible"] == 1 and ball["times"] == report["times"] == [0.0, *(s["time"] for s in steps)]
+    assert report["time"] == steps[-1]["time"] and set(ball["obstacle"]) == {1}
+    points, rest = np.array(ball["points"]), np.array(ball["rest_position"])
+
+    def placement(step: dict) -> np.ndarray:
+        angle, axis, centre = step["obstacle_rotations"]["ball"]
+        turn = Rotation.from_rotvec(np.radians(angle) * np.asarray(axis))
+        return turn.apply(rest - centre) + centre + step["obstacle_displacements"]["ball"]
+
+    assert np.abs(points - placement(steps[-1])).max() < 1e-12
+    assert np.abs(points - placement(steps[-2])).max() > 0.1  # it moved and turned since
+    centre = np.array([0.9, 0.5, 1.5]) + steps[-1]["obstacle_displacements"]["ball"]
+    assert np.allclose(np.linalg.norm(points - centre, axis=1), 0.5, rtol=1e-12)
+    # the same script in ParaView's window (paraview --script, from the result directory) runs to the end
+    with virtual_display():
+        done = subprocess.run(["paraview", "--script=view.py", "--exit"], cwd=out, env=clean_env(),
+                              capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and "Traceback" not in done.stdout + done.stderr, done.stderr[-3000:]
+
+
+def test_view_script_shows_the_two_body_interface_by_state(tmp_path, capsys):
+    """The two-body demo in the real ParaView: one part per body; the hemisphere (the slave side) coloured by
+    contact_state with the run's open/stick/slip counts on its points, the block translucent and uncoloured. The
+    command's force lines name the pair's sides; deformed.png (the master translucent) is written."""
+    out = tmp_path / "two"
+    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "two_bodies.toml"
+    assert main(["--scene", str(scene), "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert "deformed.png" in summary["files"] and "contact_states.png" in summary["files"]
+    assert "total contact force on the body" not in printed
+    (pair,) = summary["contact_pairs"]
+    slave, master = (", ".join(f"{c:.6g}" for c in pair[key])
+                     for key in ("force_on_slave_body", "force_on_master_body"))
+    assert f"pair 1: contact force on the slave side 'curved' ({slave}), on the master side 'block_top' ({master})" \
+        in printed
+    assert "reactions: block_bottom (" in printed
+    report = view_report(out, tmp_path / "two.png")
+    assert "obstacles" not in report and report["sources"] == ["WarpByVector1", "body 1", "body 2", "solution.xdmf"]
+    block, hemisphere = report["bodies"]["1"], report["bodies"]["2"]
+    assert hemisphere["colored_by"] == ["POINTS", "contact_state"] and hemisphere["opacity"] == 1.0
+    assert block["colored_by"][1] == "" and block["opacity"] < 1.0 and block["state_range"] == [-1.0, -1.0]
+    counts = summary["state_counts"]
+    assert hemisphere["state_counts"] == {"-1": hemisphere["points"] - summary["p"], "0": counts["open"],
+                                          "1": counts["stick"], "2": counts["slip"]}
+    assert counts["stick"] > 0 and counts["slip"] > 0
+    # the pair's own history entries: all of the contact nodes are its
+    assert (pair["stick"], pair["slip"], pair["open"]) == (counts["stick"], counts["slip"], counts["open"])
+    assert 0 < pair["tangential_force"] <= 0.3 * pair["normal_force"]

@@ -60,7 +60,8 @@ def test_readme_press_a_sphere(mpi_tmp_path, monkeypatch, capsys):
 
 
 def test_readme_first_scene(mpi_tmp_path):
-    """The README's first scene, written to a file and run with the command it shows, exits 0."""
+    """The README's first scene, written to a file and run with the command it shows, exits 0 with a contact
+    patch of at least 30 nodes in contact."""
     text = (ROOT / "README.md").read_text().split("## A first scene", 1)[1].split("\n## ", 1)[0]
     (toml,) = re.findall(r"```toml\n(.*?)```", text, flags=re.S)
     scene = mpi_tmp_path / "sphere.toml"
@@ -68,6 +69,8 @@ def test_readme_first_scene(mpi_tmp_path):
         scene.write_text(toml)
     MPI.COMM_WORLD.barrier()
     assert main(["--scene", str(scene), "--out", str(mpi_tmp_path / "sphere"), "--quiet", "--no-plots"]) == 0
+    summary = json.loads((mpi_tmp_path / "sphere" / "summary.json").read_text())
+    assert summary["contact_nodes"] >= 30 and summary["obstacles"]["ball"]["contact_nodes"] == summary["contact_nodes"]
 
 
 def test_api_orthotropic_demo(mpi_tmp_path, capsys):
