@@ -56,12 +56,16 @@ def test_drag_every_slipping_node_on_the_cone():
 @pytest.mark.parametrize("kind", ["cylinder", "stl"])
 def test_a_block_pushed_over_a_bump_never_penetrates_it(kind, tmp_path_factory):
     directory = Path(MPI.COMM_WORLD.bcast(str(tmp_path_factory.mktemp("bump")) if MPI.COMM_WORLD.rank == 0 else None))
-    finite = bump(MPI.COMM_WORLD, "finite", kind, directory, steps=4)
-    small = bump(MPI.COMM_WORLD, "small", kind, directory, steps=4)
+    # the geometry settles within 8·rtol·|u|∞ and the solve is as accurate: a node may sink 2·8·rtol·0.8 into
+    # the bump, so rtol 1e-10 for the bound −1e-8 × size (rtol 1e-9 gave −1.0e-8 and −1.8e-8 on 3 ranks)
+    finite = bump(MPI.COMM_WORLD, "finite", kind, directory, steps=4, rtol=1e-10)
+    small = bump(MPI.COMM_WORLD, "small", kind, directory, steps=4, rtol=1e-10)
     assert finite["min_distance"] >= -1e-8 * 0.6
-    # report.nodes.partner: the obstacle point beneath each node, to the geometry iteration's tolerance
-    # 8·rtol·|u| = 6.4e-9 (rtol 1e-9, |u| <= 0.8)
-    assert finite["partner_off_surface"] <= 8e-9 * 0.8
+    # report.nodes.partner: the obstacle point beneath each pressed node, within 10 ε = 10·8·rtol·|u| (|u| <= 0.8;
+    # measured up to 1.1e-9 = 1.8 ε on 3 ranks, 1e-9 at rtol 1e-9 on 1 and 2); an open node's (its gap is not
+    # checked once it stays open) to 1e-6 of a cell
+    assert finite["partner_off_surface"] <= 10 * 8e-10 * 0.8
+    assert finite["partner_off_surface_all"] <= 1e-6 * 0.1
     assert small["min_distance"] < -1e-2  # the reference geometry does not see the bump under the slid nodes
     assert max(finite["updates"]) >= 1 and max(small["updates"]) == 0
 
