@@ -76,7 +76,7 @@ GAMG_PROLONGATOR_SMOOTHS = 0
 UNSMOOTHED_CELL_TYPES = ("hexahedron",)
 #: BoomerAMG for 3D elasticity: nodal (block) coarsening on the 3 components of a node and the strength threshold
 #: 0.7 that hypre's documentation recommends in 3D (the default 0.25 is for 2D). On the graded Hertz block of
-#: demos/hertz.py with the paper's scalar γ (where GAMG on A stagnates), 2 ranks: 14 Newton / 42 GMRES iterations
+#: benchmarks/hertz.py with the paper's scalar γ (where GAMG on A stagnates), 2 ranks: 14 Newton / 42 GMRES iterations
 #: in 1.3 s, against 14 / 27 in 4.9 s with hypre's defaults; the interpolation of the rigid-body modes
 #: (vec_interp_variant 2, 3 with the near-nullspace) took 8–9 s and diverged (NaN) on the lev 2 cuboid.
 HYPRE_ELASTICITY = {"pc_hypre_boomeramg_strong_threshold": 0.7, "pc_hypre_boomeramg_nodal_coarsen": 6}

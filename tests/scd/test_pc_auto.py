@@ -34,7 +34,6 @@ def scene_file(tmp: Path, body: str, size: float, poisson: float) -> Path:
     comm = MPI.COMM_WORLD
     mesh, scene = tmp / f"{body}.msh", tmp / f"{body}.toml"
     if comm.rank == 0:
-        sys.path.insert(0, str(ROOT / "meshes"))
         generator = importlib.import_module(body)
         generator.build(size, mesh)
         scene.write_text(SCENES[body].format(mesh=mesh, poisson=poisson))
