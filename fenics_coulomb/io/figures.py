@@ -24,8 +24,8 @@ import numpy.typing as npt
 from fenics_coulomb.io.display import virtual_display
 from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK
 
-__all__ = ["STATE_COLOURS", "contact_view", "plot_convergence", "gather_contact", "plot_contact_states", "gather_deformed",
-           "render_deformed", "write_figures", "plot_path", "write_path_figure"]
+__all__ = ["STATE_COLOURS", "contact_view", "plot_convergence", "gather_contact", "plot_contact_states",
+           "gather_deformed", "render_deformed", "write_figures", "plot_path", "write_path_figure"]
 
 logger = logging.getLogger(__name__)
 

@@ -355,7 +355,7 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     Returns:
         The cleaned polygons (k, w, 2) and their vertex counts (k,) (0: empty).
     """
-    k, width = P.shape[0], P.shape[1]
+    width = P.shape[1]
     slots = np.arange(width)[None, :]
     valid = slots < count[:, None]
     n = np.maximum(count, 1)[:, None]
@@ -492,9 +492,9 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
             bad = np.flatnonzero(keep & ~_convex(m_poly))
             if bad.size:
                 j = bad[0]
-                raise InputError(f"master facet at {_where(m_centre[f[j]])}: its projection onto the auxiliary plane of "
-                                 f"the slave facet at {_where(c[j])} is not a convex quadrilateral: the mortar "
-                                 "segmentation needs facets that face each other (refine, or use method = "
+                raise InputError(f"master facet at {_where(m_centre[f[j]])}: its projection onto the auxiliary "
+                                 f"plane of the slave facet at {_where(c[j])} is not a convex quadrilateral: the "
+                                 "mortar segmentation needs facets that face each other (refine, or use method = "
                                  "'node-to-surface')")
         e, f, m2, m_poly, c, tol = e[keep], f[keep], m2[keep], m_poly[keep], c[keep], tol[keep]
         if e.size == 0:

@@ -218,7 +218,8 @@ class Pairing:
         free: The owned slave nodes that are NOT contact nodes but lie over a master surface (in its normal
             cone): beyond the search distance, or with a Dirichlet component. Keys ``blocks`` (local),
             ``gap``, ``normals``, ``master_blocks``, ``weights`` as above (the pair with the smallest |g|), for the
-            penetration check after a solve (:meth:`fenics_coulomb.model.contact_model.ContactModel.free_slave_penetrations`).
+            penetration check after a solve
+            (:meth:`fenics_coulomb.model.contact_model.ContactModel.free_slave_penetrations`).
     """
 
     blocks: npt.NDArray[np.int32]
@@ -239,7 +240,8 @@ class Pairing:
         return Pairing(blocks=self.blocks[keep], coordinates=self.coordinates[keep], closest=self.closest[keep],
                        gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
                        weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep],
-                       friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
+                       friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM),
+                       free=self.free)
 
     @property
     def normals(self) -> Array:

@@ -202,7 +202,7 @@ def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
                                     load_factor=j / m, start=previous, end=state))
         previous = state
     for solve in solves:  # rotations that cannot be blended fail here, before anything is solved
-        solve.obstacle_rotations
+        _ = solve.obstacle_rotations
     return solves
 
 
