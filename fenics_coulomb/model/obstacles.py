@@ -1,7 +1,7 @@
 r"""Rigid obstacles of any placement and shape — planes, spheres, cylinders — and per-node contact frames.
 
-Geometry (issue 13)
--------------------
+Geometry
+--------
 Each obstacle is placed at its scene position translated by its ``displacement`` δ (default 0):
 
 * :class:`Plane` (``point`` p, unit ``normal`` ν pointing from the obstacle toward the body): the obstacle
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -33,9 +33,9 @@ import numpy.typing as npt
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.frames import _E, _NOISE, _perpendicular, frames_from_normals
 
-__all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "closest_obstacle",
-           "find_overlap", "check_not_overlapping", "check_solid_side", "core_path", "motion_placements",
-           "rotation_text", "obstacle_from_dict", "obstacles_from_list"]
+__all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "register_obstacle",
+           "closest_obstacle", "find_overlap", "check_not_overlapping", "check_solid_side", "core_path",
+           "motion_placements", "rotation_text", "obstacle_from_dict", "obstacles_from_list"]
 
 Array = npt.NDArray[np.float64]
 Vector = tuple[float, float, float]
@@ -373,6 +373,17 @@ def _check_name(name: Any, owner: str) -> None:
 DEFAULT_PLANE = Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0))
 
 OBSTACLE_TYPES: dict[str, type[Obstacle]] = {"plane": Plane, "sphere": Sphere, "cylinder": Cylinder}
+
+
+def register_obstacle(cls: type[Obstacle], **checks: Callable[[Any, str], Any]) -> type[Obstacle]:
+    """Make ``cls`` the ``[[obstacle]]`` type ``cls.kind``, with the checks of its own keys (``key=check(value,
+    owner)``, applied on creation and to scene tables); a new obstacle type is its module and this call."""
+    taken = [key for key in checks if key in _CHECKS]
+    if cls.kind in OBSTACLE_TYPES or taken:
+        raise ValueError(f"obstacle type {cls.kind!r} or key(s) {taken} registered twice")
+    _CHECKS.update(checks)
+    OBSTACLE_TYPES[cls.kind] = cls
+    return cls
 
 
 # -- several obstacles ---------------------------------------------------------------------------------
