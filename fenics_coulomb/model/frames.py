@@ -28,7 +28,7 @@ vector) the local kinematics are
     vⁱ = Rᵢᵀ ũⁱ + sⁱ,   sⁱ = (−t₁·oᵢ, −t₂·oᵢ, gᵢ)            (:func:`local_shift`)
 
 so v₃ = g + n·ũ (the linearized gap) and v₁₂ = T(ũ − oᵢ) with T = (t₁; t₂). Static obstacle problem: oᵢ = δ
-(the slip s = T(u − δ) of a body dragged by a moving obstacle); load path step k (issue 14): oᵢ = ũ_{k−1} +
+(the slip s = T(u − δ) of a body dragged by a moving obstacle); load path step k: oᵢ = ũ_{k−1} +
 δ_k − δ_{k−1}, so that v₁₂ = T(ũ_k − ũ_{k−1}) − T(δ_k − δ_{k−1}). The tangential shift enters exactly like
 the gap: as a constant added to the local block.
 

@@ -1,4 +1,4 @@
-r"""Dual mortar pairing of two elastic bodies (issue 28): the stencil Φ_jl = M_jl / D_j, the weighted gap, the
+r"""Dual mortar pairing of two elastic bodies: the stencil Φ_jl = M_jl / D_j, the weighted gap, the
 slave nodal normals — the same change of variables u = (I + Φ) z as node-to-surface contact.
 
 With biorthogonal ("dual") multipliers the mortar matrix D of the slave side is diagonal, so the mortar
@@ -29,8 +29,8 @@ covered node. A uniform pressure p on a flat interface, λ_h = p n, has the noda
 reproduces constants) and gives the slave forces p D_j n = p ∫ N_j n and the master forces −p Σ_j M_jl n =
 −p ∫ N_l^m n: the consistent loads of a uniform pressure on both bodies, so the patch test passes on any meshes.
 
-The discretization (exactly the definitions of issue 28; held-out references use them)
---------------------------------------------------------------------------------------
+The discretization (the definitions the held-out references use)
+-----------------------------------------------------------------
 All in the reference configuration, once per pair, for P1 triangles (N = 1 − ξ − η, ξ, η) and Q1
 quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex order).
 
