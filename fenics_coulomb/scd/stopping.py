@@ -71,7 +71,7 @@ class StoppingRule:
         """
         # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖, from the problem's displacement scales and never from the
         # start iterate alone: the gaps d, the start ũ⁽⁰⁾ and the load's scale ‖l̃‖/γ.
-        floor = ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma)
+        floor = float(ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma))
         return cls(rtol, max_it, initial, rtol * scale, floor)
 
     @property
