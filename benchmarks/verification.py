@@ -49,9 +49,8 @@ import numpy as np
 import ufl
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from two_body_patch import exact_pressure  # noqa: E402
-from two_body_patch import run as patch_run  # noqa: E402
+from benchmarks.two_body_patch import exact_pressure  # noqa: E402
+from benchmarks.two_body_patch import run as patch_run  # noqa: E402
 
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
