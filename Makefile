@@ -4,12 +4,19 @@ RUN := container/run
 NP ?= 2
 PYTEST_ARGS ?=
 
-.PHONY: demo test test-serial test-mpi test-host env
+.PHONY: demo test lint test-serial test-mpi test-host env
 
 demo:
 	$(RUN) mpirun -n $(NP) python3 demos/cuboid.py
 
-test: test-serial test-mpi test-host
+test: lint test-serial test-mpi test-host
+
+# Static checks first (seconds): ruff on the whole tree, mypy on the package (rules: pyproject.toml).
+lint:
+	@$(RUN) ruff check --quiet --output-format concise . || { \
+	  echo "make lint: ruff found the problems above (rules: pyproject.toml [tool.ruff]; 'ruff check --fix' fixes those marked [*])"; exit 1; }
+	@$(RUN) mypy fenics_coulomb || { \
+	  echo "make lint: mypy found the type errors above (rules: pyproject.toml [tool.mypy])"; exit 1; }
 
 test-serial:
 	$(RUN) python3 -m pytest -q --color=no tests $(PYTEST_ARGS)

@@ -1,9 +1,9 @@
-"""The Hertz sub-surface shear from the stress output: a rigid sphere pressed into a block (demos/hertz.py's
+"""The Hertz sub-surface shear from the stress output: a rigid sphere pressed into a block (benchmarks/hertz.py's
 indentation, frictionless, ν = 0.3), the projected stress (:func:`fenics_coulomb.io.fields.stress_functions`)
 and its largest shear τ = (σ₁ − σ₃)/2 on the axis under the contact, against Hertz: τ_max ≈ 0.31 p₀ at the
 depth ≈ 0.48 a, with p₀ and a from the computed force (``hertz_from_force``)::
 
-    mpirun -n 2 python3 benchmarks/hertz_stress.py 1      # mesh level 0, 1 or 2 of demos/hertz.py
+    mpirun -n 2 python3 benchmarks/hertz_stress.py 1      # mesh level 0, 1 or 2 of benchmarks/hertz.py
 
 Measured on 2 ranks (the axis samples are the vertices within 0.3 h₀ of the axis, so the depth is resolved to
 about one edge h₀): level 0 (h₀ = a/4): 0.285 p₀ at 0.62 a; level 1 (h₀ = a/8, 73 k unknowns, < 1 min):
@@ -32,7 +32,7 @@ logger = logging.getLogger("hertz_stress")
 
 
 def _demo():  # noqa: ANN202 - the demo module
-    spec = importlib.util.spec_from_file_location("hertz", Path(__file__).resolve().parents[1] / "demos" / "hertz.py")
+    spec = importlib.util.spec_from_file_location("hertz", Path(__file__).resolve().parent / "hertz.py")
     module = importlib.util.module_from_spec(spec)
     sys.modules["hertz"] = module
     spec.loader.exec_module(module)

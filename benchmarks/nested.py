@@ -7,7 +7,8 @@ solves, the interpolation and the output) is recorded with the fine and coarse N
 summary.json. The interpreter start and the imports, the same for every configuration, are not in it.
 
     container/run mpirun -n 2 python3 benchmarks/nested.py --levels 7 8 9 10 --out docs/nested
-    container/run mpirun -n 2 python3 benchmarks/nested.py --levels 10 --nested 1 --coarse-rtol 1e-2 1e-4 1e-6 1e-8 --out docs/nested/rtol
+    container/run mpirun -n 2 python3 benchmarks/nested.py --levels 10 --nested 1 \
+        --coarse-rtol 1e-2 1e-4 1e-6 1e-8 --out docs/nested/rtol
 """
 
 from __future__ import annotations

@@ -34,7 +34,6 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))  # the gmsh scripts meshes/hemisphere.py, meshes/roller.py (not a package)
 
 from fenics_coulomb.scd.preconditioner import choose_preconditioner  # noqa: E402
 from fenics_coulomb.settings import SolverSettings  # noqa: E402
@@ -94,11 +93,11 @@ def make_mesh(kind: str, size: float, work: Path) -> Path:
     path = work / f"{kind}_{size:g}.msh"
     if not path.exists():
         if kind == "hemisphere":
-            import hemisphere
+            from meshes import hemisphere
 
             hemisphere.build(size, path)
         else:
-            import roller
+            from meshes import roller
 
             roller.build(size, path)
     return path

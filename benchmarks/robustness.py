@@ -39,12 +39,12 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))
 
 #: Wall-time limit of a baseline run (an earlier version's defaults may crawl).
 BASELINE_TIMEOUT = 300.0
@@ -92,32 +92,32 @@ substeps = 4
 def _graded_tet(h0: float, growth: float, toward: str = "point", refined: float = 0.0,
                 optimize: bool = True) -> Callable[[Path], Any]:
     def make(path: Path) -> Any:
-        from engineering import graded_tetrahedra
+        from meshes.engineering import graded_tetrahedra
         return graded_tetrahedra(path, h0, growth, toward, h_max=0.25, optimize=optimize, refined=refined)
     return make
 
 
 def _graded_hex(n: int, power: float) -> Callable[[Path], Any]:
     def make(path: Path) -> Any:
-        from engineering import graded_hexahedra
+        from meshes.engineering import graded_hexahedra
         return graded_hexahedra(path, n, power)
     return make
 
 
 def _plate(path: Path) -> Any:
-    from engineering import thin_plate
+    from meshes.engineering import thin_plate
     return thin_plate(path, 0.05, 0.025)
 
 
 def _roller(path: Path) -> Any:
-    import roller
+    from meshes import roller
     roller.CLEARANCE = 0.025  # 5 % of the radius 0.5
     roller.build(0.045, path)
     return _gmsh_info(path)
 
 
 def _two_bodies(path: Path) -> Any:
-    import hemisphere_on_block
+    from meshes import hemisphere_on_block
     hemisphere_on_block.build(0.05, path, size=0.25)
     return _gmsh_info(path)
 
@@ -167,7 +167,8 @@ CASES = [
          _plate, PLATE_SCENE, fast=True),
     Case("roller-gap", "a half-cylinder roller 5 % of its radius above the plane, its top pressed down",
          _roller, ROLLER_SCENE),
-    Case("nu-0.49", "tetrahedra graded as for slivers but optimized, ν = 0.49", _graded_tet(A / 8, 1.3, refined=1.2 * A),
+    Case("nu-0.49", "tetrahedra graded as for slivers but optimized, ν = 0.49",
+         _graded_tet(A / 8, 1.3, refined=1.2 * A),
          _block_scene("young = 70.0\npoisson = 0.49")),
     Case("nu-0.499", "the same, ν = 0.499", _graded_tet(A / 8, 1.3, refined=1.2 * A),
          _block_scene("young = 70.0\npoisson = 0.499")),

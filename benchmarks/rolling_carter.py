@@ -51,8 +51,7 @@ import numpy as np
 import ufl
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))
-from surfaces import cylinder, write_stl  # noqa: E402
+from meshes.surfaces import cylinder, write_stl  # noqa: E402
 
 from fenics_coulomb import ContactProblem, ContactState, Cylinder, Surface  # noqa: E402
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
@@ -128,7 +127,8 @@ def run(comm: MPI.Comm, kind: str, creep: float, out: Path, n=(156, 6, 24), dept
     state = nodes.state[mid]
     order = np.argsort(x)
     x, state = x[order], state[order]
-    pressure, traction = nodes.pressure[mid][order], nodes.force[mid][order] / np.maximum(nodes.area[mid][order], 1e-300)[:, None]
+    pressure = nodes.pressure[mid][order]
+    traction = nodes.force[mid][order] / np.maximum(nodes.area[mid][order], 1e-300)[:, None]
     closed = state != ContactState.OPEN
     spacing = float(np.min(np.diff(x))) if x.size > 1 else 0.0
     a = 0.5 * (x[closed].max() - x[closed].min() + spacing)
@@ -173,9 +173,10 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     table = ["| obstacle | creep ξ | P | Q | Q/(μP) | a | stick zone [x_s, x_e] − centre | a'/a measured | "
              "√(1 − Q/(μP)) | ξ from Carter | node spacing | time |", "|" + "---|" * 12]
     for r in rows:
+        theory = r["theory a'/a"]
         table.append(f"| {r['obstacle']} | {r['creep']:g} | {r['P']:.4g} | {r['Q']:.4g} | {r['Q/(muP)']:.3f} | "
                      f"{r['a']:.4f} | [{r['stick_from']:.4f}, {r['stick_to']:.4f}] | {r['a_stick/a']:.3f} | "
-                     f"{r['theory a\'/a']:.3f} | {r['creep (theory)']:.4f} | {r['spacing']:.4f} | "
+                     f"{theory:.3f} | {r['creep (theory)']:.4f} | {r['spacing']:.4f} | "
                      f"{r['seconds']:.0f} s |")
     doc = __doc__.split("\n\n", 2)[2].split("Writes ``carter.md``")[0].strip()
     (out / "carter.md").write_text(f"""# Tractive rolling against Carter's solution

@@ -98,7 +98,8 @@ def build_parser() -> argparse.ArgumentParser:
                                 epilog="\n".join(__doc__.splitlines()[1:]))
     p.add_argument("--levels", type=int, nargs="+", default=None,
                    help=f"levels of the level study (default {' '.join(map(str, DEFAULT_LEVELS))})")
-    p.add_argument("--lev11", action="store_true", help="add lev 11 (4.6 M unknowns, ~12.5 GiB on 2 ranks) to the level study")
+    p.add_argument("--lev11", action="store_true",
+                   help="add lev 11 (4.6 M unknowns, ~12.5 GiB on 2 ranks) to the level study")
     p.add_argument("--np", type=int, default=2, help="ranks of the level study (default 2)")
     p.add_argument("--ranks", type=int, nargs="+", default=None,
                    help="rank counts of the strong (or, with --weak, weak) scaling study")

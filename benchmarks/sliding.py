@@ -36,9 +36,8 @@ import numpy as np
 import ufl
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))
 sys.path.insert(0, str(ROOT))
-from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
+from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.forces import pair_forces  # noqa: E402
@@ -180,7 +179,7 @@ def bump_obstacles(kind: str, directory: Path | None = None) -> list[Any]:
     floor = Plane(point=(0.0, 0.0, 0.0), normal=(0.0, 0.0, 1.0), name="floor")
     if kind == "cylinder":
         return [floor, Cylinder(point=(1.0, -1.0, -0.48), axis=(0.0, 1.0, 0.0), radius=0.5, name="bump")]
-    from surfaces import cylinder, write_stl
+    from meshes.surfaces import cylinder, write_stl
 
     from fenics_coulomb.model.surface import Surface
     assert directory is not None
@@ -253,7 +252,8 @@ def main() -> None:
                      f"| {r['path_u']:.2e} | {r['one_u']:.2e} | {r['u_scale']:.4f} | {r['updates']} "
                      f"| {r['path_time_s']:.1f} |")
     lines += ["", "## Drag, F = 0.3 (mortar)", "",
-              "| shift | nodes | slip | Σ abs t_j | F Σ p_j | abs Q | P | updates |", "|---|---|---|---|---|---|---|---|"]
+              "| shift | nodes | slip | Σ abs t_j | F Σ p_j | abs Q | P | updates |",
+              "|---|---|---|---|---|---|---|---|"]
     for r in drag(comm):
         lines.append(f"| {r['shift']:.2f} | {r['nodes']} | {r['slip']} | {r['sum_t']:.8f} | {r['F_sum_p']:.8f} "
                      f"| {r['Q']:.8f} | {r['P']:.8f} | {r['updates']} |")

@@ -44,15 +44,15 @@ import dolfinx.io.gmshio
 import numpy as np
 import ufl
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))
-from hemisphere_on_block import BODIES, TAGS, build  # noqa: E402
+from meshes.hemisphere_on_block import BODIES, TAGS, build  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
 from fenics_coulomb.model.forces import contact_areas, pair_forces
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
 from fenics_coulomb.scd.resolvent import OPEN  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
 
 R = 1.0
 #: (E in GPa, ν): the hemisphere (slave) and the block (master).
@@ -152,7 +152,8 @@ def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, time
     fdim = 2
     bottom = dolfinx.fem.locate_dofs_topological(V, fdim, facet_tags.find(TAGS["block_bottom"]))
     flat = dolfinx.fem.locate_dofs_topological(V, fdim, facet_tags.find(TAGS["flat"]))
-    bcs = [dolfinx.fem.dirichletbc(np.zeros(3), bottom, V), dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -delta]), flat, V)]
+    bcs = [dolfinx.fem.dirichletbc(np.zeros(3), bottom, V),
+           dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -delta]), flat, V)]
     pair = ContactPair(facet_tags, slave=TAGS["curved"], master=TAGS["block_top"], friction=0.0,
                        search_distance=0.25 * R, name="hertz", method=method)
     with ContactProblem(elasticity(V, cell_tags), None, bcs, contact_pairs=[pair], settings={"rtol": 1e-10},
@@ -196,9 +197,11 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     if comm.rank != 0:
         return
     out.mkdir(parents=True, exist_ok=True)
-    keys = ["variant", "h", "dofs", "pairing_seconds", "solve_seconds", "contact_nodes", "closed_nodes", "newton_iterations", "geometry_updates", "delta", "P", "balance", "a_hertz",
+    keys = ["variant", "h", "dofs", "pairing_seconds", "solve_seconds", "contact_nodes", "closed_nodes",
+            "newton_iterations", "geometry_updates", "delta", "P", "balance", "a_hertz",
             "a", "r_closed", "r_open", "a_error", "p0_hertz", "p0", "p0_error", "p0_fit", "p0_fit_error", "seconds"]
-    lines = [",".join(keys)] + [",".join(f"{row[k]:.10g}" if isinstance(row[k], float) else f'"{row[k]}"' if k == "variant" else str(row[k])
+    lines = [",".join(keys)] + [",".join(f"{row[k]:.10g}" if isinstance(row[k], float)
+                                         else f'"{row[k]}"' if k == "variant" else str(row[k])
                                          for k in keys) for row in rows]
     (out / "hertz.csv").write_text("\n".join(lines) + "\n")
     profile = ["variant,h,r,pressure"] + [f"\"{row['variant']}\",{row['h']:g},{ri:.8g},{pi:.8g}" for row in rows
@@ -208,7 +211,8 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     table = ["| method | contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ "
              "(largest nodal) | error | p₀ (fit) | error | Newton its (geometry updates) | balance | pairing / solve |", "|" + "---|" * 15]
     for row in rows:
-        table.append(f"| {row['variant']} | {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | {row['a']:.4f} "
+        table.append(f"| {row['variant']} | {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | "
+                     f"{row['a']:.4f} "
                      f"[{row['r_closed']:.4f}, {row['r_open']:.4f}] | {100 * row['a_error']:+.2f} % | "
                      f"{row['p0_hertz']:.4g} | {row['p0']:.4g} | {100 * row['p0_error']:+.2f} % | "
                      f"{row['p0_fit']:.4g} | {100 * row['p0_fit_error']:+.2f} % | "

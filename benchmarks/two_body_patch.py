@@ -46,14 +46,14 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))
-from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
+from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
 from fenics_coulomb.model.forces import contact_areas, pair_forces
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
 
 #: (E in GPa, ν) of the lower and the upper block.
 MATERIALS = ((210.0, 0.0), (70.0, 0.0))
@@ -143,7 +143,8 @@ def run(comm: MPI.Comm, cell: str, n_lower: tuple[int, ...], n_upper: tuple[int,
         worst = [comm.allreduce(float(v), op=MPI.MAX) for v in local]
         rms = np.sqrt(comm.allreduce(float(np.sum(error**2)), op=MPI.SUM) / result.p)
     P = forces["force_on_slave_body"][2]
-    return {"case": "", "method": method, "cell": cell, "nu": "/".join(f"{m[1]:g}" for m in materials), "lower": "×".join(map(str, n_lower)), "upper": "×".join(map(str, n_upper)),
+    return {"case": "", "method": method, "cell": cell, "nu": "/".join(f"{m[1]:g}" for m in materials),
+            "lower": "×".join(map(str, n_lower)), "upper": "×".join(map(str, n_upper)),
             "contact_nodes": int(result.p), "converged": bool(result.converged), "p_exact": p,
             "max_pressure_error": float(worst[0]), "rms_pressure_error": float(rms), "force_error": P / p - 1,
             "max_tangential": float(worst[1]), "balance": forces["balance"],
@@ -169,10 +170,12 @@ def main(argv: list[str] | None = None) -> int:
         keys = list(rows[0])
         (out / "patch.csv").write_text("\n".join([",".join(keys)] + [",".join(
             f"{r[k]:.6g}" if isinstance(r[k], float) else str(r[k]) for k in keys) for r in rows]) + "\n")
-        table = ["| method | case | cells | lower (master) | upper (slave) | slave nodes | max pressure error | RMS pressure "
+        table = ["| method | case | cells | lower (master) | upper (slave) | slave nodes | max pressure error | "
+                 "RMS pressure "
                  "error | total force error | max tangential / (p Aᵢ) | balance | physics checks |", "|" + "---|" * 12]
         for r in rows:
-            table.append(f"| {r['method']} | {r['case']} | {r['cell']} | {r['lower']} | {r['upper']} | {r['contact_nodes']} | "
+            table.append(f"| {r['method']} | {r['case']} | {r['cell']} | {r['lower']} | {r['upper']} | "
+                         f"{r['contact_nodes']} | "
                          f"{100 * r['max_pressure_error']:.3g} % | {100 * r['rms_pressure_error']:.3g} % | "
                          f"{100 * r['force_error']:+.2g} % | {r['max_tangential']:.1e} | {r['balance']:.1e} | "
                          f"{r['checks']:.1e} |")

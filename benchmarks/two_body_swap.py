@@ -32,8 +32,7 @@ import dolfinx
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "meshes"))
-from two_blocks import TAGS, two_blocks  # noqa: E402
+from meshes.two_blocks import TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
@@ -74,7 +73,8 @@ def _solve(blocks, top, slave, master, friction, method, prefix):
         closed = comm.allreduce(int(np.sum(result.normal_force > 0)), op=MPI.SUM)
         free = problem.model.free_slave_penetrations(result.displacement)
         return dict(u=u, p=int(result.p), closed=closed, force=normal, converged=bool(result.converged),
-                    checks=max(checks[k] for k in ("equilibrium", "penetration", "negative_pressure", "complementarity")),
+                    checks=max(checks[k] for k in ("equilibrium", "penetration", "negative_pressure",
+                                                   "complementarity")),
                     penetrating=int(free))
 
 

@@ -13,7 +13,7 @@ Cases (the derivations are in docs/verification/README.md):
 * **Block pushed up an incline** (NAFEMS CGS-4 form): a block resting on a rigid plane inclined at
   tan α = 0.1, under its weight, pushed horizontally by a one-component prescribed displacement of its lower
   face until every node in contact slides: push / weight = (tan α + μ)/(1 − μ tan α).
-* **Hertz**: a rigid sphere indenting a large elastic block (demos/hertz.py's mesh and measurement): the
+* **Hertz**: a rigid sphere indenting a large elastic block (benchmarks/hertz.py's mesh and measurement): the
   contact radius and p₀ against a = (3PR/4E*)^{1/3}, p₀ = 3P/(2πa²) for the measured P, and P(δ) against
   P = (4/3)E*√R δ^{3/2} (Johnson, Contact Mechanics, §4.2).
 * **Contact patch test** (benchmarks/two_body_patch.py's ``run``): uniform pressure through non-matching
@@ -54,9 +54,8 @@ import numpy as np
 import ufl
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from two_body_patch import exact_pressure  # noqa: E402
-from two_body_patch import run as patch_run  # noqa: E402
+from benchmarks.two_body_patch import exact_pressure  # noqa: E402
+from benchmarks.two_body_patch import run as patch_run  # noqa: E402
 
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
@@ -77,17 +76,17 @@ INCLINE_LEVELS = {0: (4, 4, 2), 1: (8, 8, 4)}
 INCLINE_SCENE = ROOT / "docs" / "verification" / "incline.toml"
 #: Patch-test levels: (cells of the lower (master) block, cells of the upper (slave) block), non-matching.
 PATCH_LEVELS = {0: ((4, 4, 2), (5, 5, 2)), 1: ((8, 8, 2), (10, 10, 2))}
-#: Hertz levels of demos/hertz.py used by the table (h₀ = a/4, a/8, a/11.3).
+#: Hertz levels of benchmarks/hertz.py used by the table (h₀ = a/4, a/8, a/11.3).
 HERTZ_LEVELS = (1, 2)
 #: Lubkin levels (the same meshes).
 LUBKIN_LEVELS = (0, 1)
 
 
 def _load_hertz_demo() -> Any:
-    """demos/hertz.py as a module (its meshes, measurement and Hertz formulas)."""
+    """benchmarks/hertz.py as a module (its meshes, measurement and Hertz formulas)."""
     if "hertz_demo" in sys.modules:
         return sys.modules["hertz_demo"]
-    spec = importlib.util.spec_from_file_location("hertz_demo", ROOT / "demos" / "hertz.py")
+    spec = importlib.util.spec_from_file_location("hertz_demo", ROOT / "benchmarks" / "hertz.py")
     module = importlib.util.module_from_spec(spec)
     assert spec.loader is not None
     sys.modules["hertz_demo"] = module  # its dataclasses look their module up
@@ -305,7 +304,7 @@ def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int
 
 
 def _indented_block(comm: MPI.Comm, level: int | tuple[float, float]) -> tuple[Any, ...]:
-    """The block, its clamped bottom and the indenter of demos/hertz.py at ``level`` (a level of the demo's
+    """The block, its clamped bottom and the indenter of benchmarks/hertz.py at ``level`` (a level of the demo's
     ``LEVELS`` or (h₀/a, growth)): the demo module, the space, the form, the bottom BC, tags, sphere, h₀."""
     demo = _load_hertz_demo()
     a = np.sqrt(demo.R_INDENTER * demo.DEPTH)
@@ -320,7 +319,7 @@ def _indented_block(comm: MPI.Comm, level: int | tuple[float, float]) -> tuple[A
 
 
 def hertz_indentation(comm: MPI.Comm, level: int | tuple[float, float]) -> dict[str, Any]:
-    """The rigid sphere pressed δ into the block of demos/hertz.py at mesh ``level`` (frictionless): the
+    """The rigid sphere pressed δ into the block of benchmarks/hertz.py at mesh ``level`` (frictionless): the
     contact radius a and p₀ against Hertz for the measured force P, and P against Hertz for δ."""
     t0 = time.perf_counter()
     demo, V, a, bc, bottom, tags, sphere, h = _indented_block(comm, level)
@@ -644,7 +643,7 @@ boundaries belongs to the first one (the push), which leaves u2 free on the push
 
 ## 2. Hertz: a rigid sphere into an elastic block
 
-demos/hertz.py's block and measurement (docs/hertz): a rigid `Sphere` (R = 10) moved δ = 0.025 into the
+benchmarks/hertz.py's block and measurement (docs/hertz): a rigid `Sphere` (R = 10) moved δ = 0.025 into the
 block [−W, W]² × [−W, 0], W = 100 a (a = √(Rδ) = 0.5), bottom clamped, E = 70 GPa, ν = 0.3, frictionless,
 gmsh tetrahedra of edge h₀ within 1.2 a of the contact, growing linearly beyond; ILU, reduction 1e-11.
 P is the total contact force (equal to the clamped bottom's reaction); a is the radius that best separates

@@ -77,8 +77,7 @@ import ufl
 
 from fenics_coulomb import CONTACT_STATES, ContactPair, ContactProblem, XDMFTimeSeries, contact_functions
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "meshes"))
-from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
+from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 #: (E in GPa, ν) per body: a steel base and an aluminium block.
 MATERIALS = {"lower": (210.0, 0.3), "upper": (70.0, 0.35)}

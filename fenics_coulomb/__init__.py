@@ -26,7 +26,7 @@ from fenics_coulomb.io.writer import write_results
 
 __version__ = "0.1.0"
 
-__all__ = ["CONTACT_STATES", "ContactNodes", "ContactPair", "ContactProblem", "ContactReport", "ContactState", "Cylinder",
-           "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError", "SolverSettings", "Sphere", "Surface",
-           "XDMFTimeSeries", "__version__", "box_partitioner", "contact_functions", "create_partitioner", "read_gmsh",
-           "write_results"]
+__all__ = ["CONTACT_STATES", "ContactNodes", "ContactPair", "ContactProblem", "ContactReport", "ContactState",
+           "Cylinder", "InputError", "IterationRecord", "Plane", "SolveResult", "SolverError", "SolverSettings",
+           "Sphere", "Surface", "XDMFTimeSeries", "__version__", "box_partitioner", "contact_functions",
+           "create_partitioner", "read_gmsh", "write_results"]

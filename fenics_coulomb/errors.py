@@ -7,8 +7,8 @@ from typing import Any
 
 from mpi4py import MPI
 
-__all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_OUTPUT", "EXIT_STATUSES", "InputError", "OutputError",
-           "Interrupted", "SolverError", "check_all"]
+__all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_OUTPUT", "EXIT_STATUSES", "InputError",
+           "OutputError", "Interrupted", "SolverError", "check_all"]
 
 
 class InputError(ValueError):
@@ -66,7 +66,7 @@ EXIT_INPUT = 2
 EXIT_DIVERGED = 3
 EXIT_OUTPUT = 4
 EXIT_INTERRUPTED = 128  # + the signal number (130 SIGINT, 143 SIGTERM), as a shell reports it
-#: What each exit status guarantees (the --help epilog and the README's table).
+#: What each exit status guarantees (the --help epilog and the table of docs/scenes.md).
 EXIT_STATUSES = {
     0: "solved: converged and the physics checks passed (summary.json physics_checks)",
     2: "bad input: one line naming the value; nothing was solved or written",

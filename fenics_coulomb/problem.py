@@ -104,9 +104,7 @@ def _settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSetting
         if unknown:
             raise InputError(f"unknown solver setting(s) {sorted(unknown)}")
         settings = SolverSettings(**settings)
-    settings = settings or SolverSettings()
-    settings.validate()
-    return settings
+    return settings or SolverSettings()  # validated where it was constructed
 
 
 def _show(value: Any) -> str:

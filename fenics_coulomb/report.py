@@ -2,10 +2,9 @@
 
 :meth:`fenics_coulomb.ContactProblem.report` turns a :class:`~fenics_coulomb.scd.records.SolveResult` (whose
 arrays are each rank's owned entries) into a :class:`ContactReport` that is the same on every rank: the
-contact nodes are gathered and ordered by their reference coordinates (lexicographically in x₁, x₂, x₃ to 1e-9 of the contact
-surface's extent: an
-order that does not depend on the partition) and the totals are summed in that order, so a script reads the
-same numbers on 1, 2 or 3 ranks (to the solver's round-off across rank counts)::
+contact nodes are gathered and ordered by their reference coordinates (lexicographically in x₁, x₂, x₃ to 1e-9
+of the contact surface's extent: an order that does not depend on the partition) and the totals are summed in that
+order, so a script reads the same numbers on 1, 2 or 3 ranks (to the solver's round-off across rank counts)::
 
     with ContactProblem(a, L, bcs=[clamp], contact=(tags, [top]), obstacles=[ball],
                         petsc_options_prefix="press_") as problem:

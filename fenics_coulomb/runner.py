@@ -28,7 +28,8 @@ from fenics_coulomb.io.start import check_start_file, start_function
 from fenics_coulomb.io.writer import PathResultSet, write_result_set
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
-from fenics_coulomb.scenes.nested import NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels, start_from_coarse
+from fenics_coulomb.scenes.nested import (NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels,
+                                          start_from_coarse)
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_for_accuracy
 
@@ -119,7 +120,6 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     t_nested = time.perf_counter() - t_nested
     built = build_problem(scene, comm)
     with built.problem as problem:
-        model = problem.model
         t_model = time.perf_counter() - t0 - t_nested
         logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s)", built.body.description,
                     problem.n, problem.p, friction_text(scene), comm.size)
@@ -274,7 +274,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                      "solves written, the last one NOT converged)", records[-1].time, failure, len(records),
                      len(todo))
     if comm.rank == 0:
-        print(f"{'load path completed' if not failure else 'load path STOPPED at step ' + format(records[-1].time, 'g')}: "
+        ending = "load path completed" if not failure else f"load path STOPPED at step {records[-1].time:g}"
+        print(f"{ending}: "
               f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
               f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
               f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)

@@ -7,12 +7,14 @@ all fill this one dataclass (the TOML keys are its field names).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 from fenics_coulomb.errors import InputError
 
 __all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERROR_PER_RTOL", "INTEGER_BOUNDS",
-           "INTEGER_REASONS", "rtol_for_accuracy", "SolverSettings"]
+           "INTEGER_REASONS", "GAMMA_SCALE_RANGE", "rtol_for_accuracy", "SolverSettings", "setting_kinds"]
 
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
@@ -37,6 +39,10 @@ INTEGER_REASONS = {
 }
 
 
+#: The range of gamma_scale (γ = gamma_scale · λ_max(A)): beyond it γ dwarfs or vanishes against the stiffness.
+GAMMA_SCALE_RANGE = (1e-6, 1e6)
+
+
 def rtol_for_accuracy(accuracy: float) -> float:
     """The residual reduction that gives a relative displacement error <= ``accuracy`` (the solver's error,
     not the discretization's), from the measured speed–accuracy table docs/tradeoff."""
@@ -49,12 +55,49 @@ def _number(name: str, value: object) -> float:
     return float(value)
 
 
+def _setting(default: Any, kind: str, **rule: Any) -> Any:
+    """A SolverSettings field whose metadata holds its rule: ``kind`` ("str", "number", "int", "bool"; "?" for
+    None allowed), and ``choices`` (with the ``label`` the message names), or ``low``/``high`` with ``bounds`` (the
+    interval's brackets, "(" alone for > low) and the message ``text``; the integers' bounds are
+    :data:`INTEGER_BOUNDS`."""
+    return field(default=default, metadata={"kind": kind, **rule})
+
+
+def _inside(value: float, low: float | None, high: float | None, bounds: str) -> bool:
+    above = low is None or (value > low if bounds[0] == "(" else value >= low)
+    below = high is None or len(bounds) < 2 or (value < high if bounds[1] == ")" else value <= high)
+    return above and below
+
+
+def _check(name: str, value: Any, rule: Mapping[str, Any]) -> None:
+    """Raise InputError unless ``value`` meets its field's ``rule`` (:func:`_setting`)."""
+    kind = rule["kind"]
+    if kind.endswith("?") and value is None:
+        return
+    kind = kind.rstrip("?")
+    if "choices" in rule:
+        if value not in rule["choices"]:
+            raise InputError(f"{rule.get('label', name)} {value!r}: choose one of {list(rule['choices'])}")
+    elif kind == "bool":
+        if not isinstance(value, bool):
+            raise InputError(f"{name} = {value!r}: must be true or false")
+    elif kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise InputError(f"{name} = {value!r}: must be an integer >= 1")
+        if value > INTEGER_BOUNDS[name]:
+            raise InputError(f"{name} = {value!r}: must be at most {INTEGER_BOUNDS[name]} ({INTEGER_REASONS[name]})")
+    elif kind == "number":
+        number = _number(name, value)
+        if not _inside(number, rule.get("low"), rule.get("high"), rule.get("bounds", "[]")):
+            raise InputError(f"{name} = {value!r}: {rule['text']}")
+
+
 #: The options prefix of the command line's solver: every ``-coulomb_*`` PETSc option on the command line and the
 #: default ``petsc_options_prefix`` of the scenes' problems (the Python API requires its own).
 COMMAND_PREFIX = "coulomb_"
 
 
-@dataclass
+@dataclass(frozen=True)
 class SolverSettings:
     """Settings of the SCD semismooth* Newton solver and of the problem's solve policy.
 
@@ -73,8 +116,9 @@ class SolverSettings:
         max_it: Newton iterations before giving up.
         pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.scd.preconditioner.AUTO_GAMG_UNKNOWNS`
             unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (aggregation
-            AMG on the stiffness matrix A with the rigid-body near-nullspace, unsmoothed on hexahedral meshes, set up once and reused by
-            every Newton step), gamg-newton (on the Newton matrix, set up every step), hypre, lu, jacobi, none.
+            AMG on the stiffness matrix A with the rigid-body near-nullspace, unsmoothed on hexahedral meshes, set up
+            once and reused by every Newton step), gamg-newton (on the Newton matrix, set up every step), hypre, lu,
+            jacobi, none.
         power_iterations: Power-method iterations on A for γ (paper: 5).
         gamma: Fixed γ instead of the power-method estimate.
         gamma_scale: Factor on the power-method estimate of λ_max(A). The paper uses γ ≈ λ_max(A)
@@ -107,29 +151,39 @@ class SolverSettings:
             :meth:`fenics_coulomb.problem.ContactProblem.start_rule`.
         poisson_ratio: The body's largest Poisson ratio, when known (scenes set it from their materials; the
             solver never sees a material otherwise): from 0.48 on (nearly incompressible) ``auto`` takes GAMG with
-            smoothed aggregation on every mesh (:data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
+            smoothed aggregation on every mesh
+            (:data:`~fenics_coulomb.scd.preconditioner.NEARLY_INCOMPRESSIBLE_POISSON`).
     """
 
-    variant: str = "4a"
-    tol: float = 0.1
-    rtol: float = 1e-7
-    accuracy: float | None = None
-    max_it: int = 100
-    pc: str = "auto"
-    power_iterations: int = 5
-    gamma: float | None = None
-    gamma_scale: float = 0.01
-    gamma_node_scale: float | None = 0.5
-    gmres_restart: int = 100
-    ksp_max_it: int = 2000
-    line_search_steps: int = 20
-    adaptive_tol: bool = False
-    predictor: bool = False
-    no_contact_shortcut: bool = True
-    matrix_free: bool = True
-    galerkin_coarse: bool = False
-    start: str = "auto"
-    poisson_ratio: float | None = None
+    variant: str = _setting("4a", "str", choices=VARIANTS)
+    tol: float = _setting(0.1, "number", low=0.0, high=1.0, bounds="()",
+                          text="the linear-solve tolerance must lie in (0, 1)")
+    rtol: float = _setting(1e-7, "number", low=0.0, high=1.0, bounds="()",
+                           text="the residual reduction must lie in (0, 1)")
+    accuracy: float | None = _setting(None, "number?", low=1e-13, high=1.0, bounds="[)",
+                                      text="a relative displacement error in [1e-13, 1)")
+    max_it: int = _setting(100, "int")
+    pc: str = _setting("auto", "str", choices=PRECONDITIONERS, label="preconditioner")
+    power_iterations: int = _setting(5, "int")
+    gamma: float | None = _setting(None, "number?", low=0.0, bounds="(", text="must be finite and > 0")
+    gamma_scale: float = _setting(0.01, "number", low=GAMMA_SCALE_RANGE[0], high=GAMMA_SCALE_RANGE[1], bounds="[]",
+                                  text=f"must lie in [{GAMMA_SCALE_RANGE[0]:g}, {GAMMA_SCALE_RANGE[1]:g}]")
+    gamma_node_scale: float | None = _setting(0.5, "number?", low=0.0, bounds="(",
+                                              text="must be finite and > 0 (or none)")
+    gmres_restart: int = _setting(100, "int")
+    ksp_max_it: int = _setting(2000, "int")
+    line_search_steps: int = _setting(20, "int")
+    adaptive_tol: bool = _setting(False, "bool")
+    predictor: bool = _setting(False, "bool")
+    no_contact_shortcut: bool = _setting(True, "bool")
+    matrix_free: bool = _setting(True, "bool")
+    galerkin_coarse: bool = _setting(False, "bool")
+    start: str = _setting("auto", "str", choices=START_RULES, label="start")
+    poisson_ratio: float | None = _setting(None, "number?", low=-1.0, high=0.5, bounds="()",
+                                           text="must lie in (-1, 0.5)")
+
+    def __post_init__(self) -> None:
+        self.validate()
 
     @property
     def reduction(self) -> float:
@@ -137,43 +191,18 @@ class SolverSettings:
         return self.rtol if self.accuracy is None else rtol_for_accuracy(self.accuracy)
 
     def validate(self) -> None:
-        """Raise InputError naming the first bad value (pure: the same on every rank)."""
-        if self.variant not in VARIANTS:
-            raise InputError(f"variant {self.variant!r}: choose one of {list(VARIANTS)}")
-        tol = _number("tol", self.tol)
-        if not 0.0 < tol < 1.0:
-            raise InputError(f"tol = {self.tol!r}: the linear-solve tolerance must lie in (0, 1)")
-        rtol = _number("rtol", self.rtol)
-        if not 0.0 < rtol < 1.0:
-            raise InputError(f"rtol = {self.rtol!r}: the residual reduction must lie in (0, 1)")
-        if self.accuracy is not None:
-            acc = _number("accuracy", self.accuracy)
-            if not 1e-13 <= acc < 1.0:
-                raise InputError(f"accuracy = {acc!r}: a relative displacement error in [1e-13, 1)")
-        if self.start not in START_RULES:
-            raise InputError(f"start {self.start!r}: choose one of {list(START_RULES)}")
-        if self.pc not in PRECONDITIONERS:
-            raise InputError(f"preconditioner {self.pc!r}: choose one of {list(PRECONDITIONERS)}")
+        """Raise InputError naming the first bad value (pure: the same on every rank). Each field's rule is its
+        metadata (:func:`_setting`); run on construction, so that a SolverSettings is valid wherever it is made
+        (the API's, a scene's ``[solver]`` and the flags')."""
+        for f in fields(self):
+            _check(f.name, getattr(self, f.name), f.metadata)
         if self.variant == "4b" and self.pc == "hypre":
             raise InputError("preconditioner 'hypre' cannot apply its transpose, which variant 4b needs")
-        for name in ("adaptive_tol", "predictor", "no_contact_shortcut", "matrix_free", "galerkin_coarse"):
-            if not isinstance(getattr(self, name), bool):
-                raise InputError(f"{name} = {getattr(self, name)!r}: must be true or false")
         if self.galerkin_coarse and (self.variant != "4a" or self.pc not in ("auto", "gamg")):
             raise InputError(f"galerkin_coarse = true needs GAMG on A and variant 4a (it updates GAMG's coarse "
                              f"operators), not pc = {self.pc!r} with variant {self.variant!r}")
-        if self.gamma is not None and not (_number("gamma", self.gamma) > 0.0):
-            raise InputError(f"gamma = {self.gamma!r}: must be finite and > 0")
-        if self.poisson_ratio is not None and not -1.0 < _number("poisson_ratio", self.poisson_ratio) < 0.5:
-            raise InputError(f"poisson_ratio = {self.poisson_ratio!r}: must lie in (-1, 0.5)")
-        if self.gamma_node_scale is not None and not _number("gamma_node_scale", self.gamma_node_scale) > 0.0:
-            raise InputError(f"gamma_node_scale = {self.gamma_node_scale!r}: must be finite and > 0 (or none)")
-        if not _number("gamma_scale", self.gamma_scale) > 0.0:
-            raise InputError(f"gamma_scale = {self.gamma_scale!r}: must be finite and > 0")
-        for name in ("max_it", "power_iterations", "gmres_restart", "ksp_max_it", "line_search_steps"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise InputError(f"{name} = {value!r}: must be an integer >= 1")
-            if value > INTEGER_BOUNDS[name]:
-                raise InputError(f"{name} = {value!r}: must be at most {INTEGER_BOUNDS[name]} "
-                                 f"({INTEGER_REASONS[name]})")
+
+
+def setting_kinds() -> dict[str, str]:
+    """The TOML kind of every ``[solver]`` key, from the fields of :class:`SolverSettings` (the scene's table)."""
+    return {f.name: f.metadata["kind"].rstrip("?") for f in fields(SolverSettings)}

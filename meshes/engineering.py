@@ -9,8 +9,8 @@ tests; run inside the environment, e.g.::
 
 - :func:`graded_tetrahedra`: the block [0, 1]² × [0, H] in tetrahedra whose edge length grows from ``h0`` at
   the contact target (the top centre point, or the line x₂ = ½ on the top face) by ``growth − 1`` per unit
-  distance beyond a ball (or cylinder) of radius ``refined`` meshed at ``h0`` (gmsh's size callback, Delaunay, optimized unless ``optimize=False``: gmsh's raw mesh keeps its
-  slivers).
+  distance beyond a ball (or cylinder) of radius ``refined`` meshed at ``h0`` (gmsh's size callback, Delaunay,
+  optimized unless ``optimize=False``: gmsh's raw mesh keeps its slivers).
 - :func:`graded_hexahedra`: the same block in hexahedra graded toward the top centre by the power map
   x = ½ + ½ sign(ξ)|ξ|ᵖ (the same for x₂) and x₃ = H(1 − (1 − ζ)ᵖ), a structured mesh written node by node.
 - :func:`thin_plate`: the plate [0, 1]² × [z₀, z₀ + t] in tetrahedra of edge ``size`` (two to three layers).

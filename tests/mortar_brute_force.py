@@ -149,7 +149,8 @@ def brute_force(slave, slave_blocks, slave_sign, master, master_blocks, master_s
         radius = np.linalg.norm(X - X.mean(axis=0), axis=1).max()
         cand = []
         for f, (Y, sg) in enumerate(zip(master, master_sign, strict=True)):
-            _, cm = point(Y, np.array([0.5 if Y.shape[0] == 4 else 1 / 3]), np.array([0.5 if Y.shape[0] == 4 else 1 / 3]))
+            centre = np.array([0.5 if Y.shape[0] == 4 else 1 / 3])
+            _, cm = point(Y, centre, centre.copy())
             mradius = np.linalg.norm(Y - mcentre[f], axis=1).max()
             if sg * cm[0] @ nc < 0 and np.linalg.norm(mcentre[f] - X.mean(axis=0)) < 2 * (radius + mradius) + 0.5:
                 cand.append(f)

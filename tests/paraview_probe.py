@@ -3,7 +3,7 @@ ParaView shows, as one JSON line on stdout.
 
 Usage: ``pvpython --force-offscreen-rendering paraview_probe.py FILE.xdmf READER [SCREENSHOT.png]`` where READER
 is ``default`` (``paraview.simple.OpenDataFile``: the reader ParaView picks for .xdmf) or a proxy name
-(``XDMFReader``, ``Xdmf3ReaderS``, ``Xdmf3ReaderT``). With a screenshot path the default pipeline of the README
+(``XDMFReader``, ``Xdmf3ReaderS``, ``Xdmf3ReaderT``). With a screenshot path the default pipeline of docs/outputs.md
 is applied: Warp By Vector (displacement), colour by contact_state, render.
 """
 

@@ -17,7 +17,6 @@ One meaning per name, in the XDMF file, summary.json, the CSV files, the figures
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
 from mpi4py import MPI

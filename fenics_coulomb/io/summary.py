@@ -124,7 +124,6 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
 
 def software_versions() -> dict[str, str]:
     """Versions of the numerical stack."""
-    import ufl
 
     major, minor, sub = PETSc.Sys.getVersion()
     return {

@@ -335,7 +335,6 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float |
     """
     import basix.ufl
     import h5py
-    import ufl
 
     comm = V.mesh.comm
     info = solution_datasets(Path(path), time)

@@ -28,7 +28,7 @@ vector) the local kinematics are
     vⁱ = Rᵢᵀ ũⁱ + sⁱ,   sⁱ = (−t₁·oᵢ, −t₂·oᵢ, gᵢ)            (:func:`local_shift`)
 
 so v₃ = g + n·ũ (the linearized gap) and v₁₂ = T(ũ − oᵢ) with T = (t₁; t₂). Static obstacle problem: oᵢ = δ
-(the slip s = T(u − δ) of a body dragged by a moving obstacle); load path step k (issue 14): oᵢ = ũ_{k−1} +
+(the slip s = T(u − δ) of a body dragged by a moving obstacle); load path step k: oᵢ = ũ_{k−1} +
 δ_k − δ_{k−1}, so that v₁₂ = T(ũ_k − ũ_{k−1}) − T(δ_k − δ_{k−1}). The tangential shift enters exactly like
 the gap: as a constant added to the local block.
 
@@ -52,8 +52,8 @@ Approximation step (6.17). d̂ = (γI + Q̃)⁻¹(γ û − r̂) node-wise, i.e.
 
     (vⁱ, zⁱ) = resolvent(Rᵢᵀ(γ uⁱ − rⁱ)),   eⁱ = uⁱ − Rᵢ vⁱ (Cartesian), êⁱ = Rᵢᵀ eⁱ = ûⁱ − vⁱ (local),
 
-and e = r/γ elsewhere (:func:`~fenics_coulomb.scd.resolvent.frame_approximation`). The resolvent, the sets (6.9) and the S*Q̃/SQ̃ blocks
-are evaluated unchanged at the LOCAL graph point (vⁱ, zⁱ). Equivalently, the Cartesian contact map
+and e = r/γ elsewhere (:func:`~fenics_coulomb.scd.resolvent.frame_approximation`). The resolvent, the sets (6.9)
+and the S*Q̃/SQ̃ blocks are evaluated unchanged at the LOCAL graph point (vⁱ, zⁱ). Equivalently, the Cartesian contact map
 Qᵢ(ũ) = Rᵢ Q̃(Rᵢᵀũ + sⁱ) has the resolvent (γI + Qᵢ)⁻¹(w) = Rᵢ(J̃(Rᵢᵀw + γ sⁱ) − sⁱ), J̃ = (γI + Q̃)⁻¹, its
 graph is the local graph rotated by Rᵢ in both components, and so are the SCD subspaces:
 rge(X, Y) ∈ SQ̃ ⇒ rge(Rᵢ X, Rᵢ Y) ∈ SQᵢ, rge(W*, U*) ∈ S*Q̃ ⇒ rge(Rᵢ W*, Rᵢ U*) ∈ S*Qᵢ (the adjoint

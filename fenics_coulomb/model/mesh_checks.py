@@ -1,7 +1,7 @@
 r"""Checks of a mesh before anything is assembled on it: finite coordinates, no degenerate or inverted cell.
 
 A zero-volume cell makes the stiffness matrix singular in a way no preconditioner reports (the solve
-"converges" to u = 0 with the equilibrium 87.5 % off, issue 24); a NaN coordinate turns every residual into
+"converges" to u = 0 with the equilibrium 87.5 % off); a NaN coordinate turns every residual into
 NaN. Both are rejected with an :class:`~fenics_coulomb.errors.InputError` naming the cell (its index in the
 mesh as read, e.g. the gmsh file's order, and its vertices) or the node.
 

@@ -1,4 +1,4 @@
-r"""Dual mortar pairing of two elastic bodies (issue 28): the stencil Φ_jl = M_jl / D_j, the weighted gap, the
+r"""Dual mortar pairing of two elastic bodies: the stencil Φ_jl = M_jl / D_j, the weighted gap, the
 slave nodal normals — the same change of variables u = (I + Φ) z as node-to-surface contact.
 
 With biorthogonal ("dual") multipliers the mortar matrix D of the slave side is diagonal, so the mortar
@@ -29,8 +29,8 @@ covered node. A uniform pressure p on a flat interface, λ_h = p n, has the noda
 reproduces constants) and gives the slave forces p D_j n = p ∫ N_j n and the master forces −p Σ_j M_jl n =
 −p ∫ N_l^m n: the consistent loads of a uniform pressure on both bodies, so the patch test passes on any meshes.
 
-The discretization (exactly the definitions of issue 28; held-out references use them)
---------------------------------------------------------------------------------------
+The discretization (the definitions the held-out references use)
+-----------------------------------------------------------------
 All in the reference configuration, once per pair, for P1 triangles (N = 1 − ξ − η, ξ, η) and Q1
 quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex order).
 
@@ -355,7 +355,7 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     Returns:
         The cleaned polygons (k, w, 2) and their vertex counts (k,) (0: empty).
     """
-    k, width = P.shape[0], P.shape[1]
+    width = P.shape[1]
     slots = np.arange(width)[None, :]
     valid = slots < count[:, None]
     n = np.maximum(count, 1)[:, None]
@@ -492,9 +492,9 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
             bad = np.flatnonzero(keep & ~_convex(m_poly))
             if bad.size:
                 j = bad[0]
-                raise InputError(f"master facet at {_where(m_centre[f[j]])}: its projection onto the auxiliary plane of "
-                                 f"the slave facet at {_where(c[j])} is not a convex quadrilateral: the mortar "
-                                 "segmentation needs facets that face each other (refine, or use method = "
+                raise InputError(f"master facet at {_where(m_centre[f[j]])}: its projection onto the auxiliary "
+                                 f"plane of the slave facet at {_where(c[j])} is not a convex quadrilateral: the "
+                                 "mortar segmentation needs facets that face each other (refine, or use method = "
                                  "'node-to-surface')")
         e, f, m2, m_poly, c, tol = e[keep], f[keep], m2[keep], m_poly[keep], c[keep], tol[keep]
         if e.size == 0:

@@ -1,7 +1,7 @@
 r"""Rigid obstacles of any placement and shape — planes, spheres, cylinders — and per-node contact frames.
 
-Geometry (issue 13)
--------------------
+Geometry
+--------
 Each obstacle is placed at its scene position translated by its ``displacement`` δ (default 0):
 
 * :class:`Plane` (``point`` p, unit ``normal`` ν pointing from the obstacle toward the body): the obstacle
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -33,9 +33,9 @@ import numpy.typing as npt
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.frames import _E, _NOISE, _perpendicular, frames_from_normals
 
-__all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "closest_obstacle",
-           "find_overlap", "check_not_overlapping", "check_solid_side", "core_path", "motion_placements",
-           "rotation_text", "obstacle_from_dict", "obstacles_from_list", "obstacle_names"]
+__all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "register_obstacle",
+           "closest_obstacle", "find_overlap", "check_not_overlapping", "check_solid_side", "core_path",
+           "motion_placements", "rotation_text", "obstacle_from_dict", "obstacles_from_list", "obstacle_names"]
 
 Array = npt.NDArray[np.float64]
 Vector = tuple[float, float, float]
@@ -379,6 +379,17 @@ def obstacle_names(obstacles: Sequence[Obstacle]) -> list[str]:
     """The name of each obstacle in the outputs (report, summary.json, CSV columns, figures): its ``name``, or
     ``"<kind> <i>"`` (1-based position) for an unnamed one, e.g. ``"sphere 1"``."""
     return [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(obstacles)]
+
+
+def register_obstacle(cls: type[Obstacle], **checks: Callable[[Any, str], Any]) -> type[Obstacle]:
+    """Make ``cls`` the ``[[obstacle]]`` type ``cls.kind``, with the checks of its own keys (``key=check(value,
+    owner)``, applied on creation and to scene tables); a new obstacle type is its module and this call."""
+    taken = [key for key in checks if key in _CHECKS]
+    if cls.kind in OBSTACLE_TYPES or taken:
+        raise ValueError(f"obstacle type {cls.kind!r} or key(s) {taken} registered twice")
+    _CHECKS.update(checks)
+    OBSTACLE_TYPES[cls.kind] = cls
+    return cls
 
 
 # -- several obstacles ---------------------------------------------------------------------------------

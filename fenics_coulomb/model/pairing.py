@@ -1,5 +1,5 @@
-r"""The pairing of two elastic bodies: node-to-surface (issue 18, this module) and dual mortar (issue 28,
-:mod:`fenics_coulomb.model.mortar`, the default ``method``): slave nodes, stencils, gaps, frames.
+r"""The pairing of two elastic bodies: node-to-surface (this module) and dual mortar
+(:mod:`fenics_coulomb.model.mortar`, the default ``method``): slave nodes, stencils, gaps, frames.
 
 A :class:`ContactPair` names a slave surface S and a master surface M (facet tag values of one mesh's facet
 tags) and a Coulomb coefficient F. :func:`pair_surfaces` computes, once and in the REFERENCE configuration,
@@ -12,8 +12,8 @@ node-to-surface definitions (the closest master point, φ_j its master shape fun
     pairing = pair_surfaces(V, pairs, excluded=dirichlet_blocks)   # collective
     # pairing.blocks[i] (local, owned) ↔ pairing.master_blocks[i] (global, −1 padded) with pairing.weights[i]
 
-Geometry (exactly the model of issue 18)
-----------------------------------------
+Geometry
+--------
 Master facets are P1 triangles (tetrahedral meshes) or Q1 bilinear quadrilaterals (hexahedral meshes),
 x(ξ, η) = v₀(1−ξ)(1−η) + v₁ξ(1−η) + v₂(1−ξ)η + v₃ξη on [0, 1]² (DOLFINx/basix tensor vertex order). For
 each vertex x_s of S (owned by this rank, with no Dirichlet component):
@@ -221,7 +221,8 @@ class Pairing:
         free: The owned slave nodes that are NOT contact nodes but lie over a master surface (in its normal
             cone): beyond the search distance, or with a Dirichlet component. Keys ``blocks`` (local),
             ``gap``, ``normals``, ``master_blocks``, ``weights`` as above (the pair with the smallest |g|), for the
-            penetration check after a solve (:meth:`fenics_coulomb.model.contact_model.ContactModel.free_slave_penetrations`).
+            penetration check after a solve
+            (:meth:`fenics_coulomb.model.contact_model.ContactModel.free_slave_penetrations`).
     """
 
     blocks: npt.NDArray[np.int32]
@@ -242,7 +243,8 @@ class Pairing:
         return Pairing(blocks=self.blocks[keep], coordinates=self.coordinates[keep], closest=self.closest[keep],
                        gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
                        weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep],
-                       friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM), free=self.free)
+                       friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM),
+                       free=self.free)
 
     @property
     def normals(self) -> Array:

@@ -58,10 +58,11 @@ The reduction never increases, so once at rtol the iteration is the plain one ab
 a master edge with a kink: the constraint's normal jumps from one facet's to the other's, and with it the direction
 of the contact force; a node beside such an edge is projected onto facet A, its solution moves it over facet B,
 whose solution moves it back (measured on the slid blocks of tests/problems/test_finite_sliding.py: 2 of 30
-nodes, weights 4e-5 on the far vertex, the two solutions 0.75e-5 to 1.5e-5 apart, 0.3-0.6e-4 of a cell). The exact fixed point lies on
-the edge, where neither facet's rule applies. Such a 2-cycle — the new geometry is the one solved with two updates
-before — ends the iteration when its two solutions differ by at most :data:`CYCLE_TOLERANCE`·h (h the smallest
-cell diameter at the contact nodes: a position error of a thousandth of an element, far below the
+nodes, weights 4e-5 on the far vertex, the two solutions 0.75e-5 to 1.5e-5 apart, 0.3-0.6e-4 of a cell). The
+exact fixed point lies on the edge, where neither facet's rule applies. Such a 2-cycle — the new geometry is the one
+solved with two updates before — ends the iteration when its two solutions differ by at most
+:data:`CYCLE_TOLERANCE`·h (h the smallest cell diameter at the contact nodes: a position error of a thousandth of
+an element, far below the
 discretization's; the amplitude is a local slip across the edge and does not scale with |u|): of its two
 solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved once more if it was the
 earlier one) — a choice that depends on neither the path that led to the cycle, nor the mesh's numbering and

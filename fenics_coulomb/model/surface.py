@@ -1,4 +1,4 @@
-r"""Rigid obstacles from a triangulated surface (issue 26): a die, punch, rail or gear flank from CAD.
+r"""Rigid obstacles from a triangulated surface: a die, punch, rail or gear flank from CAD.
 
 ``Surface(file="die.stl", side="outward")`` (scene: ``[[obstacle]] type = "surface"``) reads the triangles of
 an STL file (ASCII or binary) or of a gmsh ``.msh`` surface mesh (its 3-node triangles), once, on every rank
@@ -54,7 +54,7 @@ import numpy.typing as npt
 from scipy.ndimage import distance_transform_edt
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.obstacles import _CHECKS, OBSTACLE_TYPES, Obstacle, Rotation
+from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
 from fenics_coulomb.model.pairing import _norm, _pair_nodes, _Surface
 
 __all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "Source", "Surface", "file_source", "inside_closed",
@@ -382,5 +382,4 @@ def _check_side(value: object, owner: str) -> str:
     return str(value)
 
 
-_CHECKS.update(file=_check_file, side=_check_side)
-OBSTACLE_TYPES["surface"] = Surface
+register_obstacle(Surface, file=_check_file, side=_check_side)

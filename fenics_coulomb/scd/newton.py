@@ -19,7 +19,7 @@ Per-node γ
 The paper takes one γ ≈ λ_max(A) (we scale it by ``gamma_scale`` = 0.01, docs/table2). On a graded or distorted
 mesh λ_max(A) comes from elements far from the contact (or from one sliver), far above the stiffness of the small
 elements at the contact: the stick rows γ I of the Newton matrix then dwarf the rows of A that GAMG (built on A)
-approximates, and GMRES stagnates (issue 27; the Hertz block of demos/hertz.py, 19 542 unknowns: γ = 53.6
+approximates, and GMRES stagnates (the Hertz block of benchmarks/hertz.py, 19 542 unknowns: γ = 53.6
 against λ_max(Aᵢᵢ) = 14–28 at the contact: 2000 GMRES iterations per step; with γ ≤ 0.5·λ_max(Aᵢᵢ): 20 Newton /
 112 Krylov). So every contact node i gets its own
 
@@ -158,8 +158,7 @@ class SCDNewtonSolver:
 
     def __init__(self, model: ContactModel, settings: SolverSettings | None = None, prefix: str = COMMAND_PREFIX,
                  petsc_options: dict[str, object] | None = None) -> None:
-        settings = settings or SolverSettings()
-        settings.validate()
+        settings = settings or SolverSettings()  # validated where it was constructed
         self.model = model
         self.settings = settings
         self.prefix = prefix

@@ -32,7 +32,7 @@ __all__ = ["AUTO_GAMG_UNKNOWNS", "AUTO_ILU_MAX_RANKS", "AUTO_STALL_ITS", "AUTO_L
 #: the threshold stays, so that the paper's Section 7 runs at lev 2-6 keep the paper's ILU and their solutions).
 AUTO_GAMG_UNKNOWNS = 50_000
 #: Block-Jacobi ILU's Krylov counts grow with the number of blocks (docs/pc-auto: d3/L2 lev 6, ν = 0.45:
-#: 137 on 1 rank, 210 on 2; issue 17: lev 5 d2/L1 145 on 1 rank, 245 on 16) while GAMG's do not.
+#: 137 on 1 rank, 210 on 2; lev 5 d2/L1 145 on 1 rank, 245 on 16) while GAMG's do not.
 AUTO_ILU_MAX_RANKS = 2
 #: pc = "auto": a linear solve that has not reached its tolerance after this many GMRES iterations per decade of
 #: reduction (two restart cycles; on every measured case the chosen preconditioner needs at most 41 (ILU) and 55
@@ -76,7 +76,7 @@ GAMG_PROLONGATOR_SMOOTHS = 0
 UNSMOOTHED_CELL_TYPES = ("hexahedron",)
 #: BoomerAMG for 3D elasticity: nodal (block) coarsening on the 3 components of a node and the strength threshold
 #: 0.7 that hypre's documentation recommends in 3D (the default 0.25 is for 2D). On the graded Hertz block of
-#: demos/hertz.py with the paper's scalar γ (where GAMG on A stagnates), 2 ranks: 14 Newton / 42 GMRES iterations
+#: benchmarks/hertz.py with the paper's scalar γ (where GAMG on A stagnates), 2 ranks: 14 Newton / 42 GMRES iterations
 #: in 1.3 s, against 14 / 27 in 4.9 s with hypre's defaults; the interpolation of the rigid-body modes
 #: (vec_interp_variant 2, 3 with the near-nullspace) took 8–9 s and diverged (NaN) on the lev 2 cuboid.
 HYPRE_ELASTICITY = {"pc_hypre_boomeramg_strong_threshold": 0.7, "pc_hypre_boomeramg_nodal_coarsen": 6}
@@ -126,7 +126,7 @@ def choose_preconditioner(n_global: int, n_ranks: int, cell_type: str, poisson: 
     rank count and ν, and on tetrahedra they are several times larger from the smallest meshes on (roller, 7 617
     unknowns, ν = 0.45: up to 81 per step on 1 rank against GAMG's 17, and GAMG the faster) and exceed a restart
     cycle in 9 of the 58 measured groups, all tetrahedral (up to 466 per step); with ν = 0.3 and 25 000
-    unknowns a tetrahedral hemisphere ran into the 2000-iteration limit with ILU (issue 11). So ILU is
+    unknowns a tetrahedral hemisphere runs into the 2000-iteration limit with ILU. So ILU is
     kept only where it is measured robust and at least as fast: hexahedra below AUTO_GAMG_UNKNOWNS unknowns on
     at most AUTO_ILU_MAX_RANKS ranks.
 

@@ -9,8 +9,8 @@ load of the solve, with the contact conditions (so an obstacle moved into the bo
 the problem's own scale. The paper divides by ‖ŷ⁽⁰⁾‖ of its start u⁽⁰⁾ = 0 of the shifted unknown (every
 contact node put on the obstacle), whose misfit γ‖d‖ grows with the gaps and with the number of contact nodes
 (Section 7 cuboid: 6× ‖ŷ(ũ = 0)‖ at lev 2, 25× at lev 6; a roller 5 % of its radius above a plane: far more),
-so the same rtol meant a looser solution from the paper's start than from the undeformed one (issue 27:
-force imbalances 9.2e-5 against 1e-7). Relative to ‖ŷ(ũ = 0)‖ both starts, a start interpolated from a coarser
+so the same rtol would mean a looser solution from the paper's start than from the undeformed one (force
+imbalances 9.2e-5 against 1e-7). Relative to ‖ŷ(ũ = 0)‖ both starts, a start interpolated from a coarser
 level (nested iteration) and a load path's previous step are asked for the same solution.
 
 **What it guarantees.** At an iterate u the approximation step gives d̂ = u − e and z ∈ Q(d̂) (the contact
@@ -71,7 +71,7 @@ class StoppingRule:
         """
         # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖, from the problem's displacement scales and never from the
         # start iterate alone: the gaps d, the start ũ⁽⁰⁾ and the load's scale ‖l̃‖/γ.
-        floor = ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma)
+        floor = float(ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma))
         return cls(rtol, max_it, initial, rtol * scale, floor)
 
     @property

@@ -227,12 +227,12 @@ def build_problem(scene: Scene, comm: MPI.Comm = MPI.COMM_WORLD, petsc_options_p
     L = loads.form(ufl.TestFunction(V))
     bcs, groups = dirichlet_conditions(V, body, scene, loads.prescribed, loads.prescribed_components)
     friction = float(scene.friction.coefficient)
-    settings = scene.solver
-    if scene.start in START_RULES and settings.start != scene.start:  # a start file is the solve's u0 instead
-        settings = dataclasses.replace(settings, start=scene.start)
-    if settings.poisson_ratio is None:  # the preconditioner policy knows nearly incompressible bodies
-        settings = dataclasses.replace(settings, poisson_ratio=max(
-            [float(material.poisson)] + [float(m.poisson) for m in per_body.values()]))
+    changes: dict[str, Any] = {}
+    if scene.start in START_RULES and scene.solver.start != scene.start:  # a start file is the solve's u0 instead
+        changes["start"] = scene.start
+    if scene.solver.poisson_ratio is None:  # the preconditioner policy knows nearly incompressible bodies
+        changes["poisson_ratio"] = max([float(material.poisson)] + [float(m.poisson) for m in per_body.values()])
+    settings = dataclasses.replace(scene.solver, **changes) if changes else scene.solver
     if scene.contact_pairs:
         pairs = [ContactPair(body.facet_tags, slave=[body.tag(n) for n in q.slave],
                              master=[body.tag(n) for n in q.master],

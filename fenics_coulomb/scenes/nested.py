@@ -12,18 +12,13 @@ saves Newton steps instead of asking for a smaller residual.
 from __future__ import annotations
 
 import logging
-import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from dataclasses import dataclass
 
-from mpi4py import MPI
 from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx.fem
-import dolfinx.fem
-import numpy as np
 import numpy as np
 
 from fenics_coulomb.errors import SolverError
@@ -203,8 +198,6 @@ def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStar
     again when it is; None (logged) when a coarse level does not converge: the fine level then starts as without
     nesting (collective). The user's ``-coulomb_*`` options apply to the coarse levels too
     (:func:`coarse_level_options`)."""
-    from fenics_coulomb.scenes.nested import solve_nested
-
     coarse_levels = nested_levels(scene.body.lev, levels)
     coarse = [build_problem(scene.override(lev=lev, rtol=NESTED_COARSE_RTOL), comm,
                             petsc_options_prefix=f"{COMMAND_PREFIX}nested{lev}_",

@@ -207,7 +207,7 @@ def plan(scene: Scene, steps: int | None = None) -> list[PathSolve]:
                                     load_factor=j / m, start=previous, end=state))
         previous = state
     for solve in solves:  # rotations that cannot be blended fail here, before anything is solved
-        solve.obstacle_rotations
+        _ = solve.obstacle_rotations
     return solves
 
 
@@ -272,7 +272,7 @@ class StepLoads:
     def _check_field(self, name: str, traction: Traction, values: npt.NDArray[np.float64]) -> None:
         """InputError on every rank unless the traction ``name`` is finite and at most MAX_LOAD at every node of
         its boundary (collective): an expression that overflows or divides by zero there would give a load of
-        inf or 1e300 that no solver reports (issue 24)."""
+        inf or 1e300 that no solver reports."""
         V = self.V
         facets = self.facet_tags.find(self.tags[name])
         blocks = dolfinx.fem.locate_dofs_topological(V, V.mesh.topology.dim - 1, facets)

@@ -48,7 +48,8 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     slave = "curved"
     master = "block_top"
     friction = 0.0          # optional: search_distance (default 0.1 × the master's bounding-box diagonal), name,
-    method = "mortar"       #   method: "mortar" (dual mortar, default) or "node-to-surface"; the smaller surface is the slave
+    method = "mortar"       #   method: "mortar" (dual mortar, default) or "node-to-surface";
+                            #   the smaller surface is the slave
 
     [[path.step]]           # optional: a quasi-static load path (fenics_coulomb.scenes.path), one table per step;
     substeps = 3            # what a step does not set is the scene's value (per boundary, per obstacle)
@@ -72,18 +73,18 @@ from typing import Any
 import numpy as np
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model import surface as _surface  # noqa: F401  (registers [[obstacle]] type = "surface")
+from fenics_coulomb.model import surface as _surface  # noqa: F401  (its register_obstacle call: type = "surface")
 from fenics_coulomb.model.contact_model import SLIDING, validate_friction
 from fenics_coulomb.model.materials import Material
 from fenics_coulomb.model.obstacles import Obstacle, _rotation, obstacles_from_list
 from fenics_coulomb.scd.preconditioner import NEARLY_INCOMPRESSIBLE_POISSON
 from fenics_coulomb.scenes.cuboid import FACE_NAMES, GAP_PROFILES, LOAD_CASES, GapFunction, paper_tractions
 from fenics_coulomb.scenes.expression import parse_gap_expression, parse_point_expression
-from fenics_coulomb.settings import START_RULES, SolverSettings
+from fenics_coulomb.settings import GAMMA_SCALE_RANGE, START_RULES, SolverSettings, setting_kinds
 
-__all__ = ["KINDS", "NEARLY_INCOMPRESSIBLE_RTOL", "MAX_SCENE_BYTES", "YOUNG_RANGE", "GAMMA_SCALE_RANGE", "MAX_LOAD", "MAX_LEV", "check_kind",
-           "OPTIONAL", "check_kinds", "read_scene_text", "check_gap_values",
-           "BodySection", "MaterialSection", "FrictionSection", "ContactSection", "LoadSection", "MAX_PATH_SOLVES", "PathStep",
+__all__ = ["KINDS", "NEARLY_INCOMPRESSIBLE_RTOL", "MAX_SCENE_BYTES", "YOUNG_RANGE", "GAMMA_SCALE_RANGE", "MAX_LOAD",
+           "MAX_LEV", "check_kind", "OPTIONAL", "check_kinds", "read_scene_text", "check_gap_values", "BodySection",
+           "MaterialSection", "FrictionSection", "ContactSection", "LoadSection", "MAX_PATH_SOLVES", "PathStep",
            "check_table", "path_steps_from_toml", "PairSection", "pairs_from_toml", "FLAGS", "SECTIONS", "Scene"]
 
 
@@ -115,11 +116,7 @@ KINDS: dict[str, dict[str, str]] = {
     "roller": {"*": "components"},
     "obstacle": {"name": "str", "type": "str", "point": "vector", "normal": "vector", "center": "vector",
                  "axis": "vector", "radius": "number", "displacement": "vector", "file": "str", "side": "str"},
-    "solver": {"variant": "str", "tol": "number", "rtol": "number", "accuracy": "number", "max_it": "int",
-               "pc": "str", "power_iterations": "int", "gamma": "number", "gamma_scale": "number",
-               "gamma_node_scale": "number", "poisson_ratio": "number",
-               "gmres_restart": "int", "ksp_max_it": "int", "line_search_steps": "int", "adaptive_tol": "bool",
-               "predictor": "bool", "no_contact_shortcut": "bool", "galerkin_coarse": "bool", "start": "str"},
+    "solver": setting_kinds(),  # the fields of SolverSettings
     "path.step": {"tractions": "table", "prescribed": "table", "move": "table", "rotate": "table",
                   "body_force": "vector", "substeps": "int"},
     "bodies": {"*": "int"},
@@ -128,7 +125,8 @@ KINDS: dict[str, dict[str, str]] = {
 }
 _KIND_TEXT = {"str": "a string", "int": "an integer", "number": "a finite number", "bool": "true or false",
               "names": "a list of boundary names (strings)",
-              "surface": "a boundary name or a non-empty list of boundary names", "vector": "a list of 3 numbers, all finite",
+              "surface": "a boundary name or a non-empty list of boundary names",
+              "vector": "a list of 3 numbers, all finite",
               "traction": "a list of 3 numbers (finite) or expressions in x1, x2, x3",
               "components": "a list of distinct components 0, 1, 2",
               "prescription": 'a list of 3 entries, each a finite number or "free", at least one a number',
@@ -142,7 +140,6 @@ MAX_SCENE_BYTES = 1 << 20
 #: scale. Within them every derived quantity (displacements ~ load/E, residuals ~ E·u, their squared norms)
 #: stays far inside the float64 range.
 YOUNG_RANGE = (1e-9, 1e9)
-GAMMA_SCALE_RANGE = (1e-6, 1e6)
 MAX_LOAD = 1e12
 #: Largest level of the cuboid accepted at all (lev 40 has ~10^13 unknowns); the memory check in the CLI
 #: refuses far smaller ones on an ordinary machine.
@@ -587,17 +584,22 @@ class Scene:
 
     def override(self, **flags: Any) -> Scene:
         """Return a copy with the given (non-None) values replaced; the names are :data:`FLAGS`."""
+        unknown = [key for key, value in flags.items() if value is not None and key not in FLAGS]
+        if unknown:
+            raise InputError(f"unknown scene setting {unknown[0]!r}")
+        solver = {FLAGS[key][1]: value for key, value in flags.items()
+                  if value is not None and FLAGS[key][0] == "solver"}
         scene = dataclasses.replace(
             self, body=dataclasses.replace(self.body), material=dataclasses.replace(self.material),
             friction=dataclasses.replace(self.friction), load=dataclasses.replace(self.load),
-            contact=dataclasses.replace(self.contact), solver=dataclasses.replace(self.solver))
+            contact=dataclasses.replace(self.contact),
+            solver=dataclasses.replace(self.solver, **solver) if solver else self.solver)  # frozen: shared
         for key, value in flags.items():
             if value is None:
                 continue
-            if key not in FLAGS:
-                raise InputError(f"unknown scene setting {key!r}")
             section, attr = FLAGS[key]
-            setattr(scene if section is None else getattr(scene, section), attr, value)
+            if section != "solver":  # the solver's values are validated by SolverSettings above
+                setattr(scene if section is None else getattr(scene, section), attr, value)
             if section in (None, "solver"):
                 scene.given = scene.given | {attr}
             if key == "load":
@@ -667,11 +669,7 @@ class Scene:
                              "run")
         if self.start not in START_RULES and not Path(self.start).with_suffix(".h5").is_file():
             raise InputError(f"start file {self.start!r} (and its .h5) does not exist")
-        check_kinds("solver", self.solver)
-        self.solver.validate()
-        if not GAMMA_SCALE_RANGE[0] <= self.solver.gamma_scale <= GAMMA_SCALE_RANGE[1]:
-            raise InputError(f"gamma_scale = {self.solver.gamma_scale!r}: must lie in [{GAMMA_SCALE_RANGE[0]:g}, "
-                             f"{GAMMA_SCALE_RANGE[1]:g}]")
+        # [solver]: a SolverSettings is validated where it is constructed (its fields' rules)
 
     def _validate_bodies(self, names: dict[str, Any], where: str) -> None:
         """Check ``[bodies]``, ``[material.NAME]`` and ``[[contact_pair]]``."""
@@ -680,7 +678,8 @@ class Scene:
                 raise InputError(f"body {name!r} = {tag!r}: the cell tag must be an integer")
         for name, material in self.materials.items():
             if name not in self.bodies:
-                raise InputError(f"[material.{name}]: {name!r} is not in [bodies] ({', '.join(self.bodies) or 'empty'})")
+                bodies = ", ".join(self.bodies) or "empty"
+                raise InputError(f"[material.{name}]: {name!r} is not in [bodies] ({bodies})")
             material.validate()
         if not self.contact_pairs:
             return
@@ -702,7 +701,8 @@ class Scene:
                                                           and pair.search_distance > 0):
                 raise InputError(f"[[contact_pair]] {i} search_distance = {pair.search_distance!r}: must be > 0")
             if pair.method not in ("mortar", "node-to-surface"):
-                raise InputError(f"[[contact_pair]] {i} method = {pair.method!r}: must be 'mortar' or 'node-to-surface'")
+                raise InputError(f"[[contact_pair]] {i} method = {pair.method!r}: "
+                                 "must be 'mortar' or 'node-to-surface'")
 
     def _validate_path(self, names: dict[str, Any], where: str) -> None:
         """Check the ``[[path.step]]`` tables: kinds, boundary and obstacle names, values, substeps."""
@@ -806,10 +806,10 @@ class Scene:
         poisson = max([float(self.material.poisson)] + [float(m.poisson) for m in self.materials.values()])
         if poisson < NEARLY_INCOMPRESSIBLE_POISSON:
             return self
-        scene = dataclasses.replace(self, solver=dataclasses.replace(self.solver))
-        if not {"rtol", "accuracy"} & self.given:
-            scene.solver.rtol = min(scene.solver.rtol, NEARLY_INCOMPRESSIBLE_RTOL)
-        return scene
+        if {"rtol", "accuracy"} & self.given:
+            return dataclasses.replace(self)
+        return dataclasses.replace(self, solver=dataclasses.replace(
+            self.solver, rtol=min(self.solver.rtol, NEARLY_INCOMPRESSIBLE_RTOL)))
 
     def as_dict(self) -> dict[str, Any]:
         """The scene as plain data (for summary.json)."""

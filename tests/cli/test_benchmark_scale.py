@@ -19,10 +19,9 @@ from fenics_coulomb.cli import main as cli_main
 from fenics_coulomb.scenes.cuboid import expected_sizes
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(BENCHMARKS))
-import elastic  # noqa: E402
-import peak_rss  # noqa: E402
-import scale  # noqa: E402
+from benchmarks import elastic  # noqa: E402
+from benchmarks import peak_rss  # noqa: E402
+from benchmarks import scale  # noqa: E402
 
 
 def unknowns(lev: int) -> int:

@@ -5,13 +5,10 @@ path interrupted) is recorded in docs/fuzz/README.md."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-import fuzz  # noqa: E402
+from benchmarks import fuzz  # noqa: E402
 
 pytestmark = pytest.mark.serial
 

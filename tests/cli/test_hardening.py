@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import os
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -22,8 +21,7 @@ from fenics_coulomb import InputError, Surface
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "meshes"))
-from surfaces import icosphere, rectangle, write_stl  # noqa: E402
+from meshes.surfaces import icosphere, rectangle, write_stl  # noqa: E402
 
 PROG = "python3 -m fenics_coulomb: error:"
 #: The cuboid [0, 2] x [0, 1] x [0, 1] held at its bottom, its top the contact boundary, no load.
@@ -219,7 +217,7 @@ prescribed = { flat = [0.004, 0.0, -0.02] }
 
 def test_a_path_of_contact_pairs_without_an_obstacle_resumes(mpi_tmp_path):
     """Resuming a path of two bodies with no rigid obstacle was refused (shape (0,) against (0, 3))."""
-    import hemisphere_on_block
+    from meshes import hemisphere_on_block
 
     mesh = mpi_tmp_path / "hob.msh"
     if MPI.COMM_WORLD.rank == 0:

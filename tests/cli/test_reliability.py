@@ -12,7 +12,6 @@ import json
 import os
 import resource
 import signal
-import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -27,10 +26,9 @@ import numpy as np
 import pytest
 import ufl
 
-from fenics_coulomb import ContactProblem, InputError, SolverError
+from fenics_coulomb import ContactProblem, InputError
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, EXIT_OUTPUT, main
-from fenics_coulomb.errors import OutputError
-from fenics_coulomb.io.results import ResultDirectory, _owner
+from fenics_coulomb.io.results import _owner
 
 ROOT = Path(__file__).resolve().parents[2]
 PROG = "python3 -m fenics_coulomb: error:"
@@ -92,8 +90,8 @@ def _problem(msh, **kwargs) -> ContactProblem:
     top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
     facets = np.concatenate([bottom, top])
     order = np.argsort(facets)
-    tags = dolfinx.mesh.meshtags(msh, 2, facets[order].astype(np.int32),
-                                 np.concatenate([np.full(bottom.size, 1), np.full(top.size, 2)])[order].astype(np.int32))
+    markers = np.concatenate([np.full(bottom.size, 1), np.full(top.size, 2)])
+    tags = dolfinx.mesh.meshtags(msh, 2, facets[order].astype(np.int32), markers[order].astype(np.int32))
     bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
     args = dict(a=a, L=None, bcs=[bc], contact=(tags, [1]), friction=0.3)
     args.update(kwargs)

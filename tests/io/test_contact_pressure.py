@@ -2,9 +2,9 @@
 the result lines), ``contact_force`` the nodal force vector, ``contact_traction`` the traction vector.
 
 Physics: a block under a uniform pressure p on its top, resting on the frictionless plane x3 = 0 (rollers on two
-sides above the bottom remove the rigid modes): the stress is uniaxial, σ₃₃ = −p, the displacement linear — exact in Q1 — and the
-contact pressure is p at EVERY bottom node (the nodal force p ∫φᵢ ds over the node's area ∫φᵢ ds), the contact
-area the whole bottom. A sphere pressed into a block: the XDMF ``contact_pressure`` equals
+sides above the bottom remove the rigid modes): the stress is uniaxial, σ₃₃ = −p, the displacement linear — exact
+in Q1 — and the contact pressure is p at EVERY bottom node (the nodal force p ∫φᵢ ds over the node's area ∫φᵢ ds), the
+contact area the whole bottom. A sphere pressed into a block: the XDMF ``contact_pressure`` equals
 ``problem.report(result).nodes.pressure`` node by node, and summary.json's area and peak pressure are the
 report's. 1 and 2 ranks."""
 

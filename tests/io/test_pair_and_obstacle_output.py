@@ -12,7 +12,6 @@ total (reactions + obstacle forces + applied load = 0, the pair's forces being i
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -26,8 +25,7 @@ from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "meshes"))
-import hemisphere_on_block  # noqa: E402
+from meshes import hemisphere_on_block  # noqa: E402
 
 SCENE = """
 [body]

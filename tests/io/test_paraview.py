@@ -1,5 +1,5 @@
 """The real client: ParaView (trixie's paraview/python3-paraview, under a private Xvfb) opens solution.xdmf of a
-2-rank run as the README's Outputs section says: File ▸ Open (the default reader for .xdmf) ▸ Apply ▸ Warp By
+2-rank run as docs/outputs.md says: File ▸ Open (the default reader for .xdmf) ▸ Apply ▸ Warp By
 Vector ▸ colour by contact_state. Every ParaView session is a subprocess, so a reader that crashes fails the
 test instead of killing pytest."""
 

@@ -1,5 +1,5 @@
 """The user's script with top-level names only (issue 25): press a sphere, read the total force, the reaction
-and the contact radius (ContactProblem.report), write the result set (write_results) — the README's example.
+and the contact radius (ContactProblem.report), write the result set (write_results) — docs/api.md's example.
 
 Checks: the report is the same on every rank and for every rank count (its arrays are gathered and ordered by
 coordinates), the forces balance (reaction + obstacle force + applied load = 0), the sphere's force is the total
@@ -25,7 +25,7 @@ R, DEPTH, N = 0.5, 0.01, 24
 
 
 def press_sphere(comm: MPI.Comm):
-    """The README's script: a block [0,1]² × [0,0.5] clamped at its bottom, a rigid sphere pressed into its top."""
+    """docs/api.md's script: a block [0,1]² × [0,0.5] clamped at its bottom, a rigid sphere pressed into its top."""
     msh = dolfinx.mesh.create_box(comm, [[0, 0, 0], [1, 1, 0.5]], [N, N, N // 2], dolfinx.mesh.CellType.hexahedron)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))

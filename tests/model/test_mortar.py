@@ -27,9 +27,8 @@ from fenics_coulomb.model.mortar import GAUSS7, GAUSS7_W, clip, dual_coefficient
 from fenics_coulomb.model.pairing import _facet_data, _gather, _local_facets, _pair_nodes
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
 from mortar_brute_force import brute_force  # noqa: E402
-from two_blocks import TAGS, two_blocks  # noqa: E402
+from meshes.two_blocks import TAGS, two_blocks  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from test_two_body import elasticity  # noqa: E402
@@ -165,7 +164,8 @@ def tet_blocks(comm, lower=(5, 3, 2), upper=(4, 4, 2), gap=1e-3):
 
 def pressed(comm, msh, ft, top=(0.0015, 0.0, -0.004)):
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
-    bcs = [dolfinx.fem.dirichletbc(np.asarray(top, float), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V),
+    bcs = [dolfinx.fem.dirichletbc(np.asarray(top, float),
+                                   dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V),
            dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)]
     return V, bcs, elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
 
@@ -182,8 +182,9 @@ def test_scd_agrees_with_alart_curnier_on_brute_force_matrices(friction):
     msh, ft = tet_blocks(MPI.COMM_SELF)
     V, bcs, a = pressed(MPI.COMM_SELF, msh, ft)
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
+    # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
     with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mbf_",
-                        sliding="small") as problem:  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
+                        sliding="small") as problem:
         _, result = problem.solve()
         assert result.converged
         model = problem.model

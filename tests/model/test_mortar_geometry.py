@@ -18,7 +18,6 @@ clip polygons' exact areas, the overlap check on the true geometry, and pairs th
 from __future__ import annotations
 
 import inspect
-import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -36,10 +35,8 @@ from fenics_coulomb.model.mortar import clean_polygon, clip, polygon_area
 from fenics_coulomb.model.pairing import pair_surfaces
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "meshes"))
-sys.path.insert(0, str(ROOT / "benchmarks"))
-from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
-from two_body_patch import CHECKS, HEIGHT, elasticity, exact_pressure  # noqa: E402
+from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
+from benchmarks.two_body_patch import CHECKS, HEIGHT, elasticity, exact_pressure  # noqa: E402
 
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
 

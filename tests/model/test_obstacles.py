@@ -448,11 +448,8 @@ def test_core_path_finds_a_long_move_and_a_half_turn_through_the_box():
 
 
 def test_inside_closed_is_the_ball_away_from_its_facets(tmp_path):
-    import sys
-    from pathlib import Path
 
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-    from surfaces import icosphere
+    from meshes.surfaces import icosphere
 
     from fenics_coulomb.model.surface import inside_closed
 

@@ -11,8 +11,6 @@ its upper block's support carries. The supports' reactions come from an assembly
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -25,8 +23,7 @@ from test_support_reactions import lame
 
 from fenics_coulomb import ContactPair, ContactProblem
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-from two_blocks import boxes_mesh  # noqa: E402
+from meshes.two_blocks import boxes_mesh  # noqa: E402
 
 GAP, HEIGHT = 1e-3, 0.5
 #: Facet tags: the lower block's top, bottom and sides; each upper block's bottom (slave), top and sides.

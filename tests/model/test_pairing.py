@@ -8,8 +8,6 @@ from the facets that geometrically contain x_m, and the convex-corner normal con
 from __future__ import annotations
 
 import logging
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -23,8 +21,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.pairing import ContactPair as _ContactPair
 from fenics_coulomb.model.pairing import pair_surfaces
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-from two_blocks import TAGS, boxes_mesh, two_blocks
+from meshes.two_blocks import TAGS, boxes_mesh, two_blocks
 
 CELLS = ["hexahedron", "tetrahedron"]
 NONE = np.zeros(0, dtype=np.int32)

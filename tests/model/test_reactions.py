@@ -1,8 +1,8 @@
 """Reactions of supports that carry contact forces (issue 26): a two-body pair whose master body is driven.
 
-Every node of the lower (master) block is prescribed: it is moved up across the gap and δ into the upper block, whose top is
-clamped; there is no load. The support of the lower block must carry the whole contact force (its reaction used
-to read ~1e-14: the residual K u − l of a rigidly moved body is zero, and the contact force the slave exerts on
+Every node of the lower (master) block is prescribed: it is moved up across the gap and δ into the upper block,
+whose top is clamped; there is no load. The support of the lower block must carry the whole contact force (its reaction
+used to read ~1e-14: the residual K u − l of a rigidly moved body is zero, and the contact force the slave exerts on
 the master nodes was left out), the two reactions must cancel, and the force on the master body must be the
 opposite of the force on the slave body. Hand check of the magnitude: the upper block (E = 70, ν = 0.3,
 0.5 × 0.5 × 0.25) compressed by δ between a clamped top and a frictional bottom is stiffer than in uniaxial
@@ -12,8 +12,6 @@ the held DOFs, minus the contact force on the lower block's master nodes."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -26,8 +24,7 @@ from test_two_body import SLAVE, UPPER_TOP, elasticity
 
 from fenics_coulomb import ContactPair, ContactProblem
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-from two_blocks import TAGS, two_blocks  # noqa: E402  (the mesh object, not test_two_body's wrapper)
+from meshes.two_blocks import TAGS, two_blocks  # noqa: E402  (the mesh object, not test_two_body's wrapper)
 
 GAP, DELTA = 1e-3, 3e-4  # the lower block moves up by the gap and then DELTA into the upper block
 E, NU, AREA, HEIGHT = 70.0, 0.3, 0.25, 0.25

@@ -4,8 +4,8 @@ A reaction is K u − l (K and l assembled without boundary conditions; minus th
 same DOFs) summed over the DOFs the support HOLDS, component by component. Checked for a condition on
 ``V.sub(i)`` (one component, prescribed non-zero), rollers (``V.sub(i)`` held at 0, in the API and as a
 scene's ``[roller]``, also in path.csv along a load path), clamped and prescribed-vector supports, supports named
-by node blocks, a DOF named by two groups, and a condition of another problem (refused). The reference (tests/model/reaction_reference.py) uses
-DOLFINx's assembled matrix, not the library's residual.
+by node blocks, a DOF named by two groups, and a condition of another problem (refused). The reference
+(tests/model/reaction_reference.py) uses DOLFINx's assembled matrix, not the library's residual.
 
 The statics a user checks: a block on a rigid plane under gravity, held in plane strain by rollers on its two
 faces normal to x2 (so u2 = 0 and every slip is along x1) and pushed along the plane by a one-component

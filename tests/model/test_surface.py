@@ -8,7 +8,6 @@ triangles; the sign from the side the point is on (inside the convex icosphere: 
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -21,8 +20,7 @@ from fenics_coulomb import InputError, Sphere, Surface
 from fenics_coulomb.cli import EXIT_INPUT, main
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "meshes"))
-from surfaces import icosphere, rectangle, write_stl  # noqa: E402
+from meshes.surfaces import icosphere, rectangle, write_stl  # noqa: E402
 
 CENTER, RADIUS = np.array([1.0, 0.5, 1.5]), 0.5
 

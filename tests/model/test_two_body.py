@@ -1,8 +1,8 @@
 """Two elastic bodies in contact through contact pairs (issue 18): the change of variables u = M z.
 
 Two disjoint blocks of one hexahedral mesh with non-matching resolutions: the lower block [0, 2]×[0, 1]×[−1, 0]
-(its top is the master surface), the smaller upper block above it (its bottom is the slave surface). Checked: a rigid master
-(every master-body node prescribed to δ) equals the one-body solve against the plane moved by δ (1e-8); two
+(its top is the master surface), the smaller upper block above it (its bottom is the slave surface). Checked: a
+rigid master (every master-body node prescribed to δ) equals the one-body solve against the plane moved by δ (1e-8); two
 deformable bodies agree with the independent Alart–Curnier solver in u with the coupling w = G u (1e-7), obey
 the physics, and each body's force from its own residual is equal and opposite; a load path on a pair;
 1 rank = 2 ranks with master facets on another rank than their slave nodes; bad input.
@@ -10,8 +10,6 @@ the physics, and each body's force from its own residual is equal and opposite; 
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -27,9 +25,8 @@ from fenics_coulomb.model.checks import physics_residuals, unconstrained_residua
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.pairing import ContactPair
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-from two_blocks import TAGS  # noqa: E402
-from two_blocks import two_blocks as two_block_mesh  # noqa: E402
+from meshes.two_blocks import TAGS  # noqa: E402
+from meshes.two_blocks import two_blocks as two_block_mesh  # noqa: E402
 
 MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP = (TAGS[k] for k in ("lower_top", "upper_bottom", "lower_bottom", "upper_top"))
 TIGHT = {"rtol": 1e-12, "tol": 1e-12}
@@ -169,8 +166,9 @@ def test_two_deformable_bodies_agree_with_brute_force(friction):
 
     V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_SELF, lower=(5, 3, 2), upper=(4, 4, 3))
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction, method="node-to-surface")
+    # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
     with ContactProblem(a, None, bcs, contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="bf_",
-                        sliding="small") as problem:  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
+                        sliding="small") as problem:
         uh, result = problem.solve()
         assert result.converged
         assert_physics(problem, result)
@@ -289,9 +287,10 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
     a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
     plane = Plane(point=[0.0, 0.0, -1.00003], normal=[0.0, 0.0, 1.0], name="floor")
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction, method="node-to-surface")
+    # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
     with ContactProblem(a, None, bcs, contact=(ft, [LOWER_BOTTOM]), obstacles=[plane], friction=friction,
                         contact_pairs=[pair], settings=TIGHT, petsc_options_prefix="mixed_",
-                        sliding="small") as problem:  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
+                        sliding="small") as problem:
         _, result = problem.solve()
         assert result.converged
         assert_physics(problem, result)
@@ -302,7 +301,8 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
         slave, G_pair, g_pair = flat_coupling(V, 1e-3)
         x = V.tabulate_dof_coordinates()
         rigid = np.setdiff1d(np.flatnonzero(np.isclose(x[:, 2], -1.0)), sides)  # blocks without a Dirichlet side
-        E = sp.csr_matrix((np.ones(3 * rigid.size), (np.arange(3 * rigid.size), (3 * rigid[:, None] + np.arange(3)).ravel())),
+        E = sp.csr_matrix((np.ones(3 * rigid.size),
+                           (np.arange(3 * rigid.size), (3 * rigid[:, None] + np.arange(3)).ravel())),
                           shape=(3 * rigid.size, K.shape[0]))
         G = sp.vstack([G_pair, E]).tocsr()
         gaps = np.concatenate([g_pair, x[rigid, 2] + 1.00003])

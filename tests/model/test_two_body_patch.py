@@ -7,15 +7,12 @@ force balance of the two bodies. Dual mortar passes on every non-matching row.""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from two_body_patch import run  # noqa: E402
+from benchmarks.two_body_patch import run  # noqa: E402
 
 
 @pytest.mark.parametrize(("cell", "n_lower", "n_upper", "exact"), [

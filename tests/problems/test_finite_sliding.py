@@ -7,7 +7,6 @@ scenes where nothing slides and planes run bit for bit the small-sliding model. 
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -15,8 +14,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from sliding import SLIDE, SlidingBlocks, bump, drag, slide_off  # noqa: E402
+from benchmarks.sliding import SLIDE, SlidingBlocks, bump, drag, slide_off  # noqa: E402
 
 SMALL = {"n_lower": (8, 4, 2), "n_upper": (6, 3, 2)}
 

@@ -19,8 +19,6 @@ differs from small sliding by far more than that.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
@@ -34,8 +32,7 @@ import ufl
 
 from fenics_coulomb import ContactPair, ContactProblem
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-from two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
+from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 Array = npt.NDArray[np.float64]
 
@@ -177,7 +174,7 @@ def reference_step(K, D, values, X, slave, triangles, friction, previous):
 
     n_dofs = K.shape[0]
     u_m = previous.copy()
-    old = None
+    old = u_old = force = None
     for iteration in range(30):
         stencil, phi, n, g, inner = brute_force_geometry(X, u_m, slave, triangles)
         support = np.sort(stencil, axis=1)
@@ -215,7 +212,7 @@ def test_finite_sliding_equals_brute_force_re_pairing(friction):
     assert SLIDE > 1.5 * facet
     with problem:
         u_prev = np.zeros(size)
-        finals = []
+        finals, pressed = [], None
         for k, value in enumerate(PATH):
             top.value[:] = value
             _, result = problem.solve()

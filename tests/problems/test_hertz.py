@@ -1,4 +1,4 @@
-"""demos/hertz.py against Hertz's formulas at the coarse level (1 and 2 ranks), and its measuring functions.
+"""benchmarks/hertz.py against Hertz's formulas at the coarse level (1 and 2 ranks), and its measuring functions.
 
 The tolerances come from the measured level-0 numbers (docs/hertz/README.md): the linear tetrahedra are
 stiffer than the exact solution, so under displacement control the force lies ABOVE Hertz's (+6.9 % at
@@ -15,7 +15,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-DEMO = runpy.run_path(str(Path(__file__).resolve().parents[2] / "demos" / "hertz.py"), run_name="hertz_demo")
+DEMO = runpy.run_path(str(Path(__file__).resolve().parents[2] / "benchmarks" / "hertz.py"), run_name="hertz_demo")
 
 
 @pytest.mark.serial

@@ -1,4 +1,4 @@
-"""demos/mindlin.py (issue 14): a rigid sphere pressed on a block and dragged 0 → +Δ → −Δ → +Δ.
+"""benchmarks/mindlin.py (issue 14): a rigid sphere pressed on a block and dragged 0 → +Δ → −Δ → +Δ.
 
 One coarse cycle (the demo's ``--quick`` mesh: h = a/3 at the contact, block 12a × 12a × 6a, 2 substeps per
 quarter, 11 steps) is solved once per module and checked against the physics of Cattaneo–Mindlin and
@@ -26,7 +26,7 @@ import pytest
 from conftest import global_norm
 
 ROOT = Path(__file__).resolve().parents[2]
-demo = runpy.run_path(str(ROOT / "demos" / "mindlin.py"), run_name="mindlin_demo")
+demo = runpy.run_path(str(ROOT / "benchmarks" / "mindlin.py"), run_name="mindlin_demo")
 
 
 @pytest.fixture(scope="module")
@@ -132,7 +132,7 @@ def test_outputs_and_redraw(cycle, mpi_tmp_path):
     import json
 
     out = mpi_tmp_path / "mindlin"
-    numbers = demo["write_outputs"](cycle, out, "python3 demos/mindlin.py --quick", 1.0)
+    numbers = demo["write_outputs"](cycle, out, "python3 benchmarks/mindlin.py --quick", 1.0)
     rows = list(csv.DictReader((out / "mindlin.csv").open()))
     assert [int(r["step"]) for r in rows] == [s.step for s in cycle.steps]
     assert set(demo["CSV_FIELDS"]) <= set(rows[0])

@@ -46,7 +46,7 @@ def solve_rotated(scene: Scene, Q: np.ndarray) -> np.ndarray:
                         obstacles=[plane], settings=TIGHT, petsc_options_prefix="rot_") as problem:
         uh, result = problem.solve()
         assert result.converged
-        checks = assert_physics(problem.model, result.displacement, tol=1e-6)
+        assert_physics(problem.model, result.displacement, tol=1e-6)
         assert result.counts["slip"] > 0 and result.counts["stick"] > 0
         return uh.x.petsc_vec.getArray(readonly=True).copy()
 

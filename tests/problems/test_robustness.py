@@ -10,15 +10,12 @@ real command on 1 and 2 ranks; the timings are the benchmark's (docs/robustness)
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-import robustness  # noqa: E402
+from benchmarks import robustness  # noqa: E402
 
 from fenics_coulomb.cli import main  # noqa: E402
 

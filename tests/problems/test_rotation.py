@@ -164,7 +164,8 @@ def test_a_turning_floor_under_a_contact_pair():
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     sides = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(TAGS["lower_sides"]))
     top = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP))
-    bcs = [dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.004]), top, V), dolfinx.fem.dirichletbc(np.zeros(3), sides, V)]
+    bcs = [dolfinx.fem.dirichletbc(np.array([0.0, 0.0, -0.004]), top, V),
+           dolfinx.fem.dirichletbc(np.zeros(3), sides, V)]
     a = elasticity(V, 70.0, 0.2, upper=(20.0, 0.45))
     theta, centre = 0.3, np.array([1.0, 0.5, -1.00003])
     floor = Plane(point=[0.0, 0.0, -1.00003], normal=[0.0, 0.0, 1.0], name="floor",

@@ -5,15 +5,12 @@ docs/two-bodies/hertz.md)."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from two_body_hertz import BODIES, TAGS, contact_radius, hertz, mesh, run  # noqa: E402
+from benchmarks.two_body_hertz import BODIES, TAGS, contact_radius, hertz, mesh, run  # noqa: E402
 
 from fenics_coulomb.model.two_body import connected_bodies  # noqa: E402
 

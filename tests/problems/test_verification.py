@@ -20,16 +20,13 @@ Coarse meshes of every case, each with its own bound derived from the reference:
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
 
 from mpi4py import MPI
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from verification import (  # noqa: E402
+from benchmarks.verification import (  # noqa: E402
     FRICTIONS,
     TAN_ALPHA,
     hertz_indentation,

@@ -138,8 +138,9 @@ def test_real_solver_sphere_indentation_agrees_with_brute_force(lev1, friction):
     obstacles = [Sphere(center=[1.0, 0.5, -10.0], radius=10.0, displacement=[0.002, 0.001, 0.012]),
                  Plane(point=[0.0, 0.0, -0.01], normal=[0.0, 0.0, 1.0], name="floor")]
     for variant in ("4a", "4b"):
+        # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
         scene = Scene().override(lev=1, gap="d3", load="L2", friction=friction, variant=variant, sliding="small",
-                                 **EXACT)  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
+                                 **EXACT)
         scene = dataclasses.replace(scene, obstacles=list(obstacles))
         with make_problem(scene=scene, comm=MPI.COMM_SELF) as problem:
             model = problem.model

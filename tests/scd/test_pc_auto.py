@@ -8,7 +8,6 @@ from __future__ import annotations
 import csv
 import importlib
 import json
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -23,8 +22,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TABLE = ROOT / "docs" / "pc-auto" / "pc-auto.csv"
 
 # The scenes the measurement in docs/pc-auto ran (benchmarks/pc_auto.py), so the test checks the same bodies.
-sys.path.insert(0, str(ROOT / "benchmarks"))
-import pc_auto  # noqa: E402
+from benchmarks import pc_auto  # noqa: E402
 
 SCENES = {"hemisphere": pc_auto.HEMISPHERE_SCENE, "roller": pc_auto.ROLLER_SCENE}
 
@@ -34,7 +32,6 @@ def scene_file(tmp: Path, body: str, size: float, poisson: float) -> Path:
     comm = MPI.COMM_WORLD
     mesh, scene = tmp / f"{body}.msh", tmp / f"{body}.toml"
     if comm.rank == 0:
-        sys.path.insert(0, str(ROOT / "meshes"))
         generator = importlib.import_module(body)
         generator.build(size, mesh)
         scene.write_text(SCENES[body].format(mesh=mesh, poisson=poisson))

@@ -138,7 +138,7 @@ def test_coarse_levels_solve_and_a_failure_falls_back(monkeypatch):
 
 
 def test_the_users_options_reach_the_coarse_levels():
-    """-coulomb_* options (e.g. the README's -coulomb_pc_gamg_agg_nsmooths) apply to the coarse levels as to the
+    """-coulomb_* options (e.g. -coulomb_pc_gamg_agg_nsmooths) apply to the coarse levels as to the
     fine one, -coulomb_nested<lev>_* ones win for their level, and the database is left as the user gave it."""
     comm = MPI.COMM_WORLD
     scene = Scene().override(lev=4, gap="d3", load="L2", pc="ilu")

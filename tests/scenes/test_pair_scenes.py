@@ -9,7 +9,6 @@ are equal and opposite, and the hemisphere's own material is used; bad pair inpu
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 from mpi4py import MPI
@@ -23,8 +22,7 @@ from fenics_coulomb.cli import EXIT_INPUT, main
 from fenics_coulomb.scenes.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "meshes"))
-import hemisphere_on_block  # noqa: E402
+from meshes import hemisphere_on_block  # noqa: E402
 
 SCENE = """
 [body]

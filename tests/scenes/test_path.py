@@ -168,8 +168,9 @@ def test_path_agrees_with_brute_force(friction):
     floor = Plane(point=[0.0, 0.0, -0.01], normal=[0.0, 0.0, 1.0], name="floor")
     moves = [[0.0, 0.0, 0.012], [0.003, 0.001, 0.012], [-0.001, 0.0, 0.011]]
     factors = [1.0, 0.6, -0.4]
+    # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
     case = path_case(MPI.COMM_SELF, friction, lev=1, obstacles=[sphere, floor], pc="lu", rtol=1e-12,
-                     tol=1e-13, sliding="small")  # the reference-configuration model the brute force shares (finite sliding: test_finite_sliding*.py)
+                     tol=1e-13, sliding="small")
     side = {name: value for name, value in case.base.items() if abs(value[0]) > 0}
     previous_u, previous_delta, slid = None, np.zeros((2, 3)), False
     with case.problem as problem:
@@ -232,7 +233,7 @@ def test_path_on_this_communicator_equals_one_rank():
                          prefix=f"path{comm.size}_")
         side = {name: value for name, value in case.base.items() if abs(value[0]) > 0}
         with case.problem as problem:
-            for k, (factor, move) in enumerate([(1.0, [0, 0, 0]), (-1.0, [0.002, 0, 0])]):
+            for factor, move in [(1.0, [0, 0, 0]), (-1.0, [0.002, 0, 0])]:
                 case.load(1.0, **{name: [factor * v[0], v[1], v[2]] for name, v in side.items()})
                 problem.move("base", move)
                 problem.solve()

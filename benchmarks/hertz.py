@@ -19,8 +19,8 @@
 #    the plane.
 #
 # ```
-# python3 demos/hertz.py                                  # the coarse level, F = 0 and 0.3 (about 30 s)
-# mpirun -n 2 python3 demos/hertz.py --levels 0 1 2 --out docs/hertz   # the numbers of docs/hertz (~15 min)
+# python3 benchmarks/hertz.py                                  # the coarse level, F = 0 and 0.3 (about 30 s)
+# mpirun -n 2 python3 benchmarks/hertz.py --levels 0 1 2 --out docs/hertz   # the numbers of docs/hertz (~15 min)
 # ```
 #
 # ## Hertz's solution
@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import importlib.util
 import logging
 import sys
 import tempfile
@@ -168,10 +167,8 @@ def block_mesh(comm: MPI.Comm, h0: float, a: float = np.sqrt(R_INDENTER * DEPTH)
 
 def hemisphere_mesh(comm: MPI.Comm, size: float, grading: float) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
     """The hemisphere of meshes/hemisphere.py (radius R_HEMISPHERE; tags top 1, bottom 2, apex 3)."""
-    spec = importlib.util.spec_from_file_location("hemisphere", ROOT / "meshes" / "hemisphere.py")
-    module = importlib.util.module_from_spec(spec)
-    assert spec.loader is not None
-    spec.loader.exec_module(module)
+    from meshes import hemisphere as module
+
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "hemisphere.msh"
         if comm.rank == 0:
