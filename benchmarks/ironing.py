@@ -94,8 +94,8 @@ def write(out: Path, rows: list[dict[str, Any]], friction: float, seconds: float
 
     out.mkdir(parents=True, exist_ok=True)
     keys = list(rows[0])
-    (out / "ironing.csv").write_text("\n".join([",".join(keys)] + [",".join(f"{r[k]:.10g}" if isinstance(r[k], float)
-                                                                            else str(r[k]) for k in keys) for r in rows]) + "\n")
+    csv_rows = [",".join(f"{r[k]:.10g}" if isinstance(r[k], float) else str(r[k]) for k in keys) for r in rows]
+    (out / "ironing.csv").write_text("\n".join([",".join(keys), *csv_rows]) + "\n")
     pressed = [r for r in rows if r["step"] == 1][-1]
     steady = [r for r in rows if r["step"] >= 2 and r["stick"] == 0 and r["slip"] > 0]
     ratio_dev = max(abs(r["ratio"] / friction - 1.0) for r in steady) if steady else float("nan")
@@ -104,9 +104,11 @@ def write(out: Path, rows: list[dict[str, Any]], friction: float, seconds: float
     table = ["| solve | drag x₁ | P | Q/P | Σ abs t / (F Σ p) | a | stick / slip | updates | Newton |",
              "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        table.append(f"| {r['solve']} | {r['drag']:+.3f} | {r['P']:.6f} | {r['ratio']:.6f} | {r['cone']:.8f} | "
-                     f"{r['a']:.4f} | {r['stick']} / {r['slip']} | {r['updates']} | {r['newton']} |")
-    (out / "ironing.md").write_text(f"""# Ironing: a hemisphere dragged over five contact radii and back ({sliding} sliding)
+        table.append(f"| {r['solve']} | {r['drag']:+.3f} | {r['P']:.6f} | {r['ratio']:.6f} | "
+                     f"{r['cone']:.8f} | {r['a']:.4f} | {r['stick']} / {r['slip']} | {r['updates']} | "
+                     f"{r['newton']} |")
+    title = f"Ironing: a hemisphere dragged over five contact radii and back ({sliding} sliding)"
+    (out / "ironing.md").write_text(f"""# {title}
 
 `container/run mpirun -n {comm.size} python3 benchmarks/ironing.py` ({comm.size} ranks, load average
 {os.getloadavg()[0]:.1f}, {seconds:.0f} s): the scene [ironing.toml](ironing.toml) (its header has the set-up).

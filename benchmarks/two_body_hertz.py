@@ -182,7 +182,8 @@ def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, time
     inside = r < a_h
     shape = np.sqrt(1 - (r[inside] / a_h) ** 2)
     p0_fit = float(shape @ pressure[inside] / (shape @ shape))
-    return {"variant": f"{variant}, {sliding} sliding", "h": h, "geometry_updates": result.geometry_updates, "dofs": int(n_dofs), "pairing_seconds": pairing_seconds,
+    return {"variant": f"{variant}, {sliding} sliding", "h": h, "geometry_updates": result.geometry_updates,
+            "dofs": int(n_dofs), "pairing_seconds": pairing_seconds,
             "solve_seconds": solve_seconds, "contact_nodes": int(result.p), "closed_nodes": int(closed.sum()),
             "newton_iterations": result.iterations, "converged": bool(result.converged), "delta": delta, "P": P,
             "balance": forces["balance"], "a_hertz": a_H, "a": a_h, "r_closed": r_c, "r_open": r_o,
@@ -209,7 +210,8 @@ def write(out: Path, rows: list[dict[str, Any]], comm: MPI.Comm) -> None:
     (out / "hertz_profile.csv").write_text("\n".join(profile) + "\n")
     E_star = effective_modulus()
     table = ["| method | contact size h | DOFs | P | a (Hertz) | a (computed) [r_c, r_o] | error a | p₀ (Hertz) | p₀ "
-             "(largest nodal) | error | p₀ (fit) | error | Newton its (geometry updates) | balance | pairing / solve |", "|" + "---|" * 15]
+             "(largest nodal) | error | p₀ (fit) | error | Newton its (geometry updates) | balance | pairing / solve |",
+             "|" + "---|" * 15]
     for row in rows:
         table.append(f"| {row['variant']} | {row['h']:g} | {row['dofs']} | {row['P']:.5g} | {row['a_hertz']:.4f} | "
                      f"{row['a']:.4f} "

@@ -222,7 +222,6 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
         problem_logger.setLevel(logging.WARNING)
     try:
         with built.problem as problem:
-            model = problem.model
             labels = obstacle_labels(scene)
             t_model = time.perf_counter() - t0
             logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s); load path of %d step(s), "

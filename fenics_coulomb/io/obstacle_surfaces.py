@@ -30,6 +30,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
@@ -150,7 +151,8 @@ def tessellate(obstacle: Obstacle, lo: npt.ArrayLike, hi: npt.ArrayLike) -> tupl
     if obstacle.kind not in TESSELLATIONS:
         raise ValueError(f"{obstacle.label}: no surface for the obstacle kind {obstacle.kind!r}")
     R, c = obstacle.placement()
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    low, high = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
     back = (corners - c) @ R  # the body's box seen from the obstacle at rest
     points, triangles, centre, frame = TESSELLATIONS[obstacle.kind](obstacle._at_rest(), back.min(axis=0),
                                                                     back.max(axis=0))
@@ -183,7 +185,8 @@ class ObstacleSeries:
         self._rest: list[Obstacle] = [o._at_rest() for o in obstacles]
         self._times: list[float] = []
         self._sizes: list[int] = []
-        self.points, self.triangles = np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+        self.points: npt.NDArray[np.float64] = np.zeros((0, 3))
+        self.triangles: npt.NDArray[np.int64] = np.zeros((0, 3), dtype=np.int64)
         if comm.rank != 0:
             return
         lo, hi = (np.asarray(b, dtype=np.float64) for b in box)
@@ -192,7 +195,7 @@ class ObstacleSeries:
         self.points = np.concatenate([p for p, _, _ in parts])
         self.triangles = np.concatenate([t + offsets[i] for i, (_, t, _) in enumerate(parts)])
         self._sizes = [p.shape[0] for p, _, _ in parts]
-        self._fields = {
+        self._fields: dict[str, npt.NDArray[Any]] = {
             "obstacle": np.repeat(np.arange(1, len(parts) + 1, dtype=np.int32), self._sizes),
             "rest_position": self.points,
             "octant": np.concatenate([o for _, _, o in parts]),

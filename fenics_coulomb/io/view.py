@@ -248,6 +248,6 @@ def contact_bodies(model: ContactModel) -> tuple[list[int], list[int]]:
     if count < 2:
         return [], []
     blocks = np.asarray(model.contact.blocks, dtype=np.int64)
-    local = set((np.asarray(model.body_of_block)[blocks] + 1).tolist()) if blocks.size else set()
-    slaves = sorted(set().union(*model.comm.allgather(local)))
+    local: set[int] = {int(b) for b in np.asarray(model.body_of_block)[blocks] + 1} if blocks.size else set()
+    slaves = sorted(set[int]().union(*model.comm.allgather(local)))
     return list(range(1, count + 1)), [int(b) for b in slaves]

@@ -256,7 +256,7 @@ def stacked(comm, half, method):
     blocks = two_blocks(comm, lower=(width, 1.0, 0.5), n_lower=n_lower, upper_origin=(0.0, 0.25),
                         upper=(0.5 * width, 0.5, 0.25), n_upper=n_upper, gap=0.0)
     msh = blocks.mesh
-    msh.geometry.x[:, 0] += x0 + (0.0 if half else 0.0)
+    msh.geometry.x[:, 0] += x0
     upper = blocks.cell_tags.find(2)
     dofs_upper = np.unique(msh.geometry.dofmap[upper])
     if not half:  # the full upper block is centred: [0.25, 0.75]
