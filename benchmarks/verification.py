@@ -182,8 +182,7 @@ def incline_scene(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, 
     if level != 0:
         path = None
         if comm.rank == 0:
-            sys.path.insert(0, str(ROOT / "meshes"))
-            import incline as incline_mesh
+            from meshes import incline as incline_mesh
 
             folder = tempfile.mkdtemp(prefix="incline_")
             path = str(Path(folder) / f"incline_{level}.msh")
@@ -251,8 +250,7 @@ def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int
     shaft_h, ring_h, layers = SHRINK_LEVELS[level] if isinstance(level, int) else level
     folder = path = None
     if comm.rank == 0:
-        sys.path.insert(0, str(ROOT / "meshes"))
-        import shrink_fit as shrink_mesh
+        from meshes import shrink_fit as shrink_mesh
 
         folder = tempfile.mkdtemp(prefix="shrink_")
         path = str(Path(folder) / "shrink_fit.msh")

@@ -244,11 +244,7 @@ def stacked(comm, half, method):
     """A block 0.5 × 0.5 × 0.25 (slave bottom) pressed 0.01 into a block 1 × 1 × 0.5 (master top; bottom clamped),
     F = 0.3; ``half``: the part x1 >= 0.5 of both with rollers u1 = 0 on x1 = 0.5 (the slave's bottom edge there
     holds u1). The report and the number of slave nodes with a held component."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "meshes"))
-    from two_blocks import TAGS, two_blocks
+    from meshes.two_blocks import TAGS, two_blocks
 
     from fenics_coulomb import ContactPair
 

@@ -9,21 +9,16 @@ blocks; the overlap is measured, logged and resolved, not refused.
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 from mpi4py import MPI
 
 import dolfinx.fem
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-from two_body_patch import MATERIALS, elasticity, exact_pressure, rollers  # noqa: E402
-from two_blocks import TAGS, two_blocks  # noqa: E402  (meshes/ is on the path via two_body_patch)
-
-from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
-from fenics_coulomb.model.forces import contact_areas  # noqa: E402
+from benchmarks.two_body_patch import MATERIALS, elasticity, exact_pressure, rollers
+from fenics_coulomb import ContactPair, ContactProblem
+from fenics_coulomb.model.forces import contact_areas
+from meshes.two_blocks import TAGS, two_blocks
 
 
 @pytest.mark.parametrize(("cell", "n_upper"), [("hexahedron", (5, 5, 2)), ("tetrahedron", (5, 5, 2))])
