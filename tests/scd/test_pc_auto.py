@@ -32,7 +32,7 @@ def scene_file(tmp: Path, body: str, size: float, poisson: float) -> Path:
     comm = MPI.COMM_WORLD
     mesh, scene = tmp / f"{body}.msh", tmp / f"{body}.toml"
     if comm.rank == 0:
-        generator = importlib.import_module(body)
+        generator = importlib.import_module(f"meshes.{body}")
         generator.build(size, mesh)
         scene.write_text(SCENES[body].format(mesh=mesh, poisson=poisson))
     comm.barrier()
