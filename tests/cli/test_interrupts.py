@@ -76,54 +76,16 @@ def _digest(directory: Path) -> str:
     return h.hexdigest()
 
 
-@pytest.mark.parametrize("path", [
-    ["--lev", "4", "--pc", "none", "--tol", "1e-12"],        # the matrix-free shell, no preconditioner
-    ["--lev", "5", "--pc", "gamg", "--tol", "1e-12"],        # GAMG on A, the shell operator
-    ["--lev", "5", "--pc", "ilu", "--tol", "1e-12"],         # the explicit Newton matrix
-    ["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"],  # a load path
-], ids=["shell", "gamg", "ilu", "load-path"])
-@pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("ranks", signal.SIGTERM)],
-                         ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
-def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
+def _interrupt_after(tmp_path, args: list[str], target: str, signum: int, marker: str = "it ") -> None:
+    """Write a result set, start ``args`` into the same directory, signal one rank or every rank once the run
+    printed ``marker``: it ends with 128 + the signal, no process is left, the earlier set is kept byte for byte
+    and no partial one is left."""
     out = tmp_path / "out"
     subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--no-plots",
                     "--quiet"], env=command_env(display=False), check=True)
     before = _digest(out)
     try:
-        proc = start_in_newton([*path, "--out", str(out), "--no-plots"], display=False)
-    except RuntimeError as err:
-        pytest.fail(str(err))
-    ranks = rank_pids(proc)
-    for rank in ranks[-1:] if target == "rank" else ranks:
-        os.kill(rank, signum)
-    try:
-        rest, _ = proc.communicate(timeout=20)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        pytest.fail(f"{signal.Signals(signum).name} to {target}: the run hung")
-    assert proc.returncode == 128 + signum, rest
-    assert f"interrupted by {signal.Signals(signum).name}" in rest
-    deadline = time.monotonic() + 5.0
-    while (left := session_processes(proc.pid)) and time.monotonic() < deadline:
-        time.sleep(0.1)
-    assert not left, left
-    assert _digest(out) == before  # the earlier result set, byte for byte
-    assert not [p for p in os.listdir(tmp_path) if "partial" in p]
-
-
-@pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("ranks", signal.SIGTERM)],
-                         ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
-def test_interrupt_during_the_geometry_iteration(tmp_path, target, signum):
-    """Finite sliding: a signal right after a geometry update (the ranks re-pair, re-place and solve again) ends
-    every rank with 128 + the signal and keeps the earlier result set."""
-    out = tmp_path / "out"
-    subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--no-plots",
-                    "--quiet"], env=command_env(display=False), check=True)
-    before = _digest(out)
-    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "stl_roller_rolling.toml"
-    try:  # -v: a load path's geometry updates are logged per solve
-        proc = start_in_newton(["--scene", str(scene), "-v", "--out", str(out), "--no-plots"], display=False,
-                               marker="finite sliding: geometry update")
+        proc = start_in_newton([*args, "--out", str(out), "--no-plots"], display=False, marker=marker)
     except RuntimeError as err:
         pytest.fail(str(err))
     ranks = rank_pids(proc)
@@ -140,5 +102,29 @@ def test_interrupt_during_the_geometry_iteration(tmp_path, target, signum):
     while (left := session_processes(proc.pid)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not left, left
-    assert _digest(out) == before
+    assert _digest(out) == before  # the earlier result set, byte for byte
     assert not [p for p in os.listdir(tmp_path) if "partial" in p]
+
+
+SIGNALS = pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("ranks", signal.SIGTERM)],
+                                  ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
+
+
+@pytest.mark.parametrize("path", [
+    ["--lev", "4", "--pc", "none", "--tol", "1e-12"],        # the matrix-free shell, no preconditioner
+    ["--lev", "5", "--pc", "gamg", "--tol", "1e-12"],        # GAMG on A, the shell operator
+    ["--lev", "5", "--pc", "ilu", "--tol", "1e-12"],         # the explicit Newton matrix
+    ["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"],  # a load path
+], ids=["shell", "gamg", "ilu", "load-path"])
+@SIGNALS
+def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
+    _interrupt_after(tmp_path, path, target, signum)
+
+
+@SIGNALS
+def test_interrupt_during_the_geometry_iteration(tmp_path, target, signum):
+    """Finite sliding: a signal right after a geometry update (the ranks re-pair, re-place and solve again) ends
+    every rank with 128 + the signal and keeps the earlier result set (-v: a load path's updates are logged)."""
+    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "stl_roller_rolling.toml"
+    _interrupt_after(tmp_path, ["--scene", str(scene), "-v"], target, signum,
+                     marker="finite sliding: geometry update")
