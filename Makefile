@@ -21,9 +21,8 @@ lint:
 test-serial:
 	$(RUN) python3 -m pytest -q --color=no tests $(PYTEST_ARGS)
 
-# One MPI job per test package: a 2-rank process that ran hundreds of tests has stalled once in DOLFINx's
-# create_petsc_vector (both ranks spinning; not understood, see docs/testing.md); fresh processes per package
-# keep every test's collective state short-lived.
+# One MPI job per test package: a failure names its package, and no collective state outlives a package
+# (docs/testing.md: the stall a long 2-rank process once met, its cause and its regression test).
 MPI_PACKAGES = tests/cli tests/io tests/model tests/problems tests/scd tests/scenes
 
 test-mpi:

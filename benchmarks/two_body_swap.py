@@ -37,6 +37,7 @@ from meshes.two_blocks import TAGS, two_blocks  # noqa: E402
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
+from fenics_coulomb.model.dof_values import owned_values  # noqa: E402
 
 SETTINGS = {"rtol": 1e-12, "tol": 1e-12}
 
@@ -68,7 +69,7 @@ def _solve(blocks, top, slave, master, friction, method, prefix):
                         petsc_options_prefix=prefix) as problem:
         _, result = problem.solve()
         checks = physics_residuals(problem.model, result.relative_displacement)
-        u = problem.u.x.petsc_vec.getArray(readonly=True).copy()
+        u = owned_values(problem.u)
         normal = comm.allreduce(float(np.sum(result.normal_force)), op=MPI.SUM)
         closed = comm.allreduce(int(np.sum(result.normal_force > 0)), op=MPI.SUM)
         free = problem.model.free_slave_penetrations(result.displacement)

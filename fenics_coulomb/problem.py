@@ -42,6 +42,7 @@ import ufl
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
+from fenics_coulomb.model.dof_values import owned_values, set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairing import ContactPair
 from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration,
@@ -92,7 +93,7 @@ def interpolate_displacement(
         data = dolfinx.fem.create_interpolation_data(V, u_from.function_space, cells, padding=padding)
         u.interpolate_nonmatching(u_from, cells, data)
     u.x.scatter_forward()
-    return np.asarray(u.x.petsc_vec.getArray(readonly=True)).copy()
+    return owned_values(u)
 
 
 def _settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSettings:
@@ -640,8 +641,7 @@ class ContactProblem:
                                penetrating)
         if commit and finite:
             self._commit(result)  # finite sliding keeps the physical u (mapped by the next step's pairing)
-        self.u.x.petsc_vec.array[:] = result.displacement
-        self.u.x.scatter_forward()
+        set_owned_values(self.u, result.displacement)
         return self.u
 
     # -- cleanup -----------------------------------------------------------------------------------

@@ -26,6 +26,7 @@ from fenics_coulomb.errors import EXIT_DIVERGED
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
 from fenics_coulomb.io.writer import PathResultSet, write_result_set
+from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
 from fenics_coulomb.scenes.nested import (NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels,
@@ -147,7 +148,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
                                   "krylov_iterations": [r.krylov_iterations for r in coarse.results] if coarse
                                   else []}},
                 timings={"model": t_model, "nested": t_nested, "mesh": built.mesh_time,
-                         "assembly": problem.model_time}, started=t_write)
+                         "assembly": problem.model_time}, started=t_write, wall_start=t0)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
@@ -231,9 +232,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
             if start_step is not None:
                 done = [s for s in solves if s.step <= start_step]
                 previous = dolfinx.fem.Function(problem.V)
-                previous.x.petsc_vec.array[:] = read_displacement(Path(scene.start), problem.V,
-                                                                  time=float(start_step))
-                previous.x.scatter_forward()
+                set_owned_values(previous, read_displacement(Path(scene.start), problem.V,
+                                                             time=float(start_step)))
                 count = len(problem.obstacles)  # the scene's, or the paper's plane when it names none
                 deltas = np.asarray(done[-1].obstacle_displacements or np.zeros((count, 3)), dtype=np.float64)
                 problem.reset(previous, step=len(done), obstacle_displacements=deltas.reshape(count, 3),

@@ -32,6 +32,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
 from fenics_coulomb.model.obstacles import obstacle_names
 from fenics_coulomb.report import nodal_pressure
@@ -74,9 +75,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         f.x.scatter_forward()  # owned contact nodes were set on their owner: make the ghosts agree
         return f
 
-    u = dolfinx.fem.Function(V, name="displacement")
-    u.x.petsc_vec.array[:] = result.displacement
-    u.x.scatter_forward()
+    u = set_owned_values(dolfinx.fem.Function(V, name="displacement"), result.displacement)
     tangential = np.einsum("iab,ib->ia", cmap.frames[:, :, :2], result.tangential_force)  # t₁, t₂ → x, y, z
     areas = contact_areas(model)
     force = _nodal_forces(result, cmap.size)
@@ -103,8 +102,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         return fields
     reaction = dolfinx.fem.Function(V, name="master_reaction")
     if result.master_force is not None:
-        reaction.x.petsc_vec.array[:] = result.master_force
-    reaction.x.scatter_forward()
+        set_owned_values(reaction, result.master_force)
     return (*fields, reaction)
 
 
@@ -112,9 +110,7 @@ def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any
     """The largest von Mises stress and the largest shear stress τ = (σ₁ − σ₃)/2 of the projected stress
     (:func:`stress_functions`) and the reference positions of their vertices (ties: the first in x₁, x₂, x₃;
     collective). Empty when the bilinear form gives no stress (:func:`stress_from_form`)."""
-    u = dolfinx.fem.Function(model.V)
-    u.x.petsc_vec.array[:] = result.displacement
-    u.x.scatter_forward()
+    u = set_owned_values(dolfinx.fem.Function(model.V), result.displacement)
     stress = stress_from_form(model.a_ufl, u)
     if stress is None:
         return {}

@@ -167,10 +167,10 @@ def gather_deformed(
     import dolfinx.fem
     import dolfinx.plot
 
+    from fenics_coulomb.model.dof_values import set_owned_values
+
     comm: MPI.Comm = V.mesh.comm  # type: ignore[attr-defined]
-    u = dolfinx.fem.Function(V)
-    u.x.petsc_vec.array[:] = displacement
-    u.x.scatter_forward()
+    u = set_owned_values(dolfinx.fem.Function(V), displacement)
     topology, cell_types, x = dolfinx.plot.vtk_mesh(V)
     values = u.x.array.reshape(-1, 3)[: x.shape[0]]
     piece = (topology, cell_types, x, values) if body is None else (

@@ -15,6 +15,7 @@ import dolfinx.fem
 import numpy as np
 
 from fenics_coulomb.errors import check_all
+from fenics_coulomb.model.dof_values import set_owned_values
 
 __all__ = ["MAX_XDMF_BYTES", "START_CHECK_ROWS", "start_function", "check_start_file"]
 
@@ -38,9 +39,7 @@ def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Func
         return u0
     from fenics_coulomb.io.xdmf import read_displacement
 
-    u0.x.petsc_vec.array[:] = read_displacement(Path(start), V)
-    u0.x.scatter_forward()
-    return u0
+    return set_owned_values(u0, read_displacement(Path(start), V))
 
 
 def check_start_file(comm: MPI.Comm, start: str) -> None:

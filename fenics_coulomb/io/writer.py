@@ -49,7 +49,7 @@ __all__ = ["PathResultSet", "write_result_set", "write_results"]
 def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
                      plots: bool = False, reactions: Mapping[str, Any] | None = None,
                      extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
-                     started: float | None = None) -> dict[str, Any]:
+                     started: float | None = None, wall_start: float | None = None) -> dict[str, Any]:
     """Write the result set of ``result`` into the (temporary) ``directory`` (collective); return summary.json's
     data.
 
@@ -63,6 +63,8 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
         extra: More summary.json entries.
         timings: More phases for ``timings_s`` (this rank's seconds; the maximum over the ranks is written).
         started: ``time.perf_counter()`` when writing began: ``timings_s["output"]`` is measured from it.
+        wall_start: ``time.perf_counter()`` when the command began: ``wall_time_s`` is the whole command's time
+            since it, as for a load path (without it, the solver's time, ``timings_s["total"]``).
     """
     model = problem.model
     comm = model.comm
@@ -84,6 +86,8 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     data["reactions"] = {name: [float(c) for c in v] for name, v in report.reactions.items()}
     data["contact_force"] = [float(c) for c in report.total_force]
     data["applied_load"] = [float(c) for c in report.applied_load]
+    if wall_start is not None:
+        data["wall_time_s"] = comm.allreduce(time.perf_counter() - wall_start, op=MPI.MAX)
     return _finish(directory, data, comm, files, timings, started)
 
 

@@ -81,6 +81,7 @@ from fenics_coulomb.errors import OutputError
 from fenics_coulomb.io.fields import CONTACT_STATES, FIELD_UNITS, contact_functions
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.problem import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN
@@ -366,10 +367,7 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float |
 
 def displacement_function(V: dolfinx.fem.FunctionSpace, owned: npt.NDArray[np.float64]) -> dolfinx.fem.Function:
     """A Function on V holding the owned DOF values ``owned`` (ghosts updated)."""
-    u = dolfinx.fem.Function(V, name="displacement")
-    u.x.petsc_vec.array[:] = owned
-    u.x.scatter_forward()
-    return u
+    return set_owned_values(dolfinx.fem.Function(V, name="displacement"), owned)
 
 
 def _last_grid(path: Path, time: float | None = None) -> ET.Element:

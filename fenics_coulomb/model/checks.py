@@ -37,6 +37,7 @@ import ufl
 
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.frames import to_local
 
 __all__ = ["FORCE_FLOOR", "residual", "unconstrained_residual", "physics_residuals", "PHYSICS_TOL",
@@ -74,8 +75,7 @@ def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.flo
     the owned part of a ghosted vector does not hold the other ranks' contributions to a node on a partition
     boundary."""
     uh = dolfinx.fem.Function(model.V)
-    uh.x.petsc_vec.array[:] = displacement
-    uh.x.scatter_forward()
+    set_owned_values(uh, displacement)
     # K ũ and l̃⁰ assembled apart: a and L may integrate over measures with different subdomain data (e.g.
     # dx(body) with cell tags in a and the default L's plain dx), which one form cannot combine
     b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.action(model.a_ufl, uh)))

@@ -43,7 +43,7 @@ from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scenes.scene import FREE, MAX_LOAD, PathStep, Scene
 
 __all__ = ["ZERO", "GROUP_KEYS", "LoadState", "scene_state", "zero_state", "step_state", "blend_vector", "PathSolve",
-           "plan", "obstacle_labels", "StepLoads", "StepRecord", "contact_groups", "run_path"]
+           "plan", "obstacle_labels", "StepLoads", "StepRecord", "contact_groups", "remaining_time", "run_path"]
 
 logger = logging.getLogger(__name__)
 
@@ -384,6 +384,21 @@ def contact_groups(model: Any, result: SolveResult) -> dict[str, dict[str, Any]]
     return groups
 
 
+def remaining_time(walls: Sequence[float], left: int) -> float:
+    """The expected wall time of the ``left`` solves still to run, from the wall times ``walls`` of those done.
+
+    The first solve of a path starts from the undeformed body (or a start file) and settles the contact set
+    from scratch; every later one starts from the previous step's solution and changes it by one increment,
+    so it is typically several times cheaper. The estimate is therefore the median of the solves after the
+    first (robust to one slow step) times ``left``, and the first solve's own time only while it is the only
+    one done (an overestimate then, which the next line corrects).
+    """
+    if left <= 0 or not walls:
+        return 0.0
+    warm = walls[1:] if len(walls) > 1 else walls
+    return float(np.median(warm)) * left
+
+
 def run_path(
     problem: Any,
     loads: StepLoads,
@@ -422,7 +437,7 @@ def run_path(
     last_step = last_step or (solves[-1].step if solves else 0)
     records: list[StepRecord] = []
     result: SolveResult | None = None
-    elapsed = 0.0  # the solves' wall time so far: the expected remaining time is the mean per solve × those left
+    walls: list[float] = []  # each solve's wall time, for the remaining time (remaining_time)
     for i, solve in enumerate(solves):
         t0 = time.perf_counter()
         loads.apply(solve.start, solve.end, solve.weight)
@@ -459,9 +474,9 @@ def run_path(
         else:
             where = (f"step {solve.step}/{last_step}, substep {solve.substep}/{solve.substeps} "
                      f"(t = {solve.time:.4g}, weight {solve.weight:.4g})")
-        elapsed += wall
+        walls.append(wall)
         left = len(solves) - i - 1
-        eta = f", about {elapsed / (i + 1) * left:.1f} s left" if left and not failure else ""
+        eta = f", about {remaining_time(walls, left):.1f} s left" if left and not failure else ""
         updates = f", {record.geometry_updates} geometry update(s)" if record.geometry_updates else ""
         logger.info("solve %d/%d, %s: %s, %d Newton / %d Krylov iterations%s, open/stick/slip %d/%d/%d, contact "
                     "force (%s), %.2f s%s", i + 1, len(solves), where,

@@ -24,6 +24,7 @@ from fenics_coulomb import ContactProblem, Plane
 from fenics_coulomb.model.checks import physics_residuals, unconstrained_residual
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.dof_values import owned_values
 
 from meshes.two_blocks import TAGS  # noqa: E402
 from meshes.two_blocks import two_blocks as two_block_mesh  # noqa: E402
@@ -81,7 +82,7 @@ def prescribed(V, bcs):
 
 
 def owned(problem):
-    return problem.u.x.petsc_vec.getArray(readonly=True).copy()
+    return owned_values(problem.u)
 
 
 def assert_physics(problem, result, label=""):

@@ -13,13 +13,14 @@ import numpy as np
 import pytest
 
 from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.model.dof_values import owned_values
 from fenics_coulomb.scd.preconditioner import AUTO_LU_MAX_UNKNOWNS, AUTO_STALL_ITS, auto_ladder
 
 CHECK_TOL = 1e-8
 
 
 def assert_physics(problem, uh):
-    checks = physics_residuals(problem.model, uh.x.petsc_vec.array)
+    checks = physics_residuals(problem.model, owned_values(uh))
     for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone"):
         assert checks[key] < CHECK_TOL, (key, checks[key])
 

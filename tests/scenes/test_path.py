@@ -27,6 +27,7 @@ from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.materials import epsilon, sigma
+from fenics_coulomb.model.dof_values import owned_values
 
 #: Tight settings: the comparisons below are at 1e-8.
 TIGHT = {"rtol": 1e-11, "tol": 1e-10}
@@ -71,7 +72,7 @@ def path_case(comm: MPI.Comm, friction: float, lev: int = 2, obstacles=None, pre
 
 def owned(problem: ContactProblem) -> np.ndarray:
     """The owned DOF values of the problem's displacement (a copy)."""
-    return problem.u.x.petsc_vec.getArray(readonly=True).copy()
+    return owned_values(problem.u)
 
 
 def assert_physics(problem: ContactProblem, label: str) -> None:
@@ -258,3 +259,14 @@ def test_move_and_reset_reject_bad_input():
             problem.reset(obstacle_displacements=[[0, 0]])
         problem.move(0, [0.0, 0.0, 0.001])
         assert problem.obstacles[0].displacement == (0.0, 0.0, 0.001)
+
+
+def test_remaining_time_uses_the_warm_started_solves() -> None:
+    """The first solve (cold start) only estimates while it is alone; after it, the median of the later solves."""
+    from fenics_coulomb.scenes.path import remaining_time
+
+    assert remaining_time([12.0], 4) == pytest.approx(48.0)
+    assert remaining_time([12.0, 2.0, 3.0, 2.5], 4) == pytest.approx(10.0)  # median of 2, 3, 2.5: not the mean 4.9
+    assert remaining_time([12.0, 2.0, 30.0, 2.5, 3.0], 2) == pytest.approx(5.5)  # one slow step: the median holds
+    assert remaining_time([12.0, 2.0], 0) == 0.0
+    assert remaining_time([], 3) == 0.0
