@@ -228,6 +228,8 @@ class ContactProblem:
         self._previous_delta: npt.NDArray[np.float64] | None = None
         #: The obstacles as placed at the previous step (their rotations; None before the first step).
         self._previous_obstacles: list[Obstacle] | None = None
+        #: (u, the pairing of X + u) of the last settled geometry check (finite sliding with contact pairs).
+        self._settled_pairing: tuple[npt.NDArray[np.float64], Any] | None = None
 
     # -- access ------------------------------------------------------------------------------------
     @property
@@ -554,10 +556,15 @@ class ContactProblem:
     def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Any = None) -> None:
         """Evaluate the contact geometry in X + u; rebuild the solver when the model's Ã changed (collective)."""
         if self.model.configure(u, pairing):
-            self.solver.destroy()
-            self._solver = None
-            self._solver = SCDNewtonSolver(self.model, self.settings, self.petsc_options_prefix, self._petsc_options)
+            self.solver.rebind()
             self.p = self.model.p
+
+    def _known_pairing(self, u: npt.NDArray[np.float64] | None) -> Any:
+        """The pairing of X + u when the last settled geometry check computed it for this very u, else None (the
+        same answer on every rank; collective)."""
+        known = self._settled_pairing
+        same = known is not None and u is not None and np.array_equal(known[0], u)
+        return known[1] if self.model.comm.allreduce(bool(same), op=MPI.LAND) else None
 
     def _solve_finite(self, u0: dolfinx.fem.Function | None) -> tuple[dolfinx.fem.Function, SolveResult]:
         """Finite sliding: iterate the geometry (:class:`~fenics_coulomb.model.sliding.GeometryIteration`): solve
@@ -566,7 +573,7 @@ class ContactProblem:
         model = self.model
         configuration = self._previous  # u⁽⁰⁾: the previous step's physical u (None: the reference X)
         if configuration is not None or model.configuration is not None:
-            self._configure(configuration)
+            self._configure(configuration, self._known_pairing(configuration))
         self._place()
         iteration = GeometryIteration(model, self.settings.reduction, ERROR_PER_RTOL, self._previous)
         reduction = iteration.reduction
@@ -580,6 +587,10 @@ class ContactProblem:
                 logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
                              step.change.new_signature[:8], step.action)
             if step.action == "settled":
+                # the pairing of X + u, which the next step configures first (obstacles move between steps and
+                # take part in the pairing's merge: only without them)
+                known = step.change.pairing if step.change is not None and not model.obstacles else None
+                self._settled_pairing = None if known is None else (u, known)
                 break
             if step.action == "fail":
                 result.geometry_updates = iteration.updates

@@ -293,6 +293,8 @@ class SurfaceIndex:
         centres: The centroids, shape (k, 3).
         lower: The lower corners of the triangles' bounding boxes, shape (k, 3).
         upper: Their upper corners, shape (k, 3).
+        normals: The unit normals of the triangles' planes (right-hand rule), shape (k, 3).
+        offsets: The planes' offsets n·v₀, shape (k,).
         tree: A KD-tree of the centroids (the first distance bound).
     """
 
@@ -302,6 +304,8 @@ class SurfaceIndex:
     centres: Array
     lower: Array
     upper: Array
+    normals: Array
+    offsets: Array
     tree: cKDTree
 
 
@@ -316,7 +320,10 @@ def surface_index(file: str, source: Source, side: str) -> SurfaceIndex:
     order = np.lexsort(np.sort(V, axis=1).T[::-1])
     rank = np.empty(V.shape[0], dtype=np.intp)
     rank[order] = np.arange(V.shape[0])
-    return SurfaceIndex(_Surface(X, V, sign), size, rank, centres, X.min(axis=1), X.max(axis=1), cKDTree(centres))
+    normals = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+    normals /= _norm(normals)[:, None]
+    return SurfaceIndex(_Surface(X, V, sign), size, rank, centres, X.min(axis=1), X.max(axis=1), normals,
+                        np.einsum("ij,ij->i", normals, X[:, 0]), cKDTree(centres))
 
 
 def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
@@ -357,9 +364,10 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, Array]:
     same numbers as its search over every facet.
 
     Candidates: a bound U on each point's distance from its 4 nearest triangle centroids (the pairing's), then
-    every triangle whose bounding box lies within U (:func:`_box_candidates`) — a triangle nearer than U, or tied
-    with the nearest (U carries the tie tolerance), is among them. Thin triangles (a prism's sides, a fan's spokes)
-    do not widen the search of every point, as a bound through their centroids' radius does.
+    every triangle whose bounding box (:func:`_box_candidates`) and plane lie within U — a triangle nearer than U,
+    or tied with the nearest (U carries the tie tolerance), is among them. Thin triangles (a prism's sides, a fan's
+    spokes) do not widen the search of every point, as a bound through their centroids' radius does, and the planes
+    keep a curved surface's far facets out.
     """
     surface = index.surface
     m, nv = x.shape[0], surface.X.shape[1]
@@ -375,8 +383,13 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, Array]:
     ii = ii.reshape(m, k0)
     _, _, dist = _closest(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
     bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
-    # the boxes' distances are compared with a bound widened by its own round-off
-    node, facet = _box_candidates(x, bound * (1.0 + 1e-12), index)
+    # the boxes' and the planes' distances (each at most the triangle's) are compared with a bound widened by its
+    # own round-off
+    bound = bound * (1.0 + 1e-12)
+    node, facet = _box_candidates(x, bound, index)
+    plane = np.abs(np.einsum("ij,ij->i", index.normals[facet], x[node]) - index.offsets[facet])
+    near = plane <= bound[node]
+    node, facet = node[near], facet[near]
     q, w, dist = _closest(x[node], surface.X[facet])
     # rectangular batches of points with similar candidate counts (padding: distance inf, never tied or chosen)
     count = np.bincount(node, minlength=m)
