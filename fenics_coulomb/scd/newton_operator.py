@@ -131,8 +131,8 @@ class NewtonOperator:
     def rebind(self, A: PETSc.Mat, rows: ContactRows, cdofs: npt.NDArray[np.int32]) -> None:
         """Take another stiffness of the same layout and other contact nodes (a geometry update of finite sliding;
         collective): the shell keeps its Mat and work vector and reads the new A, M = A until the next
-        :meth:`update`; the explicit copy becomes a copy of the new A (in place when its nonzero pattern is the
-        old one's, else a new Mat under the same prefix)."""
+        :meth:`update`; the explicit copy becomes a copy of the new A (a new Mat under the same prefix: the KSP that
+        reads it is created anew as well)."""
         self.A, self.rows = A, rows
         if self._context is not None:
             context = self._context

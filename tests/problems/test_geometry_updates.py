@@ -10,12 +10,14 @@ import numpy as np
 import pytest
 
 from benchmarks.sliding import SlidingBlocks
+from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.scd import newton
 
 SMALL = {"n_lower": (8, 4, 2), "n_upper": (6, 3, 2)}
 SHIFTS = (0.0, 0.1, 0.2, 0.3)
 RTOL = 1e-9
 DECIDE = newton.SCDNewtonSolver._refresh_hierarchy
+CONFIGURE = ContactModel.configure
 
 
 def slide(refresh: float, monkeypatch: pytest.MonkeyPatch) -> dict:
@@ -29,13 +31,21 @@ def slide(refresh: float, monkeypatch: pytest.MonkeyPatch) -> dict:
         return decisions[-1]
 
     monkeypatch.setattr(newton.SCDNewtonSolver, "_refresh_hierarchy", record)
+    paired: list[bool] = []  # per configuration: whether the pairing of X + u came with it (no new pairing)
+
+    def configure(model: ContactModel, u: object, pairing: object = None) -> bool:
+        paired.append(pairing is not None)
+        return CONFIGURE(model, u, pairing)
+
+    monkeypatch.setattr(ContactModel, "configure", configure)
     blocks = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=RTOL, prefix=f"updates{int(refresh)}_", **SMALL)
     solver = blocks.problem.solver
     handles = (solver.ksp.handle, solver.M.handle, solver.u.handle)
     rows = [blocks.solve(shift) for shift in SHIFTS]
     kept = blocks.problem.solver is solver and (solver.ksp.handle, solver.M.handle, solver.u.handle) == handles
     out = {"state": blocks.state(SHIFTS[-1]), "force": rows[-1]["force"], "kept": kept, "decisions": decisions,
-           "updates": sum(r["updates"] for r in rows), "nodes": rows[-1]["nodes"], "blocks": blocks}
+           "updates": sum(r["updates"] for r in rows), "nodes": rows[-1]["nodes"], "blocks": blocks,
+           "paired": paired}
     return out
 
 
@@ -50,6 +60,8 @@ def test_the_solver_stays_and_answers_as_a_new_hierarchy_at_every_update(monkeyp
         assert not all(reused["decisions"])  # some update kept the hierarchy of an earlier geometry
         assert all(fresh["decisions"])
         assert reused["nodes"] == fresh["nodes"]
+        # every configuration, the steps' first ones included, adopted a pairing the geometry check had computed
+        assert len(reused["paired"]) > reused["updates"] and all(reused["paired"])
         # both are solutions to the geometry's accuracy ε = 8·rtol·|u|∞ (model/sliding.py): within 2ε of each other
         u_scale = float(np.abs(fresh["state"][:, 3:]).max())
         assert np.abs(reused["state"] - fresh["state"]).max() <= 2 * 8 * RTOL * max(u_scale, SHIFTS[-1])
