@@ -329,13 +329,16 @@ def surface_index(file: str, source: Source, side: str) -> SurfaceIndex:
 def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
     """The (point, triangle) pairs whose bounding-box distance is at most ``bound`` of the point, sorted by point
     then triangle. The box distance never exceeds the triangle's distance, so every triangle within ``bound`` is
-    among them. The points are taken in blocks of at most SEARCH_BLOCK in a coarse spatial order; each block tests
-    only the triangles whose boxes meet the block's own box widened by its largest bound, and a block whose test
-    would exceed SEARCH_ENTRIES (point, triangle) entries is halved (NumPy, no loop over points)."""
+    among them. The points are taken in blocks of at most SEARCH_BLOCK, in a coarse spatial order within each size
+    class of their bounds (powers of 2); each block tests only the triangles whose boxes meet the block's own box
+    widened by its largest bound, and a block whose test would exceed SEARCH_ENTRIES (point, triangle) entries is
+    halved (NumPy, no loop over points)."""
     m = x.shape[0]
     lo, hi = x.min(axis=0), x.max(axis=0)
     cells = np.floor(8.0 * (x - lo) / np.where(hi > lo, hi - lo, 1.0)).astype(np.int64)
-    order = np.lexsort(cells.T[::-1])
+    # a far point's bound does not widen the box of its near neighbours' block
+    level = np.floor(np.log2(np.maximum(bound, np.finfo(float).tiny))).astype(np.int64)
+    order = np.lexsort((*cells.T[::-1], level))
     blocks = [order[start:start + SEARCH_BLOCK] for start in range(0, m, SEARCH_BLOCK)][::-1]
     points_l, facets_l = [], []
     while blocks:
@@ -348,8 +351,12 @@ def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.ND
             half = sel.size // 2
             blocks += [sel[half:], sel[:half]]
             continue
-        gap = np.maximum(np.maximum(index.lower[near][None] - xb[:, None], xb[:, None] - index.upper[near][None]), 0.0)
-        point, facet = np.nonzero(np.einsum("pfi,pfi->pf", gap, gap) <= (ub * ub)[:, None])
+        distance = np.zeros((sel.size, near.size))
+        for axis in range(3):  # the squared distance from each point to each box, one axis at a time
+            gap = np.maximum(np.maximum(index.lower[near, axis][None] - xb[:, axis, None],
+                                        xb[:, axis, None] - index.upper[near, axis][None]), 0.0)
+            distance += gap * gap
+        point, facet = np.nonzero(distance <= (ub * ub)[:, None])
         points_l.append(sel[point])
         facets_l.append(near[facet])
     point = np.concatenate(points_l)
