@@ -44,7 +44,7 @@ from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.dof_values import owned_values, set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairing import ContactPair, Pairing
 from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration,
                                           largest_slide)
 from fenics_coulomb.report import ContactReport, make_report
@@ -229,6 +229,8 @@ class ContactProblem:
         self._previous_delta: npt.NDArray[np.float64] | None = None
         #: The obstacles as placed at the previous step (their rotations; None before the first step).
         self._previous_obstacles: list[Obstacle] | None = None
+        #: (u, the pairing of X + u) last computed by the geometry iteration (finite sliding with contact pairs).
+        self._known: tuple[npt.NDArray[np.float64], Pairing] | None = None
 
     # -- access ------------------------------------------------------------------------------------
     @property
@@ -552,13 +554,36 @@ class ContactProblem:
                 self._finish(err.result)
             raise
 
-    def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Any = None) -> None:
-        """Evaluate the contact geometry in X + u; rebuild the solver when the model's Ã changed (collective)."""
+    def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Pairing | None = None) -> None:
+        """Evaluate the contact geometry in X + u; hand the solver the model's new Ã when it changed (collective)."""
+        if u is not None and pairing is not None:
+            self._remember_pairing(u, pairing)
         if self.model.configure(u, pairing):
-            self.solver.destroy()
-            self._solver = None
-            self._solver = SCDNewtonSolver(self.model, self.settings, self.petsc_options_prefix, self._petsc_options)
+            self.solver.rebind()
             self.p = self.model.p
+
+    def _remember_pairing(self, u: npt.NDArray[np.float64], pairing: Pairing) -> None:
+        """Keep the pairing of X + u (without obstacles only: they move between steps and take part in the
+        pairing's merge)."""
+        self._known = None if self.model.obstacles else (u, pairing)
+
+    def _known_pairing(self, u: npt.NDArray[np.float64] | None
+                       ) -> tuple[npt.NDArray[np.float64] | None, Pairing | None]:
+        """The configuration to evaluate for the previous step's u and its pairing when known (collective): the
+        last configuration whose pairing was computed (a geometry update's, or a settled check's) when it is u to
+        round-off — within 1e-12 of |u|∞, the geometry iteration's own test of a solve that returned its
+        configuration —, else u with None."""
+        known = self._known
+        if known is None or u is None or known[0].shape != u.shape:
+            close = False
+        else:
+            comm = self.model.comm
+            scale = comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
+            close = comm.allreduce(float(np.max(np.abs(u - known[0]), initial=0.0)), op=MPI.MAX) <= 1e-12 * scale
+        if not self.model.comm.allreduce(bool(close), op=MPI.LAND):
+            return u, None
+        assert known is not None
+        return known[0], known[1]
 
     def _solve_finite(self, u0: dolfinx.fem.Function | None) -> tuple[dolfinx.fem.Function, SolveResult]:
         """Finite sliding: iterate the geometry (:class:`~fenics_coulomb.model.sliding.GeometryIteration`): solve
@@ -567,7 +592,7 @@ class ContactProblem:
         model = self.model
         configuration = self._previous  # u⁽⁰⁾: the previous step's physical u (None: the reference X)
         if configuration is not None or model.configuration is not None:
-            self._configure(configuration)
+            self._configure(*self._known_pairing(configuration))
         self._place()
         iteration = GeometryIteration(model, self.settings.reduction, ERROR_PER_RTOL, self._previous)
         reduction = iteration.reduction
@@ -581,6 +606,8 @@ class ContactProblem:
                 logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
                              step.change.new_signature[:8], step.action)
             if step.action == "settled":
+                if step.change is not None and step.change.pairing is not None:
+                    self._remember_pairing(u, step.change.pairing)  # the next step configures X + u first
                 break
             if step.action == "fail":
                 result.geometry_updates = iteration.updates

@@ -439,12 +439,14 @@ class ContactModel:
         if self.configuration is not None:  # the pairing of X + u keeps the nodes' reference coordinates X
             pairing = dataclasses.replace(pairing, coordinates=V.tabulate_dof_coordinates()[pairing.blocks])
         self.pairing = pairing
-        self.coupling.destroy()
+        previous = self.coupling
         self.coupling = PairCoupling(V, pairing, self.body_of_block, self.num_bodies, prefix, self._A_free,
-                                     pair_held)
-        if getattr(self, "A", None) is not None:
+                                     pair_held, previous)
+        previous.destroy()
+        reuse = self.A if self.coupling.reused else None  # the same pattern: Ã overwritten in place
+        if reuse is None and getattr(self, "A", None) is not None:
             self.A.destroy()
-        self.A = self.coupling.stiffness(self, prefix)
+        self.A = self.coupling.stiffness(self, prefix, reuse)
         r0 = V.dofmap.index_map.local_range[0]
         self.dirichlet_diagonal = self._scale_dirichlet_rows(self.dirichlet_rows)
         if self.load is None:

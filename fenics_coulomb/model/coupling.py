@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
@@ -107,6 +108,14 @@ class IdentityCoupling(Coupling):
         return rigid_body_modes(V)
 
 
+def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
+    """Whether two matrices of one layout have the same nonzero pattern on every rank (collective)."""
+    ia, ja, _ = a.getValuesCSR()
+    ib, jb, _ = b.getValuesCSR()
+    same = bool(np.array_equal(ia, ib) and np.array_equal(ja, jb))
+    return bool(a.getComm().tompi4py().allreduce(same, op=MPI.LAND))
+
+
 class PairCoupling(Coupling):
     """Two elastic bodies: M = I + Φ from the pairing's stencils (PETSc AIJ ``<prefix>coupling_``).
 
@@ -122,25 +131,38 @@ class PairCoupling(Coupling):
 
     def __init__(self, V: dolfinx.fem.FunctionSpace, pairing: Pairing, body_of_block: npt.NDArray[np.int64],
                  num_bodies: int, prefix: str, A_free: PETSc.Mat | None = None,
-                 held: npt.NDArray[np.bool_] | None = None) -> None:
+                 held: npt.NDArray[np.bool_] | None = None, previous: Coupling | None = None) -> None:
         self.pairing = pairing
         self.body_of_block = body_of_block
         self.num_bodies = num_bodies
+        M = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix, held)
+        #: Whether M is ``previous``'s Mat with new values (the same nonzero pattern on every rank): the stiffness
+        #: built from ``previous`` can then be overwritten in place (:meth:`stiffness`).
+        self.reused = isinstance(previous, PairCoupling) and previous.M is not None and _same_pattern(previous.M, M)
+        if self.reused:
+            assert isinstance(previous, PairCoupling) and previous.M is not None
+            M.copy(previous.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            M.destroy()
+            M, previous.M = previous.M, None  # PtAP's reuse needs the very Mat its product was made from
         #: M = I + Φ (Φ's rows of held slave components 0).
-        self.M: PETSc.Mat = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix, held)
+        self.M: PETSc.Mat | None = M
         #: The stiffness without boundary conditions (both bodies): given (then its owner destroys it) or
         #: assembled by :meth:`stiffness`.
         self.A_free: PETSc.Mat | None = A_free
         self._owns_free = A_free is None
 
-    def stiffness(self, model: ContactModel, prefix: str) -> PETSc.Mat:
-        """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity."""
+    def stiffness(self, model: ContactModel, prefix: str, reuse: PETSc.Mat | None = None) -> PETSc.Mat:
+        """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity; ``reuse``: the Ã of the
+        coupling this one :attr:`reused`, overwritten in place (PtAP's numeric phase only, the same bits)."""
         if self.A_free is None:
             self.A_free = dolfinx.fem.petsc.assemble_matrix(model.a)
             self.A_free.assemble()
             self.A_free.setOptionsPrefix(f"{prefix}A_free_")
-        A = self.A_free.ptap(self.M)
-        A.setOptionsPrefix(f"{prefix}A_")
+        if reuse is not None:
+            A = self.A_free.ptap(self.M, result=reuse)
+        else:
+            A = self.A_free.ptap(self.M)
+            A.setOptionsPrefix(f"{prefix}A_")
         r0 = model.V.dofmap.index_map.local_range[0]
         A.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
         return A
@@ -193,7 +215,7 @@ class PairCoupling(Coupling):
         return body_rigid_modes(V, self.body_of_block, self.num_bodies, self.M)
 
     def destroy(self) -> None:
-        for obj in (self.M, self.A_free if self._owns_free else None):
+        for obj in (self.M, self.A_free if self._owns_free else None):  # M is None when a successor took it
             if obj is not None:
                 obj.destroy()
         self.A_free = None

@@ -5,14 +5,15 @@ an STL file (ASCII or binary) or of a gmsh ``.msh`` surface mesh (its 3-node tri
 (the surface is small; every rank holds it), and places them translated by the obstacle's ``displacement`` δ.
 
 Geometry: exactly the two-body master projection of :mod:`fenics_coulomb.model.pairing` on a mesh that is
-rigid — the closest point x_m on the triangles (KD-tree candidates, projection on the plane or the closest
-point of the edges), the tie rule (facets whose closest point is within 1e-10 h of the best one; the facet
-with the lexicographically smallest sorted vertex numbers), the normal n = the facet's outward normal inside a
-facet, ±(x − x_m)/|x − x_m| at an edge or vertex (the sign for which ±d lies in the normal cone of the tied
-facets), the normalized sum of the tied facets' normals when x is on the surface; g = (x − x_m)·n. A node
-whose ±d lies in no normal cone (beside an open surface's outer edge) sees the closest point as a point:
-n = d/|d|, g = |d| (finite, so the shift stays of the geometry's size; it touches only after travelling there). The
-frame is :func:`~fenics_coulomb.model.frames.frames_from_normals` (the plane/sphere rule).
+rigid — the closest point x_m on the triangles (candidates: the triangles whose bounding boxes lie within a
+distance bound, :func:`closest_on_surface`; projection on the plane or the closest point of the edges), the tie
+rule (facets whose closest point is within 1e-10 h of the best one; the facet with the lexicographically smallest
+sorted vertex numbers), the normal n = the facet's outward normal inside a facet, ±(x − x_m)/|x − x_m| at an edge
+or vertex (the sign for which ±d lies in the normal cone of the tied facets), the normalized sum of the tied
+facets' normals when x is on the surface; g = (x − x_m)·n. A node whose ±d lies in no normal cone (beside an open
+surface's outer edge) sees the closest point as a point: n = d/|d|, g = |d| (finite, so the shift stays of the
+geometry's size; it touches only after travelling there). The frame is
+:func:`~fenics_coulomb.model.frames.frames_from_normals` (the plane/sphere rule).
 
 Which side is solid (``side``): ``"outward"`` (default) — the triangles' normals (right-hand rule of their
 vertex order) point out of the solid, toward the body; ``"inward"`` — they point into the solid. The
@@ -52,13 +53,15 @@ from typing import ClassVar
 import numpy as np
 import numpy.typing as npt
 from scipy.ndimage import distance_transform_edt
+from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
-from fenics_coulomb.model.pairing import _norm, _pair_nodes, _Surface
+from fenics_coulomb.model.pairing import TIE_TOL, _closest, _norm, _select, _Surface
 
-__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "Source", "Surface", "file_source", "inside_closed",
-           "read_triangles", "surface_core"]
+__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "SEARCH_BLOCK", "SEARCH_ENTRIES", "Source", "Surface",
+           "SurfaceIndex", "closest_on_surface", "file_source", "inside_closed", "read_triangles", "surface_core",
+           "surface_index"]
 
 Array = npt.NDArray[np.float64]
 
@@ -68,6 +71,11 @@ SIDES = ("outward", "inward")
 MERGE_TOL = 1e-12
 #: A triangle of area below this fraction of the squared diagonal is degenerate.
 DEGENERATE_TOL = 1e-12
+#: The closest-point search tests the triangles' bounding boxes against this many points at once
+#: (:func:`closest_on_surface`).
+SEARCH_BLOCK = 256
+#: ... and at most this many (point, triangle) box tests at once (a block of points over a large surface is halved).
+SEARCH_ENTRIES = 1 << 20
 
 
 def _read_stl(path: Path) -> Array:
@@ -259,20 +267,10 @@ class Surface(Obstacle):
         swallow)."""
         return surface_core(self.file, self.source, self.side) + np.asarray(self.displacement, dtype=np.float64)
 
-    @functools.cached_property
-    def _surface(self) -> tuple[_Surface, Array, npt.NDArray[np.intp]]:
-        X, V = read_triangles(self.file, self.source)
-        sign = np.full(X.shape[0], 1.0 if self.side == "outward" else -1.0)
-        size = _norm(X - X.mean(axis=1)[:, None]).max(axis=1) * 2.0  # the facet's diameter bound h
-        order = np.lexsort(np.sort(V, axis=1).T[::-1])
-        rank = np.empty(V.shape[0], dtype=np.intp)
-        rank[order] = np.arange(V.shape[0])
-        return _Surface(X, V, sign), size, rank
-
     def _gap_normal(self, x: Array) -> tuple[Array, Array]:
-        surface, size, rank = self._surface
+        index = surface_index(self.file, self.source, self.side)
         local = x - np.asarray(self.displacement)  # the surface moves by δ: the node moves by −δ relative to it
-        out = _pair_nodes(local, surface, size, rank)
+        out = closest_on_surface(local, index)
         n = out["normal"]
         d = local - out["closest"]
         # beside an open surface's outer edge (±d in no normal cone): the closest point as a point obstacle,
@@ -282,6 +280,136 @@ class Surface(Obstacle):
         dn = _norm(d[free])
         n[free] = np.where(dn[:, None] > 0, d[free] / np.where(dn > 0, dn, 1.0)[:, None], n[free])
         return np.einsum("ij,ij->i", d, n), n
+
+
+@dataclass(frozen=True)
+class SurfaceIndex:
+    """The triangles of a surface at rest, prepared once for :func:`closest_on_surface`.
+
+    Attributes:
+        surface: The triangles with their merged vertex numbers and orientation (+1 outward, −1 inward).
+        size: Each triangle's diameter bound h (twice the largest centroid–vertex distance).
+        rank: Each triangle's position in the lexicographic order of its sorted vertex numbers (the tie rule).
+        centres: The centroids, shape (k, 3).
+        lower: The lower corners of the triangles' bounding boxes, shape (k, 3).
+        upper: Their upper corners, shape (k, 3).
+        normals: The unit normals of the triangles' planes (right-hand rule), shape (k, 3).
+        offsets: The planes' offsets n·v₀, shape (k,).
+        tree: A KD-tree of the centroids (the first distance bound).
+    """
+
+    surface: _Surface
+    size: Array
+    rank: npt.NDArray[np.intp]
+    centres: Array
+    lower: Array
+    upper: Array
+    normals: Array
+    offsets: Array
+    tree: cKDTree
+
+
+@functools.lru_cache(maxsize=16)
+def surface_index(file: str, source: Source, side: str) -> SurfaceIndex:
+    """The :class:`SurfaceIndex` of a surface file as read (``source``) with its solid ``side`` (cached: every
+    moved or rotated copy of an obstacle shares it)."""
+    X, V = read_triangles(file, source)
+    sign = np.full(X.shape[0], 1.0 if side == "outward" else -1.0)
+    centres = X.mean(axis=1)
+    size = _norm(X - centres[:, None]).max(axis=1) * 2.0  # the facet's diameter bound h
+    order = np.lexsort(np.sort(V, axis=1).T[::-1])
+    rank = np.empty(V.shape[0], dtype=np.intp)
+    rank[order] = np.arange(V.shape[0])
+    normals = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+    normals /= _norm(normals)[:, None]
+    return SurfaceIndex(_Surface(X, V, sign), size, rank, centres, X.min(axis=1), X.max(axis=1), normals,
+                        np.einsum("ij,ij->i", normals, X[:, 0]), cKDTree(centres))
+
+
+def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """The (point, triangle) pairs whose bounding-box distance is at most ``bound`` of the point, sorted by point
+    then triangle. The box distance never exceeds the triangle's distance, so every triangle within ``bound`` is
+    among them. The points are taken in blocks of at most SEARCH_BLOCK, in a coarse spatial order within each size
+    class of their bounds (powers of 2); each block tests only the triangles whose boxes meet the block's own box
+    widened by its largest bound, and a block whose test would exceed SEARCH_ENTRIES (point, triangle) entries is
+    halved (NumPy, no loop over points)."""
+    m = x.shape[0]
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    cells = np.floor(8.0 * (x - lo) / np.where(hi > lo, hi - lo, 1.0)).astype(np.int64)
+    # a far point's bound does not widen the box of its near neighbours' block
+    level = np.floor(np.log2(np.maximum(bound, np.finfo(float).tiny))).astype(np.int64)
+    order = np.lexsort((*cells.T[::-1], level))
+    blocks = [order[start:start + SEARCH_BLOCK] for start in range(0, m, SEARCH_BLOCK)][::-1]
+    points_l, facets_l = [], []
+    while blocks:
+        sel = blocks.pop()
+        xb, ub = x[sel], bound[sel]
+        reach = float(ub.max())
+        near = np.flatnonzero(np.all(index.lower <= xb.max(axis=0) + reach, axis=1)
+                              & np.all(index.upper >= xb.min(axis=0) - reach, axis=1))
+        if sel.size > 1 and sel.size * near.size > SEARCH_ENTRIES:
+            half = sel.size // 2
+            blocks += [sel[half:], sel[:half]]
+            continue
+        distance = np.zeros((sel.size, near.size))
+        for axis in range(3):  # the squared distance from each point to each box, one axis at a time
+            gap = np.maximum(np.maximum(index.lower[near, axis][None] - xb[:, axis, None],
+                                        xb[:, axis, None] - index.upper[near, axis][None]), 0.0)
+            distance += gap * gap
+        point, facet = np.nonzero(distance <= (ub * ub)[:, None])
+        points_l.append(sel[point])
+        facets_l.append(near[facet])
+    point = np.concatenate(points_l)
+    facet = np.concatenate(facets_l)
+    keep = np.lexsort((facet, point))
+    return point[keep], facet[keep]
+
+
+def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, Array]:
+    """Closest points, weights, facets, normals and cone membership of the points x (m, 3) on a surface at rest:
+    the two-body master projection with its tie and normal-cone rules (:mod:`fenics_coulomb.model.pairing`), the
+    same numbers as its search over every facet.
+
+    Candidates: a bound U on each point's distance from its 4 nearest triangle centroids (the pairing's), then
+    every triangle whose bounding box (:func:`_box_candidates`) and plane lie within U — a triangle nearer than U,
+    or tied with the nearest (U carries the tie tolerance), is among them. Thin triangles (a prism's sides, a fan's
+    spokes) do not widen the search of every point, as a bound through their centroids' radius does, and the planes
+    keep a curved surface's far facets out.
+    """
+    surface = index.surface
+    m, nv = x.shape[0], surface.X.shape[1]
+    out = {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
+           "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
+    nf = surface.X.shape[0]
+    if m == 0 or nf == 0:
+        return out
+    size = index.size
+    hmax = float(size.max())
+    k0 = min(nf, 4)
+    _, ii = index.tree.query(x, k=k0)
+    ii = ii.reshape(m, k0)
+    _, _, dist = _closest(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
+    bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
+    # the boxes' and the planes' distances (each at most the triangle's) are compared with a bound widened by its
+    # own round-off
+    bound = bound * (1.0 + 1e-12)
+    node, facet = _box_candidates(x, bound, index)
+    plane = np.abs(np.einsum("ij,ij->i", index.normals[facet], x[node]) - index.offsets[facet])
+    near = plane <= bound[node]
+    node, facet = node[near], facet[near]
+    q, w, dist = _closest(x[node], surface.X[facet])
+    # rectangular batches of points with similar candidate counts (padding: distance inf, never tied or chosen)
+    count = np.bincount(node, minlength=m)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]])
+    width = np.maximum(1, 2 ** np.ceil(np.log2(np.maximum(count, 1)))).astype(np.intp)
+    for k in np.unique(width):
+        sel = np.flatnonzero(width == k)
+        slot = np.arange(k)[None, :]
+        valid = slot < count[sel, None]
+        src = np.where(valid, first[sel, None] + slot, first[sel, None])
+        dk = np.where(valid, dist[src], np.inf)
+        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, index.rank, out, sel)
+    return out
 
 
 #: The grid of :func:`surface_core`: points per axis of the solid's bounding box.

@@ -128,6 +128,26 @@ class NewtonOperator:
         else:
             self.A.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
 
+    def rebind(self, A: PETSc.Mat, rows: ContactRows, cdofs: npt.NDArray[np.int32]) -> None:
+        """Take another stiffness of the same layout and other contact nodes (a geometry update of finite sliding;
+        collective): the shell keeps its Mat and work vector and reads the new A, M = A until the next
+        :meth:`update`; the explicit copy becomes a copy of the new A (a new Mat under the same prefix: the KSP that
+        reads it is created anew as well)."""
+        self.A, self.rows = A, rows
+        if self._context is not None:
+            context = self._context
+            context.A = A
+            context.cdofs = np.asarray(cdofs)
+            m = context.cdofs.shape[0]
+            context.left = np.broadcast_to(np.eye(3), (m, 3, 3)).copy()
+            context.right = np.zeros((m, 3, 3))
+            self.M.assemble()  # bumps the state: the KSP sees a changed operator
+            return
+        prefix = self.M.getOptionsPrefix()
+        self.M.destroy()
+        self.M = A.duplicate(copy=True)
+        self.M.setOptionsPrefix(prefix)
+
     def destroy(self) -> None:
         """Destroy M (a shell frees its context's work vector when its last reference goes)."""
         self.M.destroy()
