@@ -33,7 +33,7 @@ from fenics_coulomb import ContactPair, ContactProblem, ContactState
 from meshes.hemisphere_on_block import BODIES, TAGS, build
 
 __all__ = ["HERTZ2_LEVELS", "MINDLIN_LEVELS", "LOAD_RATIOS", "hertz_two_bodies", "cattaneo_mindlin",
-           "effective_modulus", "hemisphere_mesh"]
+           "effective_modulus", "hemisphere_mesh", "mindlin_steps"]
 
 R = 1.0
 SLIDING = "finite"

@@ -64,8 +64,9 @@ def test_node_to_surface_fails_the_drag_patch_test():
 
 
 def test_without_the_load_outside_the_footprint_the_pressure_is_not_uniform():
-    """The control: with the lower top free outside the footprint the lower block bends under the patch and the
-    contact pressure varies (the load the patch test adds is needed, not decoration)."""
+    """The control: with the lower top free outside the footprint the lower block bends under the patch, the
+    pressure concentrates at the footprint's edges (a flat punch: the nodal pressures spread by 4.5 p, measured)
+    and the force leaves p·a·b (+74 %): the load the patch test adds is needed, not decoration."""
     patch = DragPatch(MPI.COMM_WORLD, outside_load=False, prefix="drag_patch_free_")
     try:
         patch.solve(0)
@@ -73,7 +74,7 @@ def test_without_the_load_outside_the_footprint_the_pressure_is_not_uniform():
     finally:
         patch.destroy()
     assert r["converged"]
-    assert r["pressure_spread"] > 1e-2
+    assert r["pressure_spread"] > 1e-2 and abs(r["P"] / r["P_exact"] - 1) > 1e-2
 
 
 def test_the_drag_is_the_same_on_one_and_two_ranks(mortar_drag):
