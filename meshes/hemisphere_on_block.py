@@ -31,7 +31,7 @@ TAGS = {"block_top": 1, "block_bottom": 2, "block_sides": 3, "curved": 4, "flat"
 
 
 def build(contact: float, path: Path | None = None, size: float = 0.3, radius: float = 1.0, half_width: float = 2.0,
-          depth: float = 2.0, refined: float = 0.4) -> None:
+          depth: float = 2.0, refined: float = 0.4, growth: float | None = None) -> None:
     """Mesh the hemisphere on the block; write ``path`` (gmsh 4.1) or leave the model in gmsh when None.
 
     Args:
@@ -42,6 +42,7 @@ def build(contact: float, path: Path | None = None, size: float = 0.3, radius: f
         half_width: Half width B of the block.
         depth: Depth H of the block.
         refined: Radius of the ball around the origin meshed at ``contact`` (relative to R).
+        growth: Growth of the element size per unit distance beyond that ball (None: (size − contact)/R).
     """
     R = radius
     gmsh.initialize()
@@ -76,8 +77,9 @@ def build(contact: float, path: Path | None = None, size: float = 0.3, radius: f
             gmsh.model.addPhysicalGroup(2, tags, TAGS[name], name=name)
         field = gmsh.model.mesh.field.add("MathEval")
         r0 = refined * R
+        slope = (size - contact) / R if growth is None else growth
         gmsh.model.mesh.field.setString(
-            field, "F", f"Min({size}, {contact} + Max(0, Sqrt(x*x + y*y + z*z) - {r0}) * {(size - contact) / R})")
+            field, "F", f"Min({size}, {contact} + Max(0, Sqrt(x*x + y*y + z*z) - {r0}) * {slope})")
         gmsh.model.mesh.field.setAsBackgroundMesh(field)
         gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
         gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
