@@ -126,7 +126,7 @@ class _Timed:
 def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar", sliding: str = "finite") -> dict[str, Any]:
     """Solve one refinement; return its numbers and (on rank 0) the nodal profile."""
     import fenics_coulomb.model.contact_model as contact_model
-    import fenics_coulomb.model.mortar as mortar
+    import fenics_coulomb.model.pairs.segmentation as mortar
 
     method = "node-to-surface" if variant == "node-to-surface" else "mortar"
     original_pairing, original_normals = contact_model.pair_surfaces, mortar.nodal_normals

@@ -43,7 +43,7 @@ from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.obstacles import Obstacle, _vector
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration,
                                           largest_slide)
 from fenics_coulomb.report import ContactReport, make_report
@@ -168,9 +168,10 @@ class ContactProblem:
         form_compiler_options: FFCx options.
         jit_options: JIT options.
         contact_pairs: Two (or more) elastic bodies, disconnected parts of the mesh, in contact: the
-            :class:`~fenics_coulomb.model.pairing.ContactPair` s (slave and master facet tags, friction); replaces
-            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of :mod:`fenics_coulomb.model.two_body`;
-            :attr:`u` and the result's ``displacement`` are the physical u = M z.
+            :class:`~fenics_coulomb.model.pairs.ContactPair` s (slave and master facet tags, friction); replaces
+            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of
+            :mod:`fenics_coulomb.model.pairs.two_body`; :attr:`u` and the result's ``displacement`` are the
+            physical u = M z.
 
     Raises:
         InputError: for bad input (on every rank, before the first collective call where possible).

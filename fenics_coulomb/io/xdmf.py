@@ -41,8 +41,8 @@ lengths in the mesh's unit L):
     mesh numbered by their smallest mesh-file node index (independent of the partition); threshold on it to
     see one body, e.g. the slave surface from the master side.
 ``master_reaction``
-    Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.two_body`): the reaction on each master node,
-    f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
+    Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.pairs.two_body`): the reaction on each master
+    node, f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
     slave contact nodes, ``displacement`` is the physical u = M z, ``gap`` is g + n·w with the relative
     displacement w_s = u_s − Σ_j φ_sj u_j, and ``contact_normal`` is the master's outward normal at the
     closest point.

@@ -28,7 +28,7 @@ spectrum used for γ and the preconditioners is not polluted). The D rows belong
 of (6.4): contact nodes exclude clamped nodes and have no shift along a held component
 (:mod:`fenics_coulomb.model.frames`, "Contact nodes with held components"), so d_D = 0 and (A d)_D = 0.
 
-**Two bodies (contact pairs).** With ``contact_pairs`` the model is that of :mod:`fenics_coulomb.model.two_body`:
+**Two bodies (contact pairs).** With ``contact_pairs`` the model is that of :mod:`fenics_coulomb.model.pairs.two_body`:
 A is Ã = Mᵀ A_free M with the same Dirichlet treatment, l̃ = Mᵀ(l − A_free M x_D), the contact nodes are the
 paired slave nodes with the pairing's frames and gaps, and the unknown is z (w on the slave nodes);
 :meth:`ContactModel.physical` maps it back to u = M z.
@@ -60,8 +60,8 @@ from fenics_coulomb.model.coupling import Coupling, IdentityCoupling, PairCoupli
 from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames, local_shift, to_global
 from fenics_coulomb.model.mesh_checks import BodyLocator, check_mesh
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping, closest_obstacle, core_path
-from fenics_coulomb.model.pairing import ContactPair, Pairing, pair_surfaces
-from fenics_coulomb.model.two_body import check_rigid_support, connected_bodies, coupling_matrix
+from fenics_coulomb.model.pairs import ContactPair, Pairing, pair_surfaces
+from fenics_coulomb.model.pairs.two_body import check_rigid_support, connected_bodies, coupling_matrix
 from fenics_coulomb.settings import COMMAND_PREFIX
 
 __all__ = ["SLIDING", "validate_friction", "validate_arguments", "function_space", "ContactModel"]
@@ -427,7 +427,7 @@ class ContactModel:
         """Make ``pairing`` (of the current configuration) the model's: the obstacles' contact nodes merged in (a
         node that is both a paired slave node and an obstacle contact node belongs to the one with the smaller
         |g|, ties: the pair; obstacle nodes keep z = u, no row of Φ), M = I + Φ, Ã = Mᵀ A_free M with the
-        Dirichlet rows and columns of s I (:mod:`fenics_coulomb.model.two_body` derives it), l̃_z and the
+        Dirichlet rows and columns of s I (:mod:`fenics_coulomb.model.pairs.two_body` derives it), l̃_z and the
         contact map (collective)."""
         V, comm, prefix = self.V, self.comm, self.prefix
         pairing, pair_held = self.held_pairing(pairing)

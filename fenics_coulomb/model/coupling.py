@@ -11,8 +11,8 @@ solver's unknown z, and everything that follows from it.
 
 :class:`IdentityCoupling` is one body (or bodies touching rigid obstacles only): M = I. :class:`PairCoupling`
 is two elastic bodies with M = I + Φ, Φ² = 0, Φ_jl the weight of master node l in slave node j's stencil
-(:mod:`fenics_coulomb.model.two_body` derives the reduced problem; today's Φ is node-to-surface,
-:mod:`fenics_coulomb.model.pairing`). Another discretization of the pair (dual mortar: Φ_jl = M_jl / D_j)
+(:mod:`fenics_coulomb.model.pairs.two_body` derives the reduced problem; today's Φ is node-to-surface,
+:mod:`fenics_coulomb.model.pairs.pairing`). Another discretization of the pair (dual mortar: Φ_jl = M_jl / D_j)
 plugs in as another Φ: the solver, the frames and friction are unchanged.
 """
 
@@ -29,11 +29,11 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.model.nullspace import rigid_body_modes
-from fenics_coulomb.model.two_body import body_rigid_modes, coupling_matrix
+from fenics_coulomb.model.pairs.two_body import body_rigid_modes, coupling_matrix
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel
-    from fenics_coulomb.model.pairing import Pairing
+    from fenics_coulomb.model.pairs import Pairing
 
 __all__ = ["Coupling", "IdentityCoupling", "PairCoupling"]
 
@@ -146,7 +146,7 @@ class PairCoupling(Coupling):
         return A
 
     def assemble_load(self, model: ContactModel) -> None:
-        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.model.two_body`)."""
+        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.model.pairs.two_body`)."""
         assert self.A_free is not None, "stiffness() first"
         l = dolfinx.fem.petsc.assemble_vector(model.L)
         l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -189,7 +189,7 @@ class PairCoupling(Coupling):
         return out
 
     def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
-        """(I − Φ) r_b per body b (:func:`fenics_coulomb.model.two_body.body_rigid_modes`)."""
+        """(I − Φ) r_b per body b (:func:`fenics_coulomb.model.pairs.two_body.body_rigid_modes`)."""
         return body_rigid_modes(V, self.body_of_block, self.num_bodies, self.M)
 
     def destroy(self) -> None:

@@ -90,7 +90,7 @@ def pair_forces(model: ContactModel, result: SolveResult,
         model: The model of a solve with contact pairs.
         result: Its result (``displacement`` = the physical u, ``contact_force`` per contact node,
             ``master_force`` = the master nodes' reaction to all pairs, on the owned DOFs).
-        pairs: The :class:`~fenics_coulomb.model.pairing.ContactPair` s in the order given to the problem, for
+        pairs: The :class:`~fenics_coulomb.model.pairs.ContactPair` s in the order given to the problem, for
             their names and tags (default: the model's).
 
     Returns:

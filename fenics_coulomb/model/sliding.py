@@ -82,11 +82,11 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.model.two_body import coupling_matrix
+from fenics_coulomb.model.pairs.two_body import coupling_matrix
 
 if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
-    from fenics_coulomb.model.pairing import Pairing
+    from fenics_coulomb.model.pairs import Pairing
 
 __all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "LOOSE_FACTOR", "largest_slide",
            "GeometryChange", "GeometryIteration", "supports", "geometry_change"]

@@ -35,7 +35,7 @@ into forms, boundary conditions and a :class:`~fenics_coulomb.ContactProblem`. P
     pc = "auto"             # ilu on hexahedra below 50 000 unknowns on <= 2 ranks, gamg otherwise
     start = "auto"          # auto (default) | zero (the paper's) | undeformed | an earlier run's solution.xdmf
 
-    Two elastic bodies (fenics_coulomb.model.two_body; a gmsh mesh with one volume group per body) replace
+    Two elastic bodies (fenics_coulomb.model.pairs.two_body; a gmsh mesh with one volume group per body) replace
     ``contact`` and ``[[obstacle]]`` by contact pairs, with materials per body:
 
     [bodies]                # volume physical groups: name = cell tag
@@ -75,6 +75,7 @@ import numpy as np
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model import surface as _surface  # noqa: F401  (its register_obstacle call: type = "surface")
 from fenics_coulomb.model.contact_model import SLIDING, validate_friction
+from fenics_coulomb.model.pairs.registry import check_method
 from fenics_coulomb.model.materials import Material
 from fenics_coulomb.model.obstacles import Obstacle, _rotation, obstacles_from_list
 from fenics_coulomb.scd.preconditioner import NEARLY_INCOMPRESSIBLE_POISSON
@@ -414,7 +415,7 @@ def path_steps_from_toml(where: str, value: Any) -> list[PathStep]:
 @dataclass
 class PairSection:
     """One ``[[contact_pair]]`` table: slave and master surfaces (boundary names), friction and search distance
-    (:class:`fenics_coulomb.model.pairing.ContactPair`)."""
+    (:class:`fenics_coulomb.model.pairs.ContactPair`)."""
 
     slave: list[str] = field(default_factory=list)
     master: list[str] = field(default_factory=list)
@@ -700,9 +701,7 @@ class Scene:
             if pair.search_distance is not None and not (math.isfinite(pair.search_distance)
                                                           and pair.search_distance > 0):
                 raise InputError(f"[[contact_pair]] {i} search_distance = {pair.search_distance!r}: must be > 0")
-            if pair.method not in ("mortar", "node-to-surface"):
-                raise InputError(f"[[contact_pair]] {i} method = {pair.method!r}: "
-                                 "must be 'mortar' or 'node-to-surface'")
+            check_method(pair.method, f"[[contact_pair]] {i}")
 
     def _validate_path(self, names: dict[str, Any], where: str) -> None:
         """Check the ``[[path.step]]`` tables: kinds, boundary and obstacle names, values, substeps."""

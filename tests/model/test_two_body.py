@@ -23,7 +23,7 @@ from conftest import gather_by_coordinates, global_norm
 from fenics_coulomb import ContactProblem, Plane
 from fenics_coulomb.model.checks import physics_residuals, unconstrained_residual
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 
 from meshes.two_blocks import TAGS  # noqa: E402
 from meshes.two_blocks import two_blocks as two_block_mesh  # noqa: E402
@@ -122,7 +122,7 @@ def test_rigid_master_equals_the_moved_plane(friction, method):
 
 
 def flat_coupling(V, gap: float, lower=(5, 3, 2), size=(2.0, 1.0)):
-    """The pairing of the flat interface computed here, independently of fenics_coulomb.model.pairing (serial): every
+    """The pairing of the flat interface computed here, independently of fenics_coulomb.model.pairs (serial): every
     upper-bottom node x_s (height g) projects vertically onto the lower block's structured top grid, whose
     bilinear shape functions at (x, y) are the weights. Returns the slave blocks, G with (G u)_s = u_s − Σ φ u_j,
     and the gaps."""

@@ -28,7 +28,7 @@ from fenics_coulomb.io.fields import contact_functions
 from fenics_coulomb.model.forces import contact_areas, pair_forces
 from fenics_coulomb.io.summary import summary, write_summary
 from fenics_coulomb.io.xdmf import write_xdmf
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 
 FIELDS = ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
           "contact_traction", "gap", "contact_normal", "stress", "von_mises", "body", "master_reaction"]

@@ -19,6 +19,8 @@ import pytest
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.pairs import node_to_surface, register_pair_method, unregister_pair_method
 from fenics_coulomb.scenes.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -107,6 +109,20 @@ def test_pair_scene_on_the_command_line(mesh_file):
                 "reaction_balance"):
         assert checks[key] < 1e-7, (key, checks[key])
     assert result.counts["stick"] + result.counts["slip"] > 0
+
+
+def test_the_method_key_is_checked_against_the_registry(mesh_file):
+    """[[contact_pair]] method accepts the registered pair methods: one registered at run time is accepted, and
+    refused (InputError naming it) once unregistered."""
+    path = write_scene(mesh_file.parent / f"toy{MPI.COMM_WORLD.size}.toml", mesh_file, extra='method = "toy"\n')
+    register_pair_method("toy", node_to_surface.stencils)
+    try:
+        (pair,) = Scene.from_toml(path).contact_pairs
+        assert pair.method == "toy"
+    finally:
+        unregister_pair_method("toy")
+    with pytest.raises(InputError, match="method = 'toy': must be one of 'mortar', 'node-to-surface'"):
+        Scene.from_toml(path)
 
 
 @pytest.mark.parametrize("method", ["mortar", "node-to-surface"])
