@@ -280,7 +280,7 @@ def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0
         u=zeros, displacement=zeros, converged=True, reason="initial state", iterations=0, krylov_iterations=0,
         residual_history=[], records=[], sets=np.zeros(m, dtype=np.int8), states=np.full(m, OPEN, dtype=np.int8),
         normal_force=np.zeros(m), tangential_force=np.zeros((m, 2)), gap=np.array(model.contact.gap, dtype=float),
-        gamma=0.0, contact_force=np.zeros((m, 3)), master_force=zeros.copy() if model.coupling.paired else None)
+        gamma=0.0, contact_force=np.zeros((m, 3)), master_force=model.coupling.initial_master_force(zeros.size))
     write_result_grid(xdmf, model, result, t, "initial state")
 
 

@@ -74,7 +74,7 @@ import numpy as np
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model import surface as _surface  # noqa: F401  (its register_obstacle call: type = "surface")
-from fenics_coulomb.model.contact_model import SLIDING, validate_friction
+from fenics_coulomb.model.arguments import SLIDING, validate_friction
 from fenics_coulomb.model.pairs.registry import check_method
 from fenics_coulomb.model.materials import Material
 from fenics_coulomb.model.obstacles import Obstacle, _rotation, obstacles_from_list

@@ -22,7 +22,7 @@ from conftest import assert_physics, global_norm
 
 from fenics_coulomb import ContactPair, ContactProblem
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.forces import pair_forces
+from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.pairs.polygons import clip
 from fenics_coulomb.model.pairs.segmentation import GAUSS7, GAUSS7_W, dual_coefficients, mortar_nodes
 from fenics_coulomb.model.pairs import pair_surfaces

@@ -30,7 +30,7 @@ from conftest import assert_physics, global_norm
 
 from fenics_coulomb import ContactPair, ContactProblem
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.forces import pair_forces
+from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.pairs.polygons import clean_polygon, clip, polygon_area
 from fenics_coulomb.model.pairs import pair_surfaces
 

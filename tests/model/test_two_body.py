@@ -295,7 +295,8 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
         assert result.converged
         assert_physics(problem, result)
         model = problem.model
-        assert np.any(model.paired) and np.any(~model.paired)
+        paired = model.coupling.paired_mask(model.contact.size)
+        assert np.any(paired) and np.any(~paired)
         ip, ix, vals = model.A_free.getValuesCSR()
         K = sp.csr_matrix((vals, ix, ip), shape=model.A_free.getSize())
         slave, G_pair, g_pair = flat_coupling(V, 1e-3)
@@ -326,7 +327,8 @@ def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
         with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), obstacles=[plane], contact_pairs=[pair],
                             settings=TIGHT, petsc_options_prefix="both_") as problem:
             _, result = problem.solve()
-            paired = MPI.COMM_WORLD.allreduce(int(np.sum(problem.model.paired)), op=MPI.SUM)
+            mask = problem.model.coupling.paired_mask(problem.model.contact.size)
+            paired = MPI.COMM_WORLD.allreduce(int(np.sum(mask)), op=MPI.SUM)
             assert problem.p == 25 and paired == (25 if winner == "pair" else 0)
             both = owned(problem)
         kwargs = dict(contact_pairs=[pair]) if winner == "pair" else dict(contact=(ft, [SLAVE]), obstacles=[plane])
