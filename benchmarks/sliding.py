@@ -40,7 +40,7 @@ sys.path.insert(0, str(ROOT))
 from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
-from fenics_coulomb.model.forces import pair_forces  # noqa: E402
+from fenics_coulomb.model.pairs.forces import pair_forces  # noqa: E402
 from fenics_coulomb.model.obstacles import Cylinder, Plane  # noqa: E402
 
 MATERIALS = {"lower": (70.0, 0.3), "upper": (200.0, 0.25)}

@@ -6,7 +6,7 @@ The hemisphere (radius R = 1, E₁ = 70 GPa, ν₁ = 0.35: the SLAVE) rests with
 [−2, 2]² × [−2, 0] (E₂ = 210 GPa, ν₂ = 0.3: the MASTER), both meshed with tetrahedra refined toward the
 contact point (meshes/hemisphere_on_block.py; the meshes do not match). The block's bottom is clamped, the
 hemisphere's flat face is moved down by δ (u = (0, 0, −δ)); no friction. For the computed total force P (the
-force on the hemisphere from its own residual, :func:`fenics_coulomb.io.fields.pair_forces`) Hertz's theory of
+force on the hemisphere from its own residual, :func:`fenics_coulomb.model.pairs.forces.pair_forces`) Hertz's theory of
 two elastic spheres (here one of infinite radius) gives
 
     a³ = 3 P R / (4 E*),   1/E* = (1 − ν₁²)/E₁ + (1 − ν₂²)/E₂,   p₀ = 3 P / (2 π a²),
@@ -48,7 +48,8 @@ from meshes.hemisphere_on_block import BODIES, TAGS, build  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
-from fenics_coulomb.model.forces import contact_areas, pair_forces
+from fenics_coulomb.model.forces import contact_areas
+from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
 from fenics_coulomb.scd.resolvent import OPEN  # noqa: E402
 
@@ -125,13 +126,13 @@ class _Timed:
 
 def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar", sliding: str = "finite") -> dict[str, Any]:
     """Solve one refinement; return its numbers and (on rank 0) the nodal profile."""
-    import fenics_coulomb.model.contact_model as contact_model
-    import fenics_coulomb.model.mortar as mortar
+    import fenics_coulomb.model.pairs.coupling as coupling
+    import fenics_coulomb.model.pairs.segmentation as mortar
 
     method = "node-to-surface" if variant == "node-to-surface" else "mortar"
-    original_pairing, original_normals = contact_model.pair_surfaces, mortar.nodal_normals
+    original_pairing, original_normals = coupling.pair_surfaces, mortar.nodal_normals
     timed = _Timed(original_pairing)
-    contact_model.pair_surfaces = timed
+    coupling.pair_surfaces = timed
     if variant.startswith("mortar, master normal"):
         def vertical(X, blocks, sign):
             vertices, normals = original_normals(X, blocks, sign)
@@ -141,7 +142,7 @@ def run(comm: MPI.Comm, h: float, delta: float, variant: str = "mortar", sliding
     try:
         return _run(comm, h, delta, method, variant, timed, sliding)
     finally:
-        contact_model.pair_surfaces, mortar.nodal_normals = original_pairing, original_normals
+        coupling.pair_surfaces, mortar.nodal_normals = original_pairing, original_normals
 
 
 def _run(comm: MPI.Comm, h: float, delta: float, method: str, variant: str, timed: _Timed, sliding: str

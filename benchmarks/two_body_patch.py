@@ -50,7 +50,8 @@ from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
 
 from fenics_coulomb import ContactPair, ContactProblem  # noqa: E402
 from fenics_coulomb.model.checks import physics_residuals  # noqa: E402
-from fenics_coulomb.model.forces import contact_areas, pair_forces
+from fenics_coulomb.model.forces import contact_areas
+from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.io.summary import software_versions  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -189,14 +190,14 @@ def main(argv: list[str] | None = None) -> int:
 Frictionless, δ = 0.001, p = {rows[0]['p_exact']:.6g} GPa (ν = 0). "cells": per direction (x₁ × x₂ × x₃) of each
 block. **Dual mortar** (the default) passes the patch test on every mesh pair: the nodal pressures λᵢ/Dᵢ equal p
 to round-off and the tangential forces vanish (Σⱼ ψⱼ = 1 makes the master's nodal forces the consistent loads
-p ∫ N_l of the uniform pressure; `fenics_coulomb/model/mortar.py`). **Node-to-surface**: a slave mesh nested in
+p ∫ N_l of the uniform pressure; `model/pairs/segmentation.py`). **Node-to-surface**: a slave mesh nested in
 the master mesh (every slave node at a master vertex, edge midpoint or facet centre of a bilinear facet) passes
 like the matching one; on non-matching meshes the largest nodal pressure error is several per cent on
 hexahedra and over 10 % on tetrahedra and does not fall when both meshes are refined (the row "refined
 twice"), while the total force stays within 0.3 %. Pressure: λᵢ/Dᵢ (mortar), λᵢ/Aᵢ (node-to-surface, Aᵢ the
 lumped area ∫ φᵢ ds; equal to Dᵢ on a fully covered node). "balance" is |force on the upper + force on the
 lower block| / |force on the upper block|, each from its own residual (on a supported master node the contact
-force it receives, `fenics_coulomb.model.forces.pair_forces`).
+force it receives, `fenics_coulomb.model.pairs.forces.pair_forces`).
 
 {chr(10).join(table)}
 

@@ -30,7 +30,7 @@
 # The bodies are disconnected parts of one mesh, with one vector Q1 space and one stiffness matrix; each has
 # its own material through a subdomain integral over its cells. A **contact pair** names the slave surface S
 # (the small block's bottom) and the master surface M (the large block's top). Once, in the reference
-# configuration, the pair is discretized by **dual mortar** (the default, `fenics_coulomb/model/mortar.py`):
+# configuration, the pair is discretized by **dual mortar** (the default, `fenics_coulomb/model/pairs/segmentation.py`):
 # each slave facet is clipped against the master facets on an auxiliary plane, and with the dual
 # (biorthogonal) basis ψ_j of the slave surface the mortar integrals give, per slave node j, the diagonal
 # D_j = ∫ ψ_j N_j, the master weights M_jl = ∫ ψ_j N_l^m, the gap g_j = ∫ ψ_j g / D_j and the frame (t₁, t₂, n) of

@@ -12,7 +12,7 @@ the same bits on a rerun). The module map and the flow of one solve are in docs/
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.obstacles import Cylinder, Plane, Sphere
 from fenics_coulomb.model.surface import Surface
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scd.records import IterationRecord, SolveResult
 from fenics_coulomb.report import ContactNodes, ContactReport

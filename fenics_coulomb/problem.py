@@ -44,7 +44,7 @@ from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.dof_values import owned_values, set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
-from fenics_coulomb.model.pairing import ContactPair, Pairing
+from fenics_coulomb.model.pairs import ContactPair, Pairing
 from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration,
                                           largest_slide)
 from fenics_coulomb.report import ContactReport, make_report
@@ -169,9 +169,10 @@ class ContactProblem:
         form_compiler_options: FFCx options.
         jit_options: JIT options.
         contact_pairs: Two (or more) elastic bodies, disconnected parts of the mesh, in contact: the
-            :class:`~fenics_coulomb.model.pairing.ContactPair` s (slave and master facet tags, friction); replaces
-            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of :mod:`fenics_coulomb.model.two_body`;
-            :attr:`u` and the result's ``displacement`` are the physical u = M z.
+            :class:`~fenics_coulomb.model.pairs.ContactPair` s (slave and master facet tags, friction); replaces
+            ``contact`` and ``obstacles``. Solved in the variables z = M⁻¹u of
+            :mod:`fenics_coulomb.model.pairs.two_body`; :attr:`u` and the result's ``displacement`` are the
+            physical u = M z.
 
     Raises:
         InputError: for bad input (on every rank, before the first collective call where possible).
@@ -318,7 +319,7 @@ class ContactProblem:
         """Whether the contact geometry depends on the displacement: finite sliding with contact pairs or an
         obstacle that is not a plane (a plane's linearized gap is its gap at X, its frame constant)."""
         model = self.model
-        return model.sliding == "finite" and (model.pairing is not None or len(self._obstacles) > 1 or
+        return model.sliding == "finite" and (model.coupling.follows_configuration or len(self._obstacles) > 1 or
                                              any(not o.affine for o in self._obstacles))
 
     # -- the load path ------------------------------------------------------------------------------
@@ -655,17 +656,7 @@ class ContactProblem:
         finite = self.finite_sliding
         if commit and not finite:
             self._commit(result)  # small sliding keeps the history in the model's unknown (z for contact pairs)
-        if self.model.coupling.paired:
-            result.relative_displacement = result.displacement
-            result.displacement = self.model.physical(result.displacement)
-            result.master_force = self.model.master_forces(result.contact_force)
-            penetrating = self.model.free_slave_penetrations(result.displacement)
-            if penetrating and self.model.comm.rank == 0:
-                logger.warning("%d free slave node(s) (beyond the search distance, with a Dirichlet component, or "
-                               "a mortar node not fully covered by the master surface) penetrate the master "
-                               "surface: enlarge the pairs' search_distance, and make the smaller surface the "
-                               "slave (mortar drops the slave nodes whose facets reach past the master's border)",
-                               penetrating)
+        self.model.coupling.finish(self.model, result)  # contact pairs: u = M z, the master forces
         if commit and finite:
             self._commit(result)  # finite sliding keeps the physical u (mapped by the next step's pairing)
         set_owned_values(self.u, result.displacement)

@@ -19,7 +19,7 @@ Definitions (the same as summary.json's and the XDMF fields'):
   ∫ φᵢ ds over the contact boundary (the lumped facet area; the mortar D_j on a dual mortar pair's slave nodes);
 * ``obstacle_forces[name]`` = Σ of the contact forces on the nodes that touch that obstacle (the force the
   obstacle exerts on the body); ``pair_forces`` = the force each contact pair exerts on its slave body and, from
-  that pair's own stencil, on its master body (:func:`fenics_coulomb.model.forces.pair_forces`);
+  that pair's own stencil, on its master body (:func:`fenics_coulomb.model.pairs.forces.pair_forces`);
 * ``reactions[name]`` = Σ over the DOFs the support holds (its components only: a condition on ``V.sub(i)`` or
   a roller has none in the components it leaves free) of K ũ − l̃⁰ assembled without boundary conditions, minus
   the contact forces acting on those DOFs: the force the support exerts on the body
@@ -43,7 +43,7 @@ import numpy.typing as npt
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.checks import boundary_reactions
 from fenics_coulomb.model.contact_model import ContactModel
-from fenics_coulomb.model.forces import contact_areas, pair_forces
+from fenics_coulomb.model.forces import contact_areas
 from fenics_coulomb.model.obstacles import Obstacle, obstacle_names
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN, ContactState
@@ -239,10 +239,8 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     area = contact_areas(model)
     normal_force = np.asarray(result.normal_force, dtype=np.float64)
     pressure = nodal_pressure(normal_force, area)
-    paired = getattr(model, "paired", None)
     which = np.asarray(cmap.obstacle_index, dtype=np.int64).copy()
-    if paired is not None and np.size(paired):
-        which[np.asarray(paired, dtype=bool)] = -1
+    which[model.coupling.paired_mask(cmap.size)] = -1  # a pair's slave node: no obstacle
     u = np.asarray(result.displacement, dtype=np.float64).reshape(-1, 3)[cmap.blocks]
     position = _gather(comm, cmap.coordinates, order) + _gather(comm, u, order)
     gap = _gather(comm, np.asarray(result.gap, dtype=np.float64), order)
@@ -269,7 +267,7 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     return ContactReport(
         total_force=nodes.force.sum(axis=0),
         obstacle_forces=per_obstacle,
-        pair_forces=pair_forces(model, result, model.pairs) if model.coupling.paired else [],
+        pair_forces=model.coupling.pair_forces(model, result),
         reactions={name: np.asarray(v) for name, v in support.items()},
         applied_load=np.asarray(model.total_load(), dtype=np.float64),
         nodes=nodes,

@@ -1,7 +1,7 @@
 """An independent brute-force integrator of the dual mortar matrices D, M and the weighted gap g̃ (issue 28).
 
-Nothing of fenics_coulomb.model.mortar is used: no auxiliary-plane clipping, no inverse projections. Each slave
-facet is split into n × n (triangle: n² sub-triangles; quadrilateral: n² sub-squares, each two triangles) pieces
+Nothing of fenics_coulomb.model.pairs.segmentation is used: no auxiliary-plane clipping, no inverse projections. Each
+slave facet is split into n × n (triangle: n² sub-triangles; quadrilateral: n² sub-squares, each two triangles) pieces
 of its REFERENCE element; each piece's 3 degree-2 Gauss points are mapped to the facet (x_s(ξ), the surface
 element |x_ξ × x_η| dξ) and cast as rays along the facet's auxiliary-plane normal n_c (the outward unit normal
 at its centre) onto the master facets: the ray meets master facet f where x_s + t n_c = x_f(ζ) with ζ inside

@@ -93,17 +93,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     stress = stress_from_form(model.a_ufl, u)
     if stress is not None:
         fields = (*fields, *stress_functions(stress, msh))
-    if getattr(model, "num_bodies", 1) > 1:
-        body = dolfinx.fem.Function(S, name="body")
-        body.x.array[to_scalar] = np.asarray(model.body_of_block, dtype=np.float64) + 1.0
-        body.x.scatter_forward()
-        fields = (*fields, body)
-    if not model.coupling.paired:
-        return fields
-    reaction = dolfinx.fem.Function(V, name="master_reaction")
-    if result.master_force is not None:
-        set_owned_values(reaction, result.master_force)
-    return (*fields, reaction)
+    return (*fields, *model.coupling.output_fields(model, result, S, to_scalar))  # contact pairs: body, reaction
 
 
 def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any]:
@@ -160,10 +150,7 @@ def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, An
     closed = (state != OPEN) & (state != NOT_CONTACT)
     obstacle_names, pair_names = group_names(model)
     n_obstacles = len(obstacle_names)
-    group = np.asarray(cmap.obstacle_index, dtype=np.int64).reshape(-1).copy()
-    paired = _paired_mask(model)
-    if paired.any():
-        group[paired] = n_obstacles + np.asarray(model.pairing.pair_index, dtype=np.int64)
+    group = model.coupling.contact_groups(np.asarray(cmap.obstacle_index, dtype=np.int64), n_obstacles)
     groups = n_obstacles + len(pair_names)
     force = _nodal_forces(result, cmap.size)
     normal = np.asarray(result.normal_force, dtype=np.float64).reshape(-1)
@@ -243,14 +230,6 @@ def _nodal_forces(result: SolveResult, size: int) -> npt.NDArray[np.float64]:
     """The Cartesian contact force on the body per owned contact node (zeros when the result has none)."""
     force = np.asarray(result.contact_force, dtype=np.float64)
     return force.reshape(size, 3) if force.size == 3 * size else np.zeros((size, 3))
-
-
-def _paired_mask(model: ContactModel) -> npt.NDArray[np.bool_]:
-    """The contact nodes that are slave nodes of a contact pair."""
-    paired = getattr(model, "paired", None)
-    if paired is None or not np.size(paired):
-        return np.zeros(model.contact.size, dtype=bool)
-    return np.asarray(paired, dtype=bool).reshape(-1)
 
 
 def stress_from_form(a: ufl.Form, u: dolfinx.fem.Function) -> ufl.core.expr.Expr | None:

@@ -23,7 +23,6 @@ import ufl
 from fenics_coulomb.io.fields import UNITS, contact_statistics, stress_statistics
 from fenics_coulomb.io.results import rank0_file
 from fenics_coulomb.model.contact_model import ContactModel
-from fenics_coulomb.model.forces import pair_forces
 from fenics_coulomb.scd.records import SolveResult
 
 __all__ = ["GROUP_COLUMNS", "summary", "write_summary", "write_convergence_csv", "write_path_csv", "software_versions"]
@@ -34,17 +33,16 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
     area and the peak contact pressure with its location (``contact_area``, ``contact_nodes``,
     ``peak_pressure``, ``peak_pressure_at``), the same per obstacle (``obstacles``: name → those and the
     ``force`` on the body) and per contact pair (``contact_pairs``: those and the force on each body,
-    :func:`pair_forces`), the largest von Mises and shear stress with their places (``max_von_mises``,
-    ``max_von_mises_at``, ``max_shear``, ``max_shear_at``: :func:`~fenics_coulomb.io.fields.stress_statistics`),
+    :func:`~fenics_coulomb.model.pairs.forces.pair_forces`), the largest von Mises and shear stress with their
+    places (``max_von_mises``, ``max_von_mises_at``, ``max_shear``, ``max_shear_at``:
+    :func:`~fenics_coulomb.io.fields.stress_statistics`),
     the ``units``, the software versions and ``extra`` (:func:`~fenics_coulomb.io.fields.contact_statistics`)."""
     comm = model.V.mesh.comm
     data = result.summary(comm)
     statistics = contact_statistics(model, result)
     per_pair = statistics.pop("contact_pairs")
     data.update(statistics)
-    if model.coupling.paired:
-        data["contact_pairs"] = [{**forces, **{k: v for k, v in stats.items() if k != "name"}}
-                                 for forces, stats in zip(pair_forces(model, result), per_pair, strict=False)]
+    data.update(model.coupling.summary_entries(model, result, per_pair))  # contact pairs: "contact_pairs"
     data.update(stress_statistics(model, result))
     data["units"] = dict(UNITS)
     data["versions"] = software_versions()

@@ -41,8 +41,8 @@ lengths in the mesh's unit L):
     mesh numbered by their smallest mesh-file node index (independent of the partition); threshold on it to
     see one body, e.g. the slave surface from the master side.
 ``master_reaction``
-    Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.two_body`): the reaction on each master node,
-    f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
+    Contact pairs only (two elastic bodies, :mod:`fenics_coulomb.model.pairs.two_body`): the reaction on each master
+    node, f_j = −Σ_s φ_sj f_s (GPa·L², Cartesian); 0 elsewhere. For pairs the contact fields above live on the
     slave contact nodes, ``displacement`` is the physical u = M z, ``gap`` is g + n·w with the relative
     displacement w_s = u_s − Σ_j φ_sj u_j, and ``contact_normal`` is the master's outward normal at the
     closest point.
@@ -281,7 +281,7 @@ def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0
         u=zeros, displacement=zeros, converged=True, reason="initial state", iterations=0, krylov_iterations=0,
         residual_history=[], records=[], sets=np.zeros(m, dtype=np.int8), states=np.full(m, OPEN, dtype=np.int8),
         normal_force=np.zeros(m), tangential_force=np.zeros((m, 2)), gap=np.array(model.contact.gap, dtype=float),
-        gamma=0.0, contact_force=np.zeros((m, 3)), master_force=zeros.copy() if model.coupling.paired else None)
+        gamma=0.0, contact_force=np.zeros((m, 3)), master_force=model.coupling.initial_master_force(zeros.size))
     write_result_grid(xdmf, model, result, t, "initial state")
 
 

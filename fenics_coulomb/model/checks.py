@@ -129,9 +129,9 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     # search distance, or mortar nodes not fully covered) penetrate the master has lost its contact: no exit 0 for
     # bodies passing through each other. (Border nodes that the mortar full-coverage rule drops beside nodes that
     # carry the contact penetrate by the rule's border error and only warn, docs/sliding.)
-    carried = _gmax(comm, lam[model.paired]) if model.pairing is not None else 0.0
-    out["free_penetration"] = model.free_slave_depth(model.physical(displacement)) / max(gap_scale, tiny) \
-        if model.pairing is not None and carried <= force_tiny else 0.0
+    carried = _gmax(comm, lam[model.coupling.paired_mask(cmap.size)])
+    out["free_penetration"] = model.coupling.free_slave_depth(model, model.physical(displacement)) / \
+        max(gap_scale, tiny) if carried <= force_tiny else 0.0
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * max(lam_scale, force_tiny), tiny)
     tnorm = np.hypot(t[:, 0], t[:, 1])
@@ -149,15 +149,10 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
         return out
     # Global balance with the clamped reactions from an assembly without boundary conditions.
     clamped_blocks = np.unique(model.dirichlet_rows // 3)
-    if not model.coupling.paired:
-        full = unconstrained_residual(model, displacement)
-        # a contact node with held components: its block of full already holds its contact force
-        unheld = ~np.isin(cmap.blocks, clamped_blocks) if np.any(cmap.held_components) else slice(None)
-        local = full[clamped_blocks].sum(axis=0) + f[unheld].sum(axis=0)
-    else:  # contact pairs, u = M z: the contact forces are internal (Σ_j φ_sj = 1), so the residual summed over
-        # every node (supports, slave and master nodes; zero elsewhere) balances the applied load
-        full = unconstrained_residual(model, model.physical(displacement))
-        local = full[: model.V.dofmap.index_map.size_local].sum(axis=0)
+    # what the supports and the contact forces take from the load (for contact pairs the contact forces are
+    # internal: the residual of u = M z summed over every node)
+    full = unconstrained_residual(model, model.physical(displacement))
+    local = model.coupling.balance_sum(model, full, f, clamped_blocks)
     total = np.asarray(comm.allreduce(local, op=MPI.SUM))
     applied = model.total_load()
     contact_total = np.asarray(comm.allreduce(f.sum(axis=0), op=MPI.SUM))

@@ -1,24 +1,28 @@
-"""The coupling of the bodies: the change of variables u = M z between the physical displacement u and the
-solver's unknown z, and everything that follows from it.
+"""The coupling of the bodies: everything in which one elastic body differs from two, behind one interface.
 
-:class:`ContactModel <fenics_coulomb.model.contact_model.ContactModel>` holds one coupling and asks it for
+The change of variables u = M z between the physical displacement u and the solver's unknown z, the contact nodes
+it brings, and what follows from it. :class:`ContactModel <fenics_coulomb.model.contact_model.ContactModel>`
+holds one coupling, built once (:meth:`Coupling.build`), and asks it, without knowing which one it holds, for
 
-* the stiffness the solver sees (:meth:`Coupling.stiffness`: A, or Ã = Mᵀ A_free M) before the Dirichlet rows
-  are scaled, and the lifted load (:meth:`Coupling.assemble_load`);
-* the maps :meth:`Coupling.physical` (u = M z) and :meth:`Coupling.relative` (z = M⁻¹ u);
-* the near-nullspace of the preconditioner (:meth:`Coupling.near_nullspace`);
-* the master bodies' reaction to the slave contact forces (:meth:`Coupling.master_forces`).
+* the contact boundary and the default obstacles (:meth:`Coupling.boundary`), the stiffness the solver sees and
+  the contact map (:meth:`Coupling.build`: A, or Ã = Mᵀ A_free M with the pairs' slave nodes merged with the
+  obstacles' contact nodes), the lifted load (:meth:`Coupling.assemble_load`);
+* the gaps of its own contact nodes at a placement (:meth:`Coupling.place`), the geometry of a configuration
+  X + u (:meth:`Coupling.configure`, :meth:`Coupling.pair_in`, :meth:`Coupling.stencil_change`);
+* the maps :meth:`Coupling.physical` (u = M z) and :meth:`Coupling.relative` (z = M⁻¹ u), the near-nullspace,
+  the energy's matrix;
+* the outputs of its kind: the master forces, the free slave nodes' penetration, the forces per pair, the point
+  fields and summary entries (empty for one body), the nodes' contact areas and groups.
 
-:class:`IdentityCoupling` is one body (or bodies touching rigid obstacles only): M = I. :class:`PairCoupling`
-is two elastic bodies with M = I + Φ, Φ² = 0, Φ_jl the weight of master node l in slave node j's stencil
-(:mod:`fenics_coulomb.model.two_body` derives the reduced problem; today's Φ is node-to-surface,
-:mod:`fenics_coulomb.model.pairing`). Another discretization of the pair (dual mortar: Φ_jl = M_jl / D_j)
-plugs in as another Φ: the solver, the frames and friction are unchanged.
+:class:`IdentityCoupling` is one body (or bodies touching rigid obstacles only): M = I, no pair. The pairs'
+coupling, M = I + Φ, is :class:`fenics_coulomb.model.pairs.coupling.PairCoupling`.
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -26,26 +30,78 @@ from petsc4py import PETSc
 import dolfinx
 import dolfinx.fem
 import dolfinx.fem.petsc
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
+from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.nullspace import rigid_body_modes
-from fenics_coulomb.model.two_body import body_rigid_modes, coupling_matrix
+from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping
 
 if TYPE_CHECKING:
-    from fenics_coulomb.model.contact_model import ContactModel
-    from fenics_coulomb.model.pairing import Pairing
+    from fenics_coulomb.model.contact_model import ContactModel, Friction
+    from fenics_coulomb.model.pairs import Pairing
+    from fenics_coulomb.scd.records import SolveResult
 
-__all__ = ["Coupling", "IdentityCoupling", "PairCoupling"]
+__all__ = ["Coupling", "IdentityCoupling", "StencilChange"]
 
 Array = npt.NDArray[np.float64]
+Boundary = tuple[dolfinx.mesh.MeshTags, Sequence[int]]
+
+
+@dataclass
+class StencilChange:
+    """How the coupling's own contact nodes change from the model's geometry to that of X + u (finite sliding;
+    :func:`fenics_coulomb.model.sliding.geometry_change`). Empty for one body.
+
+    Attributes:
+        moved: Per contact node of the model: it lost its partner or changed its stencil support, and counts.
+        delta: Per contact node of the model: Δ_j of a node that kept its partner (0 elsewhere).
+        gained_at: The current positions of the new candidates that penetrate, shape (k, 3).
+        old_nodes, new_nodes: The global DOF blocks of the nodes before and after (the digest of the geometry).
+        old_rows, new_rows: Their stencil supports (the digest of the geometry).
+        pairing: The pairing of X + u (None for one body).
+    """
+
+    moved: npt.NDArray[np.bool_]
+    delta: Array
+    gained_at: Array
+    old_nodes: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    new_nodes: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    old_rows: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    new_rows: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    pairing: Pairing | None = None
 
 
 class Coupling:
-    """The interface (see the module docstring); :attr:`paired` says whether there are master bodies."""
+    """The interface (see the module docstring)."""
 
-    #: Whether the coupling has slave and master bodies (two elastic bodies in contact).
-    paired: bool = False
+    #: The pairing of the contact pairs (None for one body).
+    pairing: Pairing | None = None
+    #: The number of elastic bodies the coupling knows, and the body of every local DOF block (None: one body).
+    num_bodies: int = 1
+    body_of_block: npt.NDArray[np.int64] | None = None
+    #: The stiffness without boundary conditions (None for one body).
+    A_free: PETSc.Mat | None = None
+    #: Whether the coupling's own geometry depends on the configuration (finite sliding re-pairs it).
+    follows_configuration: bool = False
+
+    # -- construction ------------------------------------------------------------------------------------
+    def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
+                 ) -> tuple[Any, list[int], Boundary | None]:
+        """The facet tags and markers of the contact boundary (nodal areas, figures) and the boundary of the
+        obstacles' contact nodes, from the model's ``contact`` argument (pure checks; the same on every rank)."""
+        raise NotImplementedError
+
+    def default_obstacles(self) -> list[Obstacle]:
+        """The obstacles of a model given none."""
+        raise NotImplementedError
+
+    def build(self, model: ContactModel, contact: Boundary | None, friction: Friction) -> None:
+        """Set the model's stiffness ``A`` (Dirichlet rows scaled), ``load``, ``contact`` (the contact map) and
+        ``friction`` (per node or a number), ``contact`` being the obstacles' contact boundary (collective)."""
+        raise NotImplementedError
 
     def stiffness(self, model: ContactModel, prefix: str) -> PETSc.Mat:
         """The assembled stiffness in the solver's unknown with the Dirichlet rows and columns set to the identity
@@ -56,6 +112,32 @@ class Coupling:
         """Assemble l̃ into ``model.load`` from the current coefficients and Dirichlet values (collective)."""
         raise NotImplementedError
 
+    # -- geometry ----------------------------------------------------------------------------------------
+    def paired_mask(self, size: int) -> npt.NDArray[np.bool_]:
+        """Which of the model's ``size`` contact nodes are the coupling's own (pairs' slave nodes; the others
+        belong to rigid obstacles)."""
+        return np.zeros(size, dtype=bool)
+
+    def place(self, model: ContactModel) -> None:
+        """Set the gaps of the coupling's own contact nodes in ``model.contact`` (linearized about the model's
+        configuration; collective)."""
+
+    def pair_in(self, model: ContactModel, u: npt.ArrayLike | None) -> Pairing | None:
+        """The pairing of X + u (None: the reference configuration), or None for one body (collective)."""
+        return None
+
+    def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None) -> bool:
+        """Rebuild the coupling's geometry in X + u (``pairing`` when known); whether A and the contact nodes
+        changed (collective)."""
+        return False
+
+    def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
+                       pressed: npt.NDArray[np.bool_]) -> StencilChange:
+        """How the coupling's contact nodes change in X + u (collective; see :class:`StencilChange`)."""
+        size = model.contact.size
+        return StencilChange(np.zeros(size, dtype=bool), np.zeros(size), np.zeros((0, 3)))
+
+    # -- the change of variables ---------------------------------------------------------------------------
     def physical(self, z: Array) -> Array:
         """u = M z on the owned DOFs (collective)."""
         raise NotImplementedError
@@ -64,20 +146,103 @@ class Coupling:
         """z = M⁻¹ u on the owned DOFs (collective)."""
         raise NotImplementedError
 
-    def master_forces(self, contact_force: Array, local_dofs: npt.NDArray[np.int32]) -> Array | None:
-        """The reaction on the master nodes (owned DOFs), or None without master bodies (collective)."""
-        raise NotImplementedError
-
     def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
         """The rigid-body modes in the solver's unknown, for GAMG (the caller destroys it)."""
         raise NotImplementedError
+
+    def energy_matrix(self, model: ContactModel) -> PETSc.Mat:
+        """The matrix K of the elastic energy ½ uᵀ K u of the physical displacement."""
+        return model.A
+
+    # -- outputs -----------------------------------------------------------------------------------------
+    def master_forces(self, contact_force: Array, local_dofs: npt.NDArray[np.int32]) -> Array | None:
+        """The reaction on the master nodes (owned DOFs), or None without master bodies (collective)."""
+        return None
+
+    def initial_master_force(self, size: int) -> Array | None:
+        """The master forces of the unloaded state, on ``size`` owned DOFs (None without master bodies)."""
+        return None
+
+    def finish(self, model: ContactModel, result: SolveResult) -> None:
+        """Make ``result`` physical: u = M z, the master forces, the free slave nodes' penetration (collective)."""
+
+    def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
+        """The number of free slave nodes penetrating their master surface (collective; 0 for one body)."""
+        return 0
+
+    def free_slave_depth(self, model: ContactModel, u: Array) -> float:
+        """The deepest penetration of a free slave node, max(−g, 0) over all ranks (collective; 0 for one body)."""
+        return 0.0
+
+    def contact_areas(self, areas: Array) -> Array:
+        """The contact nodes' areas with the coupling's own (mortar D_j) where its method gives them."""
+        return areas
+
+    def contact_groups(self, obstacle_index: npt.NDArray[np.int64], num_obstacles: int) -> npt.NDArray[np.int64]:
+        """The group of every contact node: its obstacle's index, or ``num_obstacles`` + its pair's index."""
+        return np.array(obstacle_index, dtype=np.int64).reshape(-1)
+
+    def balance_sum(self, model: ContactModel, residual: Array, contact_force: Array,
+                    clamped_blocks: npt.NDArray[np.int32]) -> Array:
+        """This rank's share of the global balance: what the supports and the contact forces take from the load
+        (``residual``: K u − l̃⁰ without boundary conditions, per local block; ``contact_force`` per contact node)."""
+        raise NotImplementedError
+
+    def pair_forces(self, model: ContactModel, result: SolveResult) -> list[dict[str, Any]]:
+        """Per contact pair, the forces on its slave and master bodies (collective; empty for one body)."""
+        return []
+
+    def output_fields(self, model: ContactModel, result: SolveResult, S: dolfinx.fem.FunctionSpace,
+                      to_scalar: npt.NDArray[np.int32]) -> tuple[dolfinx.fem.Function, ...]:
+        """The point fields of the coupling's kind (the body id, the master reaction; none for one body)."""
+        return ()
+
+    def summary_entries(self, model: ContactModel, result: SolveResult, per_pair: list[dict[str, Any]]
+                        ) -> dict[str, Any]:
+        """summary.json's entries of the coupling's kind (``contact_pairs``, with ``per_pair``'s contact statistics;
+        none for one body)."""
+        return {}
 
     def destroy(self) -> None:
         """Destroy the PETSc objects the coupling owns (collective)."""
 
 
 class IdentityCoupling(Coupling):
-    """One body (M = I): A with the Dirichlet rows and columns of the identity, l̃ by DOLFINx's lifting."""
+    """One body (M = I): A with the Dirichlet rows and columns of the identity, l̃ by DOLFINx's lifting, the contact
+    nodes of the contact boundary against the obstacles."""
+
+    def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
+                 ) -> tuple[Any, list[int], Boundary | None]:
+        if contact is None:
+            raise InputError("contact: give the facet tags and the markers of the contact boundary")
+        facet_tags, markers = contact
+        markers = [int(m) for m in markers]
+        # a marker no facet carries makes no contact node at all: a typo, not a body without contact
+        comm = model.comm
+        counts = comm.allreduce(np.array([facet_tags.find(m).size for m in markers], dtype=np.int64), op=MPI.SUM)
+        missing = [m for m, c in zip(markers, counts, strict=True) if c == 0]
+        values = sorted(set().union(*comm.allgather({int(v) for v in np.unique(facet_tags.values)}))) \
+            if missing else []  # every rank's values (missing is global: all ranks gather or none)
+        check_all(comm, not missing, f"contact: marker {missing[0] if missing else 0} is carried by no facet of "
+                  f"the facet tags (their values: {values})")
+        return facet_tags, markers, contact
+
+    def default_obstacles(self) -> list[Obstacle]:
+        return [DEFAULT_PLANE]
+
+    def build(self, model: ContactModel, contact: Boundary | None, friction: Friction) -> None:
+        # stiffness with the Dirichlet rows/columns replaced by a scaled identity
+        model.A = self.stiffness(model, model.prefix)
+        model.dirichlet_diagonal = model.scale_dirichlet_rows(model.dirichlet_rows)
+        # load vector l̃ and the contact nodes (no clamped node; held components tangential to the contact,
+        # :mod:`fenics_coulomb.model.frames`)
+        model.load = model.A.createVecRight()
+        model.load.setOptionsPrefix(f"{model.prefix}load_")
+        model.assemble_load()
+        model.contact = ContactMap.create(model.V, model.facet_tags, model.markers, model.not_contact(),
+                                          model.obstacles, held=model.held)
+        check_not_overlapping(model.obstacles, model.contact.coordinates, comm=model.comm)
+        model.friction = model.friction_at_nodes(friction)
 
     def stiffness(self, model: ContactModel, prefix: str) -> PETSc.Mat:
         A = dolfinx.fem.petsc.assemble_matrix(model.a, bcs=model.bcs)
@@ -101,121 +266,13 @@ class IdentityCoupling(Coupling):
     def relative(self, u: Array) -> Array:
         return np.array(u, dtype=np.float64)
 
-    def master_forces(self, contact_force: Array, local_dofs: npt.NDArray[np.int32]) -> Array | None:
-        return None
-
     def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
         return rigid_body_modes(V)
 
-
-def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
-    """Whether two matrices of one layout have the same nonzero pattern on every rank (collective)."""
-    ia, ja, _ = a.getValuesCSR()
-    ib, jb, _ = b.getValuesCSR()
-    same = bool(np.array_equal(ia, ib) and np.array_equal(ja, jb))
-    return bool(a.getComm().tompi4py().allreduce(same, op=MPI.LAND))
-
-
-class PairCoupling(Coupling):
-    """Two elastic bodies: M = I + Φ from the pairing's stencils (PETSc AIJ ``<prefix>coupling_``).
-
-    Args:
-        V: The vector space of both bodies.
-        pairing: The slave nodes' stencils (blocks, master blocks, weights).
-        body_of_block: The body of every local DOF block; ``num_bodies`` their number.
-        prefix: Options prefix of the model's objects.
-        held: The components a Dirichlet condition holds at each slave node, shape (m, 3) (None: none).
-    """
-
-    paired = True
-
-    def __init__(self, V: dolfinx.fem.FunctionSpace, pairing: Pairing, body_of_block: npt.NDArray[np.int64],
-                 num_bodies: int, prefix: str, A_free: PETSc.Mat | None = None,
-                 held: npt.NDArray[np.bool_] | None = None, previous: Coupling | None = None) -> None:
-        self.pairing = pairing
-        self.body_of_block = body_of_block
-        self.num_bodies = num_bodies
-        M = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix, held)
-        #: Whether M is ``previous``'s Mat with new values (the same nonzero pattern on every rank): the stiffness
-        #: built from ``previous`` can then be overwritten in place (:meth:`stiffness`).
-        self.reused = isinstance(previous, PairCoupling) and previous.M is not None and _same_pattern(previous.M, M)
-        if self.reused:
-            assert isinstance(previous, PairCoupling) and previous.M is not None
-            M.copy(previous.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-            M.destroy()
-            M, previous.M = previous.M, None  # PtAP's reuse needs the very Mat its product was made from
-        #: M = I + Φ (Φ's rows of held slave components 0).
-        self.M: PETSc.Mat | None = M
-        #: The stiffness without boundary conditions (both bodies): given (then its owner destroys it) or
-        #: assembled by :meth:`stiffness`.
-        self.A_free: PETSc.Mat | None = A_free
-        self._owns_free = A_free is None
-
-    def stiffness(self, model: ContactModel, prefix: str, reuse: PETSc.Mat | None = None) -> PETSc.Mat:
-        """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity; ``reuse``: the Ã of the
-        coupling this one :attr:`reused`, overwritten in place (PtAP's numeric phase only, the same bits)."""
-        if self.A_free is None:
-            self.A_free = dolfinx.fem.petsc.assemble_matrix(model.a)
-            self.A_free.assemble()
-            self.A_free.setOptionsPrefix(f"{prefix}A_free_")
-        if reuse is not None:
-            A = self.A_free.ptap(self.M, result=reuse)
-        else:
-            A = self.A_free.ptap(self.M)
-            A.setOptionsPrefix(f"{prefix}A_")
-        r0 = model.V.dofmap.index_map.local_range[0]
-        A.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
-        return A
-
-    def assemble_load(self, model: ContactModel) -> None:
-        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.model.two_body`)."""
-        assert self.A_free is not None, "stiffness() first"
-        l = dolfinx.fem.petsc.assemble_vector(model.L)
-        l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        x_d = model.A.createVecRight()  # M x_D: the Dirichlet values g on D, 0 elsewhere
-        x_d.set(0.0)
-        x_d.array[model.dirichlet_rows] = model.dirichlet_values
-        t, y = self.A_free.createVecs()
-        self.M.mult(x_d, t)
-        self.A_free.mult(t, y)
-        y.scale(-1.0)
-        y.axpy(1.0, l)  # y = l − A_free M x_D
-        self.M.multTranspose(y, model.load)
-        model.load.array[model.dirichlet_rows] = model.dirichlet_diagonal * x_d.array[model.dirichlet_rows]
-        for vec in (l, x_d, t, y):
-            vec.destroy()
-
-    def physical(self, z: Array) -> Array:
-        x, y = self.M.createVecs()
-        x.array[:] = z
-        self.M.mult(x, y)
-        u = y.getArray(readonly=True).copy()
-        x.destroy()
-        y.destroy()
-        return u
-
-    def relative(self, u: Array) -> Array:
-        """z = M⁻¹ u = (I − Φ) u = 2u − M u (Φ² = 0)."""
-        return 2.0 * np.asarray(u, dtype=np.float64) - self.physical(u)
-
-    def master_forces(self, contact_force: Array, local_dofs: npt.NDArray[np.int32]) -> Array | None:
-        """f_j = −Σ_s φ_sj f_s: Mᵀ f − f = Φᵀ f with f on the slave contact DOFs ``local_dofs``, shape (m, 3)."""
-        x, y = self.M.createVecs()
-        x.set(0.0)
-        x.array[local_dofs] = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3)
-        self.M.multTranspose(x, y)  # Mᵀ f = f + Φᵀ f
-        y.axpy(-1.0, x)
-        out = -y.getArray(readonly=True).copy()
-        x.destroy()
-        y.destroy()
-        return out
-
-    def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
-        """(I − Φ) r_b per body b (:func:`fenics_coulomb.model.two_body.body_rigid_modes`)."""
-        return body_rigid_modes(V, self.body_of_block, self.num_bodies, self.M)
-
-    def destroy(self) -> None:
-        for obj in (self.M, self.A_free if self._owns_free else None):  # M is None when a successor took it
-            if obj is not None:
-                obj.destroy()
-        self.A_free = None
+    def balance_sum(self, model: ContactModel, residual: Array, contact_force: Array,
+                    clamped_blocks: npt.NDArray[np.int32]) -> Array:
+        """The supports' reactions and the contact forces (a contact node with held components: its block of the
+        residual already holds its contact force)."""
+        cmap = model.contact
+        unheld = ~np.isin(cmap.blocks, clamped_blocks) if np.any(cmap.held_components) else slice(None)
+        return residual[clamped_blocks].sum(axis=0) + contact_force[unheld].sum(axis=0)

@@ -82,11 +82,9 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.model.two_body import coupling_matrix
-
 if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
-    from fenics_coulomb.model.pairing import Pairing
+    from fenics_coulomb.model.pairs import Pairing
 
 __all__ = ["MAX_GEOMETRY_UPDATES", "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "LOOSE_FACTOR", "largest_slide",
            "GeometryChange", "GeometryIteration", "supports", "geometry_change"]
@@ -201,7 +199,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     scale = comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
     tolerance = accuracy * scale
     pressed = np.ones(cmap.size, dtype=bool) if active is None else np.asarray(active, dtype=bool)
-    paired = model.paired if model.pairing is not None else np.zeros(cmap.size, dtype=bool)
+    paired = model.coupling.paired_mask(cmap.size)
     rigid = np.flatnonzero(~paired)
     delta = np.zeros(cmap.size)
     moved = np.zeros(cmap.size, dtype=bool)
@@ -217,52 +215,14 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         v = uc - model.offset[rigid]
         dt = _tangential(n, v) - _tangential(n_old, v)
         delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt)), 0.0)
-    pairing: Pairing | None = None
-    gained_at = np.zeros((0, 3))
     r0 = model.V.dofmap.index_map.local_range[0]
-    old_nodes, new_nodes = [cmap.blocks[rigid] + r0], [cmap.blocks[rigid] + r0]
-    old_rows, new_rows = [cmap.obstacle_index[rigid].reshape(-1, 1)], [index.reshape(-1, 1)]
-    if model.pairing is not None:
-        pairing, held = model.held_pairing(model.pair_in(u))  # as ContactModel.configure would make it
-        old = model.pairing
-        sel = np.flatnonzero(paired)  # the paired nodes of the contact map, in the order of old.blocks
-        threshold = tolerance / model.node_size()[old.blocks]
-        old_support = supports(old.master_blocks, old.weights, threshold)
-        new_support = supports(pairing.master_blocks, pairing.weights,
-                               tolerance / model.node_size()[pairing.blocks])
-        old_nodes.append(old.blocks + r0)
-        new_nodes.append(pairing.blocks + r0)
-        old_rows.append(old_support)
-        new_rows.append(new_support)
-        _, i_old, i_new = np.intersect1d(old.blocks, pairing.blocks, assume_unique=True, return_indices=True)
-        lost = np.ones(old.blocks.size, dtype=bool)
-        lost[i_old] = False
-        gained = np.ones(pairing.blocks.size, dtype=bool)
-        gained[i_new] = False
-        penetrating = pairing.gap < -tolerance  # in the new geometry, at X + u
-        relevant = pressed[sel][i_old] | penetrating[i_new]
-        moved[sel[i_old]] = ~_same_supports(old_support[i_old], new_support[i_new]) & relevant
-        moved[sel[lost]] = pressed[sel][lost]  # a pressed node lost its partner
-        gained &= penetrating  # a new candidate that penetrates
-        gained_at = model.V.tabulate_dof_coordinates()[pairing.blocks[gained]] + U[pairing.blocks[gained]]
-        step = u if previous is None else u - np.asarray(previous, dtype=np.float64)
-        n_old = cmap.frames[sel][:, :, 2]
-        dofs = cmap.local_dofs[sel]
-        linear = cmap.gap[sel] + np.einsum("ij,ij->i", n_old, np.asarray(z).reshape(-1)[dofs])
-        s_old = model.coupling.relative(step)[dofs]
-        size_local = model.V.dofmap.index_map.size_local
-        M = coupling_matrix(model.V, pairing.blocks, pairing.master_blocks, pairing.weights,
-                            f"{model.prefix}geometry_", held)  # collective
-        x, y = M.createVecs()
-        x.array[:] = step[:3 * size_local]
-        M.mult(x, y)
-        new_dofs = 3 * pairing.blocks[:, None] + np.arange(3)
-        s_new = (2.0 * step - y.getArray(readonly=True))[new_dofs]
-        for obj in (x, y, M):
-            obj.destroy()
-        dt = _tangential(pairing.frames[i_new][:, :, 2], s_new[i_new]) - _tangential(n_old[i_old], s_old[i_old])
-        change = np.sqrt((pairing.gap[i_new] - linear[i_old]) ** 2 + np.einsum("ij,ij->i", dt, dt))
-        delta[sel[i_old]] = np.where(relevant, change, 0.0)
+    pairs = model.coupling.stencil_change(model, u, z, previous, tolerance, pressed)  # the coupling's own nodes
+    moved[paired] = pairs.moved[paired]
+    delta[paired] = pairs.delta[paired]
+    gained_at = pairs.gained_at
+    old_nodes, new_nodes = [cmap.blocks[rigid] + r0, *pairs.old_nodes], [cmap.blocks[rigid] + r0, *pairs.new_nodes]
+    old_rows = [cmap.obstacle_index[rigid].reshape(-1, 1), *pairs.old_rows]
+    new_rows = [index.reshape(-1, 1), *pairs.new_rows]
     delta[moved] = 0.0
     changed = comm.allreduce(int(np.sum(moved)) + int(gained_at.shape[0]), op=MPI.SUM)  # pressed or penetrating
     discrepancy = comm.allreduce(float(np.max(delta, initial=0.0)), op=MPI.MAX)
@@ -280,7 +240,8 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         kind = [np.full((n.size, 1), k, np.int64) for k, n in enumerate(nodes)]
         return _signature(comm, np.concatenate(nodes), np.column_stack([np.concatenate(kind), np.concatenate(wide)]))
 
-    return GeometryChange(settled, changed, discrepancy, tolerance, where, pairing, signature(old_nodes, old_rows),
+    return GeometryChange(settled, changed, discrepancy, tolerance, where, pairs.pairing,
+                          signature(old_nodes, old_rows),
                           signature(new_nodes, new_rows))
 
 
@@ -317,7 +278,7 @@ class GeometryIteration:
         self.rtol = float(rtol)
         self.error_per_rtol = float(error_per_rtol)
         self.previous = previous
-        fixed = model.pairing is None and all(o.affine for o in model.obstacles)
+        fixed = not model.coupling.follows_configuration and all(o.affine for o in model.obstacles)
         #: The reduction of the next solve (never increasing).
         self.reduction = self.rtol if fixed else max(self.rtol, min(self.rtol ** 0.5, 1e-3))
         #: Geometry updates so far.
@@ -400,7 +361,7 @@ def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[
     """
     comm = model.comm
     cmap = model.contact
-    paired = model.paired if model.pairing is not None else np.zeros(cmap.size, dtype=bool)
+    paired = model.coupling.paired_mask(cmap.size)
     n = cmap.normals
     v = np.asarray(z, dtype=np.float64).reshape(-1)[cmap.local_dofs] - np.where(
         paired[:, None], 0.0, getattr(model, "obstacle_displacement", np.zeros((cmap.size, 3))))

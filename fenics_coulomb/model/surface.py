@@ -4,7 +4,7 @@ r"""Rigid obstacles from a triangulated surface: a die, punch, rail or gear flan
 an STL file (ASCII or binary) or of a gmsh ``.msh`` surface mesh (its 3-node triangles), once, on every rank
 (the surface is small; every rank holds it), and places them translated by the obstacle's ``displacement`` δ.
 
-Geometry: exactly the two-body master projection of :mod:`fenics_coulomb.model.pairing` on a mesh that is
+Geometry: exactly the two-body master projection of :mod:`fenics_coulomb.model.pairs.projection` on a mesh that is
 rigid — the closest point x_m on the triangles (candidates: the triangles whose bounding boxes lie within a
 distance bound, :func:`closest_on_surface`; projection on the plane or the closest point of the edges), the tie
 rule (facets whose closest point is within 1e-10 h of the best one; the facet with the lexicographically smallest
@@ -57,7 +57,9 @@ from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
-from fenics_coulomb.model.pairing import TIE_TOL, _closest, _norm, _select, _Surface
+from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, _select
+from fenics_coulomb.model.pairs.projection import Surface as _Surface
+from fenics_coulomb.model.pairs.projection import norm as _norm
 
 __all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "SEARCH_BLOCK", "SEARCH_ENTRIES", "Source", "Surface",
            "SurfaceIndex", "closest_on_surface", "file_source", "inside_closed", "read_triangles", "surface_core",
@@ -367,8 +369,8 @@ def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.ND
 
 def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, Array]:
     """Closest points, weights, facets, normals and cone membership of the points x (m, 3) on a surface at rest:
-    the two-body master projection with its tie and normal-cone rules (:mod:`fenics_coulomb.model.pairing`), the
-    same numbers as its search over every facet.
+    the two-body master projection with its tie and normal-cone rules
+    (:mod:`fenics_coulomb.model.pairs.projection`), the same numbers as its search over every facet.
 
     Candidates: a bound U on each point's distance from its 4 nearest triangle centroids (the pairing's), then
     every triangle whose bounding box (:func:`_box_candidates`) and plane lie within U — a triangle nearer than U,

@@ -194,7 +194,7 @@ def create_ksp(
     ``gamg`` preconditions with A, which never changes: PETSc sets the AMG hierarchy up at the first solve
     and reuses it for every Newton matrix (only the contact rows differ from A). ``gamg-newton`` builds it on
     M every step. Both get the rigid-body near-nullspace of V, or ``near_nullspace()`` (e.g. the modes of two
-    bodies in the variables of :mod:`fenics_coulomb.model.two_body`). Call ``ksp.setFromOptions()`` afterwards.
+    bodies in the variables of :mod:`fenics_coulomb.model.pairs.two_body`). Call ``ksp.setFromOptions()`` afterwards.
 
     Returns:
         The KSP and the near-nullspace it uses (the caller destroys both), or None.

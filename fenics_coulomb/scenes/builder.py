@@ -25,7 +25,7 @@ import ufl
 
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.model.materials import Material, epsilon, sigma
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, Body, GapFunction, create_cuboid
 from fenics_coulomb.scenes.meshes import read_gmsh_tags

@@ -2,8 +2,8 @@
 solve against an Alart–Curnier solve in u with the brute-force matrices, the patch-test property, swapping
 slave and master, edge dropping, bad input.
 
-The brute force (tests/mortar_brute_force.py) shares nothing with fenics_coulomb.model.mortar but the facets'
-vertex lists (``_facet_data``: coordinates, global blocks, outward orientation).
+The brute force (tests/mortar_brute_force.py) shares nothing with fenics_coulomb.model.pairs.segmentation but the
+facets' vertex lists (``facet_data``: coordinates, global blocks, outward orientation).
 """
 
 from __future__ import annotations
@@ -22,9 +22,11 @@ from conftest import assert_physics, global_norm
 
 from fenics_coulomb import ContactPair, ContactProblem
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.forces import pair_forces
-from fenics_coulomb.model.mortar import GAUSS7, GAUSS7_W, clip, dual_coefficients, mortar_nodes
-from fenics_coulomb.model.pairing import _facet_data, _gather, _local_facets, _pair_nodes
+from fenics_coulomb.model.pairs.forces import pair_forces
+from fenics_coulomb.model.pairs.polygons import clip
+from fenics_coulomb.model.pairs.segmentation import GAUSS7, GAUSS7_W, dual_coefficients, mortar_nodes
+from fenics_coulomb.model.pairs import pair_surfaces
+from fenics_coulomb.model.pairs.projection import facet_data, gather_surface, local_facets, project
 from fenics_coulomb.model.dof_values import owned_values
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -49,8 +51,8 @@ def surfaces(cell, slave_tag, master_tag, n_lower, n_upper=(4, 4, 2), gap=0.3, l
     V = dolfinx.fem.functionspace(blocks.mesh, ("Lagrange", 1, (3,)))
     X = V.tabulate_dof_coordinates()
     nv = 4 if cell == "hexahedron" else 3
-    S = _gather(MPI.COMM_SELF, _facet_data(V, _local_facets(blocks.facet_tags, [slave_tag]), X), nv)
-    M = _gather(MPI.COMM_SELF, _facet_data(V, _local_facets(blocks.facet_tags, [master_tag]), X), nv)
+    S = gather_surface(MPI.COMM_SELF, facet_data(V, local_facets(blocks.facet_tags, [slave_tag]), X), nv)
+    M = gather_surface(MPI.COMM_SELF, facet_data(V, local_facets(blocks.facet_tags, [master_tag]), X), nv)
     return S, M
 
 
@@ -58,7 +60,7 @@ def library(S, M, nodes):
     size = np.linalg.norm(M.X[:, 0] - M.X[:, -1], axis=1)
     rank = np.arange(M.X.shape[0])
     verts, first = np.unique(S.blocks.ravel(), return_index=True)
-    closest = _pair_nodes(S.X.reshape(-1, 3)[first], M, size, rank)["closest"]
+    closest = project(S.X.reshape(-1, 3)[first], M, size, rank)["closest"]
     return mortar_nodes((S.X, S.blocks, S.sign), (M.X, M.blocks, M.sign), nodes, (verts, closest))
 
 
@@ -197,8 +199,8 @@ def test_scd_agrees_with_alart_curnier_on_brute_force_matrices(friction):
         (forces,) = pair_forces(model, result, [pair])
         assert forces["balance"] < 1e-8
     X = V.tabulate_dof_coordinates()
-    S = _gather(MPI.COMM_SELF, _facet_data(V, _local_facets(ft, [SLAVE]), X), 3)
-    M = _gather(MPI.COMM_SELF, _facet_data(V, _local_facets(ft, [MASTER]), X), 3)
+    S = gather_surface(MPI.COMM_SELF, facet_data(V, local_facets(ft, [SLAVE]), X), 3)
+    M = gather_surface(MPI.COMM_SELF, facet_data(V, local_facets(ft, [MASTER]), X), 3)
     bf = brute_force(S.X, S.blocks, S.sign, M.X, M.blocks, M.sign, blocks, n=128)
     m, n = blocks.size, K.shape[0]
     rows, cols, data, gaps, frames = [], [], [], np.zeros(m), np.zeros((m, 3, 3))
@@ -287,18 +289,18 @@ def test_bad_method_and_non_convex_facets():
 def test_a_bad_facet_on_one_rank_is_an_error_on_every_rank(monkeypatch):
     """The segmentation's InputError (a non-convex projected quadrilateral) found by one rank only: every rank
     raises it, naming the pair, before the next collective call (no rank waits for the others)."""
-    import fenics_coulomb.model.pairing as pairing
+    import fenics_coulomb.model.pairs.mortar as mortar_method
 
     comm = MPI.COMM_WORLD
-    original = pairing.mortar_nodes
+    original = mortar_method.mortar_nodes
 
     def bad_on_rank_0(*args, **kwargs):
         if comm.rank == 0:
             raise InputError("master facet at (1, 2, 3): its projection ... is not a convex quadrilateral")
         return original(*args, **kwargs)
 
-    monkeypatch.setattr(pairing, "mortar_nodes", bad_on_rank_0)
+    monkeypatch.setattr(mortar_method, "mortar_nodes", bad_on_rank_0)
     msh, ft = tet_blocks(comm)
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     with pytest.raises(InputError, match=r"contact pair 'press': master facet at \(1, 2, 3\)"):
-        pairing.pair_surfaces(V, [ContactPair(ft, slave=SLAVE, master=MASTER, name="press")], np.zeros(0, np.int32))
+        pair_surfaces(V, [ContactPair(ft, slave=SLAVE, master=MASTER, name="press")], np.zeros(0, np.int32))

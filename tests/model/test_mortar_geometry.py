@@ -30,9 +30,9 @@ from conftest import assert_physics, global_norm
 
 from fenics_coulomb import ContactPair, ContactProblem
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.forces import pair_forces
-from fenics_coulomb.model.mortar import clean_polygon, clip, polygon_area
-from fenics_coulomb.model.pairing import pair_surfaces
+from fenics_coulomb.model.pairs.forces import pair_forces
+from fenics_coulomb.model.pairs.polygons import clean_polygon, clip, polygon_area
+from fenics_coulomb.model.pairs import pair_surfaces
 
 ROOT = Path(__file__).resolve().parents[2]
 from meshes.two_blocks import BODIES, TAGS, two_blocks  # noqa: E402
@@ -227,11 +227,11 @@ def rollers(V, facet_tags, delta: float) -> list:
 
 def projected_areas(V, facet_tags, blocks) -> np.ndarray:
     """A_j = ∫ N_j dx dy over the slave facets (2 × 2 Gauss: exact for bilinear facets) at the local blocks."""
-    from fenics_coulomb.model.pairing import _facet_data, _gather, _local_facets
+    from fenics_coulomb.model.pairs.projection import facet_data, gather_surface, local_facets
 
     comm = V.mesh.comm
     X = V.tabulate_dof_coordinates()
-    S = _gather(comm, _facet_data(V, _local_facets(facet_tags, [SLAVE]), X), 4)
+    S = gather_surface(comm, facet_data(V, local_facets(facet_tags, [SLAVE]), X), 4)
     g = 0.5 + np.array([-1, 1]) / (2 * np.sqrt(3))
     xi, eta = np.repeat(g, 2), np.tile(g, 2)
     N = np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), (1 - xi) * eta, xi * eta], axis=1)

@@ -1,4 +1,4 @@
-"""The two-body pairing (fenics_coulomb.model.pairing, issue 18) against oracles per formula, 1 and 2 ranks.
+"""The two-body pairing (fenics_coulomb.model.pairs.pairing, issue 18) against oracles per formula, 1 and 2 ranks.
 
 Oracles: analytic closest points and normals of flat and hyperbolic-paraboloid (z = c·x·y, exactly the
 bilinear Q1 facets) master surfaces, scipy.optimize / dense sampling of the master facets, the tie rule
@@ -18,8 +18,8 @@ from scipy.optimize import minimize
 from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.pairing import ContactPair as _ContactPair
-from fenics_coulomb.model.pairing import pair_surfaces
+from fenics_coulomb.model.pairs import ContactPair as _ContactPair
+from fenics_coulomb.model.pairs import pair_surfaces
 
 from meshes.two_blocks import TAGS, boxes_mesh, two_blocks
 
@@ -251,7 +251,7 @@ def test_closest_point_kernels(nv):
     """The facet kernels on random (non-planar) facets and points beside, above and below them: the distance
     equals scipy's minimum over the facet's parametrization (a collapsed square for triangles), the
     weights reproduce the point and sum to 1."""
-    from fenics_coulomb.model.pairing import _closest_quad, _closest_triangle
+    from fenics_coulomb.model.pairs.projection import _closest_quad, _closest_triangle
 
     rng = np.random.default_rng(7)
     k = 60
@@ -321,7 +321,7 @@ def test_search_distance(gap, search, expected):
     records: list[logging.LogRecord] = []
     handler = logging.Handler(logging.WARNING)
     handler.emit = records.append  # on the module's own logger: the CLI's logger setup does not propagate
-    log = logging.getLogger("fenics_coulomb.model.pairing")
+    log = logging.getLogger("fenics_coulomb.model.pairs.pairing")
     log.addHandler(handler)
     try:
         P = pair_surfaces(V, [ContactPair(b.facet_tags, slave=TAGS["upper_bottom"], master=TAGS["lower_top"],

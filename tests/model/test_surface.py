@@ -1,7 +1,7 @@
 """Rigid surface obstacles from triangles (issue 26): gaps and frames against a brute-force projection, the
 analytic obstacles reproduced (a plane exactly, a sphere up to the facetting), bad files rejected in one line.
 
-The brute-force projection is independent of fenics_coulomb.model.pairing: the distance from a point to each
+The brute-force projection is independent of fenics_coulomb.model.pairs.pairing: the distance from a point to each
 triangle by a constrained least-squares solve (SLSQP over the barycentric coordinates), the minimum over all
 triangles; the sign from the side the point is on (inside the convex icosphere: below every facet plane)."""
 

@@ -1,5 +1,5 @@
 """The surface obstacles' closest-point search (:func:`fenics_coulomb.model.surface.closest_on_surface`) gives the
-numbers of the pairing's search (:func:`fenics_coulomb.model.pairing._pair_nodes`, whose candidate bound goes
+numbers of the pairing's search (:func:`fenics_coulomb.model.pairs.projection.project`, whose candidate bound goes
 through every triangle's centroid radius) on random points and on the hard places: near and exactly on vertices
 and edges, on a prism's axis (equidistant from all its sides: every side tied) and at a cap's centre (the fan's
 vertex, shared by every cap triangle), so the tie rule, the normal cone and the point-obstacle fallback beside
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from fenics_coulomb.model import surface as surface_module
-from fenics_coulomb.model.pairing import _pair_nodes
+from fenics_coulomb.model.pairs.projection import project as _pair_nodes
 from fenics_coulomb.model.surface import _box_candidates, closest_on_surface, file_source, surface_index
 
 ROOT = Path(__file__).resolve().parents[2]

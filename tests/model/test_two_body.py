@@ -23,7 +23,7 @@ from conftest import gather_by_coordinates, global_norm
 from fenics_coulomb import ContactProblem, Plane
 from fenics_coulomb.model.checks import physics_residuals, unconstrained_residual
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.model.dof_values import owned_values
 
 from meshes.two_blocks import TAGS  # noqa: E402
@@ -123,7 +123,7 @@ def test_rigid_master_equals_the_moved_plane(friction, method):
 
 
 def flat_coupling(V, gap: float, lower=(5, 3, 2), size=(2.0, 1.0)):
-    """The pairing of the flat interface computed here, independently of fenics_coulomb.model.pairing (serial): every
+    """The pairing of the flat interface computed here, independently of fenics_coulomb.model.pairs (serial): every
     upper-bottom node x_s (height g) projects vertically onto the lower block's structured top grid, whose
     bilinear shape functions at (x, y) are the weights. Returns the slave blocks, G with (G u)_s = u_s − Σ φ u_j,
     and the gaps."""
@@ -296,7 +296,8 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
         assert result.converged
         assert_physics(problem, result)
         model = problem.model
-        assert np.any(model.paired) and np.any(~model.paired)
+        paired = model.coupling.paired_mask(model.contact.size)
+        assert np.any(paired) and np.any(~paired)
         ip, ix, vals = model.A_free.getValuesCSR()
         K = sp.csr_matrix((vals, ix, ip), shape=model.A_free.getSize())
         slave, G_pair, g_pair = flat_coupling(V, 1e-3)
@@ -327,7 +328,8 @@ def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
         with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), obstacles=[plane], contact_pairs=[pair],
                             settings=TIGHT, petsc_options_prefix="both_") as problem:
             _, result = problem.solve()
-            paired = MPI.COMM_WORLD.allreduce(int(np.sum(problem.model.paired)), op=MPI.SUM)
+            mask = problem.model.coupling.paired_mask(problem.model.contact.size)
+            paired = MPI.COMM_WORLD.allreduce(int(np.sum(mask)), op=MPI.SUM)
             assert problem.p == 25 and paired == (25 if winner == "pair" else 0)
             both = owned(problem)
         kwargs = dict(contact_pairs=[pair]) if winner == "pair" else dict(contact=(ft, [SLAVE]), obstacles=[plane])

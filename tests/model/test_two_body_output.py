@@ -25,10 +25,11 @@ from test_two_body import MASTER, SLAVE, TIGHT, pressed_blocks
 from fenics_coulomb import ContactProblem
 from fenics_coulomb.model.checks import unconstrained_residual
 from fenics_coulomb.io.fields import contact_functions
-from fenics_coulomb.model.forces import contact_areas, pair_forces
+from fenics_coulomb.model.forces import contact_areas
+from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.io.summary import summary, write_summary
 from fenics_coulomb.io.xdmf import write_xdmf
-from fenics_coulomb.model.pairing import ContactPair
+from fenics_coulomb.model.pairs import ContactPair
 
 FIELDS = ["displacement", "contact_state", "contact_pressure", "contact_force", "tangential_force",
           "contact_traction", "gap", "contact_normal", "stress", "von_mises", "body", "master_reaction"]
@@ -75,10 +76,10 @@ def test_two_body_fields_and_pair_forces(mpi_tmp_path):
         pairing = model.pairing
         # the gap's constant part: the pairing's g(X + u_c) linearized about the configuration, g − n·w(u_c)
         # (finite sliding; the pairing's own gap with small sliding)
-        gap_constant = model.contact.gap[model.paired]
+        gap_constant = model.contact.gap[model.coupling.paired_mask(model.contact.size)]
         stencil, weights, gap0, normals, force, xs, areas = _gather_rows(
             comm, pairing.master_blocks, pairing.weights, gap_constant, pairing.frames[:, :, 2], result.contact_force,
-            pairing.coordinates, contact_areas(model)[model.paired])
+            pairing.coordinates, contact_areas(model)[model.coupling.paired_mask(model.contact.size)])
         slave_blocks = pairing.blocks.astype(np.int64) + r0
         (slave_global,) = _gather_rows(comm, slave_blocks)
         # ∫ traction ds over the slave surface = Σ nodal contact forces (traction = f_i / ∫ φ_i ds)

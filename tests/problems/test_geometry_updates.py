@@ -11,6 +11,7 @@ import pytest
 
 from benchmarks.sliding import SlidingBlocks
 from fenics_coulomb.model.contact_model import ContactModel
+from fenics_coulomb.model.dof_values import owned_values
 from fenics_coulomb.scd import newton
 
 SMALL = {"n_lower": (8, 4, 2), "n_upper": (6, 3, 2)}
@@ -70,7 +71,7 @@ def test_the_solver_stays_and_answers_as_a_new_hierarchy_at_every_update(monkeyp
         # Ã overwritten in place (PtAP's numeric phase) has the bits of Ã built anew: the slid model configured again
         # in its own configuration keeps its coupling's pattern; the other model is configured there from X
         model, other = reused["blocks"].problem.model, fresh["blocks"].problem.model
-        u = np.asarray(reused["blocks"].problem.u.x.petsc_vec.getArray(readonly=True)).copy()
+        u = owned_values(reused["blocks"].problem.u)
         A = model.A
         model.configure(u)
         assert model.coupling.reused and model.A is A

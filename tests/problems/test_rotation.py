@@ -177,7 +177,7 @@ def test_a_turning_floor_under_a_contact_pair():
         model = problem.model
         assert result.converged
         assert_physics(model, result.relative_displacement, keys=PHYSICS[:-1])
-        rigid = ~model.paired
+        rigid = ~model.coupling.paired_mask(model.contact.size)
         x = model.contact.coordinates[rigid]
         p = np.column_stack([x[:, 0], x[:, 1], np.full(x.shape[0], centre[2])])
         c, s = math.cos(math.radians(theta)), math.sin(math.radians(theta))

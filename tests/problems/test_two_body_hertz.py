@@ -12,7 +12,7 @@ import numpy as np
 
 from benchmarks.two_body_hertz import BODIES, TAGS, contact_radius, hertz, mesh, run  # noqa: E402
 
-from fenics_coulomb.model.two_body import connected_bodies  # noqa: E402
+from fenics_coulomb.model.pairs.two_body import connected_bodies  # noqa: E402
 
 
 def test_contact_radius():

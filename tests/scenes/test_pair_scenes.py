@@ -19,6 +19,8 @@ import pytest
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.cli import EXIT_INPUT, main
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.pairs import node_to_surface, register_pair_method, unregister_pair_method
 from fenics_coulomb.scenes.scene import Scene
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -109,6 +111,20 @@ def test_pair_scene_on_the_command_line(mesh_file):
     assert result.counts["stick"] + result.counts["slip"] > 0
 
 
+def test_the_method_key_is_checked_against_the_registry(mesh_file):
+    """[[contact_pair]] method accepts the registered pair methods: one registered at run time is accepted, and
+    refused (InputError naming it) once unregistered."""
+    path = write_scene(mesh_file.parent / f"toy{MPI.COMM_WORLD.size}.toml", mesh_file, extra='method = "toy"\n')
+    register_pair_method("toy", node_to_surface.stencils)
+    try:
+        (pair,) = Scene.from_toml(path).contact_pairs
+        assert pair.method == "toy"
+    finally:
+        unregister_pair_method("toy")
+    with pytest.raises(InputError, match="method = 'toy': must be one of 'mortar', 'node-to-surface'"):
+        Scene.from_toml(path)
+
+
 @pytest.mark.parametrize("method", ["mortar", "node-to-surface"])
 def test_the_method_key_chooses_the_discretization(mesh_file, method):
     """[[contact_pair]] method: dual mortar nodes carry D_j (their pressure's area), node-to-surface ones none;
@@ -152,8 +168,9 @@ def test_pair_scene_with_a_rigid_floor(mesh_file):
         assert result.converged
         model = problem.model
         floor = np.zeros(3)
-        floor[:] = MPI.COMM_WORLD.allreduce(result.contact_force[~model.paired].sum(axis=0), op=MPI.SUM)
-        pushed = MPI.COMM_WORLD.allreduce(result.contact_force[model.paired].sum(axis=0), op=MPI.SUM)
+        paired = model.coupling.paired_mask(model.contact.size)
+        floor[:] = MPI.COMM_WORLD.allreduce(result.contact_force[~paired].sum(axis=0), op=MPI.SUM)
+        pushed = MPI.COMM_WORLD.allreduce(result.contact_force[paired].sum(axis=0), op=MPI.SUM)
         checks = physics_residuals(model, result.relative_displacement)
     assert floor[2] > 0 and pushed[2] > 0
     for key in ("equilibrium", "penetration", "negative_pressure", "complementarity", "cone", "reaction_balance"):

@@ -1,12 +1,13 @@
-r"""Dual mortar pairing of two elastic bodies: the stencil Φ_jl = M_jl / D_j, the weighted gap, the
-slave nodal normals — the same change of variables u = (I + Φ) z as node-to-surface contact.
+r"""Dual mortar segmentation and integration: the stencil Φ_jl = M_jl / D_j, the weighted gap, the slave nodal
+normals of a pair — the same change of variables u = (I + Φ) z as node-to-surface contact (the method itself:
+:mod:`fenics_coulomb.model.pairs.mortar`; the polygons: :mod:`fenics_coulomb.model.pairs.polygons`).
 
 With biorthogonal ("dual") multipliers the mortar matrix D of the slave side is diagonal, so the mortar
 constraint of slave node j, D_j u_j − Σ_l M_jl u_l, divided by D_j is again a node-wise relative displacement
 
     w_j = u_j − Σ_l Φ_jl u_l,   Φ_jl = M_jl / D_j,
 
-exactly the form of :mod:`fenics_coulomb.model.two_body` (there Φ_jl = the master shape functions at one
+exactly the form of :mod:`fenics_coulomb.model.pairs.two_body` (there Φ_jl = the master shape functions at one
 closest point). Only the pairing changes; the SCD Newton, the frames and friction are those of one node.
 
 Derivation
@@ -20,7 +21,7 @@ u^s, u^m the slave and master displacements. The mortar coupling is the virtual 
 
 π the map of a slave point to the master point opposite it (here: the same point of an auxiliary plane).
 So the slave node j receives the force f_j = D_j λ_j and the master node l receives −Σ_j M_jl λ_j = −Σ_j Φ_jl f_j
-(the master forces of :meth:`fenics_coulomb.model.coupling.PairCoupling.master_forces`, unchanged), and the
+(the master forces of :meth:`fenics_coulomb.model.pairs.coupling.PairCoupling.master_forces`, unchanged), and the
 contact conditions are imposed on the weighted gap g̃_j + n_j · (D_j u_j − Σ_l M_jl u_l) = D_j (g_j + n_j · w_j)
 with the nodal gap g_j = g̃_j / D_j: node j is a contact node of the one-body form with u_j replaced by w_j and
 the force f_j; its pressure is λ_j·n_j = f_j·n_j / D_j. A rigid translation c of both bodies gives
@@ -90,7 +91,7 @@ closest master point to e's centre (r the largest centre–vertex distance of a 
 under e when the master is locally smooth and not steeper than about 60° against P_e. A master facet
 parallel to n_c (projected area below 1e-10 of its own) is skipped.
 
-Which slave nodes are segmented (:func:`fenics_coulomb.model.pairing.pair_surfaces`): those without a Dirichlet
+Which slave nodes are segmented (:func:`fenics_coulomb.model.pairs.mortar.stencils`): those without a Dirichlet
 component within 2 × the search distance + 4 h of M (their node-to-surface distance; h the largest diameter of
 their slave facets). A node farther away cannot have |g_j| <= the search distance: on its facets g is at least
 about its distance less h (the segments' x^s − x^m is at least as long as the distance of x^s from M, and n_c·n(ξ)
@@ -111,10 +112,11 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.pairs.polygons import (clean_polygon, clip, convex, counter_clockwise, cross2,
+                                                 polygon_area)
 
-__all__ = ["CLEAN_TOL", "COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "clip", "dual_coefficients",
-           "facet_map", "facet_normals", "mortar_nodes", "nodal_normals", "polygon_area", "clean_polygon",
-           "shape_functions"]
+__all__ = ["CLEAN_TOL", "COVERAGE_TOL", "GAUSS7", "GAUSS7_W", "MortarNodes", "dual_coefficients", "facet_map",
+           "facet_normals", "mortar_nodes", "nodal_normals", "shape_functions"]
 
 Array = npt.NDArray[np.float64]
 
@@ -155,10 +157,6 @@ def _norm(a: Array) -> Array:
     return np.sqrt(_dot(a, a))
 
 
-def _cross2(a: Array, b: Array) -> Array:
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-
-
 def shape_functions(nv: int, xi: Array, eta: Array) -> Array:
     """N at reference points (…): triangle (1 − ξ − η, ξ, η), quadrilateral the bilinear ones; shape (…, nv)."""
     if nv == 3:
@@ -191,8 +189,8 @@ def _inverse_2d(P: Array, p: Array) -> tuple[Array, Array]:
     a, b = P[:, 1] - P[:, 0], P[:, 2] - P[:, 0]
     r = p - P[:, None, 0]
     if P.shape[1] == 3:
-        det = _cross2(a, b)[:, None]
-        return _cross2(r, b[:, None]) / det, _cross2(a[:, None], r) / det
+        det = cross2(a, b)[:, None]
+        return cross2(r, b[:, None]) / det, cross2(a[:, None], r) / det
     c = (P[:, 0] - P[:, 1] - P[:, 2] + P[:, 3])[:, None]
     a, b = a[:, None], b[:, None]
     xi = np.full(p.shape[:2], 0.5)
@@ -200,9 +198,9 @@ def _inverse_2d(P: Array, p: Array) -> tuple[Array, Array]:
     for _ in range(20):
         f = xi[..., None] * a + eta[..., None] * b + (xi * eta)[..., None] * c - r
         ja, jb = a + eta[..., None] * c, b + xi[..., None] * c
-        det = _cross2(ja, jb)
+        det = cross2(ja, jb)
         det = np.where(np.abs(det) > 0, det, 1.0)
-        xi, eta = xi - _cross2(f, jb) / det, eta - _cross2(ja, f) / det
+        xi, eta = xi - cross2(f, jb) / det, eta - cross2(ja, f) / det
     return xi, eta
 
 
@@ -285,113 +283,6 @@ def _where(x: Array) -> str:
     return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
 
 
-def _convex(P: Array) -> npt.NDArray[np.bool_]:
-    """Whether the counter-clockwise polygons P (k, n, 2) are convex (every turn left, up to round-off)."""
-    e = np.roll(P, -1, axis=1) - P
-    turn = _cross2(e, np.roll(e, -1, axis=1))
-    scale = np.max(_dot(e, e), axis=1)
-    return (turn >= -1e-10 * scale[:, None]).all(axis=1)
-
-
-def _ccw(P: Array) -> tuple[Array, Array]:
-    """The polygons P (k, n, 2) counter-clockwise, and their (positive) areas."""
-    area = 0.5 * np.sum(_cross2(P, np.roll(P, -1, axis=1)), axis=1)
-    return np.where((area < 0)[:, None, None], P[:, ::-1], P), np.abs(area)
-
-
-def clip(subject: Array, count: npt.NDArray[np.intp], clipper: Array, tol: Array) -> tuple[Array, npt.NDArray[np.intp]]:
-    """Sutherland–Hodgman: the convex polygons ``subject`` (k, s, 2; ``count`` vertices each) clipped by the
-    convex counter-clockwise polygons ``clipper`` (k, c, 2); a point within ``tol`` (k,) of an edge's inside
-    counts as inside. Returns the clip polygons (k, s + c, 2) and their vertex counts (0 when empty)."""
-    k, c = clipper.shape[0], clipper.shape[1]
-    width = subject.shape[1] + c
-    P = np.zeros((k, width, 2))
-    P[:, : subject.shape[1]] = subject
-    n = count.astype(np.intp).copy()
-    rows = np.arange(k)
-    slots = np.arange(width)
-    for edge in range(c):
-        a, b = clipper[:, edge], clipper[:, (edge + 1) % c]
-        t = b - a
-        length = _norm(t)
-        d = _cross2(t[:, None], P - a[:, None]) / np.maximum(length, np.finfo(float).tiny)[:, None]  # > 0: inside
-        inside = d >= -tol[:, None]
-        nxt = (slots[None, :] + 1) % np.maximum(n, 1)[:, None]
-        Pn = P[rows[:, None], nxt]
-        dn = d[rows[:, None], nxt]
-        inn = inside[rows[:, None], nxt]
-        valid = slots[None, :] < n[:, None]
-        cross = valid & (inside != inn)
-        s = d / np.where(d - dn != 0, d - dn, 1.0)
-        hit = P + s[..., None] * (Pn - P)
-        out = np.zeros((k, 2 * width, 2))
-        keep = np.zeros((k, 2 * width), dtype=bool)
-        out[:, 0::2], keep[:, 0::2] = hit, cross
-        out[:, 1::2], keep[:, 1::2] = Pn, valid & inn
-        # compact the kept vertices to the front, in order (at most width: convex polygons)
-        dest = np.cumsum(keep, axis=1) - 1
-        row, col = np.nonzero(keep & (dest < width))
-        P = np.zeros((k, width, 2))
-        P[row, dest[row, col]] = out[row, col]
-        n = np.minimum(keep.sum(axis=1), width)
-    n = np.where(n >= 3, n, 0)
-    return P, n
-
-
-def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Array, npt.NDArray[np.intp]]:
-    """The clip polygons without their duplicate and collinear vertices.
-
-    A vertex within ``tol`` (k,) of its predecessor is a duplicate (a master vertex on a slave edge's line comes
-    out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear. Both
-    are removed, so the polygon, its vertex mean and its fan of triangles are continuous functions of the
-    geometry: the same, up to the size of a perturbation, for a vertex exactly on an edge and for one 1e-9
-    beside it. A polygon left with fewer than 3 vertices (a sliver or a touching edge) is empty.
-
-    Args:
-        P: Convex polygons (k, w, 2), the first ``count`` vertices valid.
-        count: Vertex counts (k,) (0: empty).
-        tol: The merge distance of each polygon (k,).
-
-    Returns:
-        The cleaned polygons (k, w, 2) and their vertex counts (k,) (0: empty).
-    """
-    width = P.shape[1]
-    slots = np.arange(width)[None, :]
-    valid = slots < count[:, None]
-    n = np.maximum(count, 1)[:, None]
-    prev = np.take_along_axis(P, ((slots - 1) % n)[..., None], axis=1)
-    keep = valid & (_norm(P - prev) > tol[:, None])
-    Q, m = _compact(P, keep)
-    slots = np.arange(Q.shape[1])[None, :]
-    n = np.maximum(m, 1)[:, None]
-    a = np.take_along_axis(Q, ((slots - 1) % n)[..., None], axis=1)
-    b = np.take_along_axis(Q, ((slots + 1) % n)[..., None], axis=1)
-    ab = b - a
-    off = np.abs(_cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
-    keep = (slots < m[:, None]) & ((off > tol[:, None]) | (m[:, None] < 3))
-    Q, m = _compact(Q, keep)
-    return Q, np.where(m >= 3, m, 0)
-
-
-def _compact(P: Array, keep: npt.NDArray[np.bool_]) -> tuple[Array, npt.NDArray[np.intp]]:
-    """The kept vertices of each row moved to the front, in order; their counts."""
-    dest = np.cumsum(keep, axis=1) - 1
-    row, col = np.nonzero(keep)
-    Q = np.zeros_like(P)
-    Q[row, dest[row, col]] = P[row, col]
-    return Q, keep.sum(axis=1).astype(np.intp)
-
-
-def polygon_area(P: Array, count: npt.NDArray[np.intp]) -> Array:
-    """The (signed, counter-clockwise positive) shoelace areas of the polygons P (k, w, 2) with ``count``
-    vertices (exact up to round-off; a duplicate vertex adds nothing)."""
-    width = P.shape[1]
-    slots = np.arange(width)[None, :]
-    valid = slots < count[:, None]
-    nxt = np.take_along_axis(P, ((slots + 1) % np.maximum(count, 1)[:, None])[..., None], axis=1)
-    return 0.5 * np.sum(_cross2(P, nxt) * valid, axis=1)
-
-
 def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Array, m_centre: Array,
                 m_radius: Array, m_normal: Array) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
     """(slave facet, master facet) pairs with |c_m − p_e| <= 2 r_e + r_m, facing each other, sorted."""
@@ -460,10 +351,10 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     e1 /= _norm(e1)[:, None]
     e2 = np.cross(nc, e1)
     s2 = np.stack([_dot(X - centre[:, None], e1[:, None]), _dot(X - centre[:, None], e2[:, None])], axis=-1)
-    s_poly, s_area = _ccw(s2[:, _CYCLE[nv]])
+    s_poly, s_area = counter_clockwise(s2[:, _CYCLE[nv]])
     s_radius = _norm(X - centre[:, None]).max(axis=1)
     if nv == 4:
-        bad = np.flatnonzero(~_convex(s_poly))
+        bad = np.flatnonzero(~convex(s_poly))
         if bad.size:
             raise InputError(f"slave facet at {_where(centre[bad[0]])}: its projection onto its own auxiliary plane is "
                              "not a convex quadrilateral (a warped facet): the mortar segmentation needs convex facets")
@@ -480,7 +371,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         e, f = ei[start:start + BATCH], mi[start:start + BATCH]
         c, n1, n2 = centre[e], e1[e], e2[e]
         m2 = np.stack([_dot(mX[f] - c[:, None], n1[:, None]), _dot(mX[f] - c[:, None], n2[:, None])], axis=-1)
-        m_poly, m_area = _ccw(m2[:, _CYCLE[nvm]])
+        m_poly, m_area = counter_clockwise(m2[:, _CYCLE[nvm]])
         true_area = 0.5 * _norm(np.cross(mX[f, 1] - mX[f, 0], mX[f, -1] - mX[f, 0] if nvm == 4 else
                                          mX[f, 2] - mX[f, 0])) * (2 if nvm == 4 else 1)
         lo, hi = m_poly.min(axis=1), m_poly.max(axis=1)
@@ -489,7 +380,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         keep = (m_area > 1e-10 * true_area) & (lo <= shi + tol[:, None]).all(axis=1) & \
             (hi >= slo - tol[:, None]).all(axis=1)
         if nvm == 4:
-            bad = np.flatnonzero(keep & ~_convex(m_poly))
+            bad = np.flatnonzero(keep & ~convex(m_poly))
             if bad.size:
                 j = bad[0]
                 raise InputError(f"master facet at {_where(m_centre[f[j]])}: its projection onto the auxiliary "
@@ -510,7 +401,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         mean = np.sum(P * valid[..., None], axis=1) / np.maximum(count, 1)[:, None]
         nxt = (np.arange(width)[None, :] + 1) % np.maximum(count, 1)[:, None]
         Q = np.take_along_axis(P, nxt[..., None], axis=1)
-        area = 0.5 * _cross2(P - mean[:, None], Q - mean[:, None]) * valid  # (k, width)
+        area = 0.5 * cross2(P - mean[:, None], Q - mean[:, None]) * valid  # (k, width)
         pts = (GAUSS7[None, None, :, 0, None] * mean[:, None, None] + GAUSS7[None, None, :, 1, None] * P[:, :, None]
                + GAUSS7[None, None, :, 2, None] * Q[:, :, None]).reshape(e.size, -1, 2)
         wts = (area[:, :, None] * GAUSS7_W[None, None]).reshape(e.size, -1)

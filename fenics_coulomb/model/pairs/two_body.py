@@ -1,9 +1,9 @@
 r"""Two elastic bodies in contact, reduced to the one-body problem by a change of variables (Remark 6.2).
 
 The bodies are disconnected parts of one mesh with one vector P1/Q1 space and one stiffness matrix A_free
-(assembled WITHOUT Dirichlet rows). A contact pair (:mod:`fenics_coulomb.model.pairing`) pairs each slave contact
-node s with the closest point x_m of the master surface, with the shape functions φ_sj of the master facet
-there, the gap g, the frame R = (t₁, t₂, n) (n: the master's outward normal at x_m).
+(assembled WITHOUT Dirichlet rows). A contact pair (:mod:`fenics_coulomb.model.pairs.pairing`) gives each slave contact
+node s a stencil of master nodes with weights φ_sj (node-to-surface: the shape functions of the master facet at
+the closest point x_m; dual mortar: M_sl / D_s), the gap g, the frame R = (t₁, t₂, n).
 
 **Relative displacement.** w_s = u_s − Σ_j φ_sj u_j. Contact: g + n·w_s ≥ 0, λ ≥ 0, complementarity; Coulomb
 friction on the slip T w_s (on a load path T(w_{s,k} − w_{s,k−1})): exactly the one-body conditions of the

@@ -1,0 +1,425 @@
+"""The coupling of two elastic bodies in contact pairs: M = I + Φ from the pairing's stencils
+(:mod:`fenics_coulomb.model.pairs.two_body` derives the reduced problem), the pairs' slave nodes merged with the
+obstacles' contact nodes into the model's contact map, and the outputs of pairs (the interface:
+:class:`fenics_coulomb.model.coupling.Coupling`).
+
+Construction (:meth:`PairCoupling.build`): the bodies and their supports, A_free and the obstacles' contact nodes
+once; then the pairing of the reference configuration. A node that is both a paired slave node and an obstacle
+contact node belongs to the one with the smaller |g| (ties: the pair); obstacle nodes keep z = u (no row of Φ).
+Finite sliding pairs again in X + u (:meth:`PairCoupling.configure`) and rebuilds M, Ã, l̃ and the contact map.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.fem.petsc
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.contact_map import ContactMap
+from fenics_coulomb.model.dof_values import set_owned_values
+from fenics_coulomb.model.coupling import Boundary, Coupling, StencilChange
+from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames
+from fenics_coulomb.model.obstacles import Obstacle, check_not_overlapping, closest_obstacle
+from fenics_coulomb.model.pairs.forces import pair_forces
+from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
+from fenics_coulomb.model.pairs.pairing import pair_surfaces
+from fenics_coulomb.model.pairs.sliding import stencil_change
+from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies,
+                                                 coupling_matrix)
+
+if TYPE_CHECKING:
+    from fenics_coulomb.model.contact_model import ContactModel, Friction
+    from fenics_coulomb.scd.records import SolveResult
+
+__all__ = ["PairCoupling"]
+
+logger = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+
+def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
+    """Whether two matrices of one layout have the same nonzero pattern on every rank (collective)."""
+    ia, ja, _ = a.getValuesCSR()
+    ib, jb, _ = b.getValuesCSR()
+    same = bool(np.array_equal(ia, ib) and np.array_equal(ja, jb))
+    return bool(a.getComm().tompi4py().allreduce(same, op=MPI.LAND))
+
+
+class PairCoupling(Coupling):
+    """Two elastic bodies: M = I + Φ (PETSc AIJ ``<prefix>coupling_``) from the pairing of ``pairs``.
+
+    Args:
+        pairs: The contact pairs, in the order given (their facet tags on the model's mesh).
+    """
+
+    follows_configuration = True
+
+    def __init__(self, pairs: Sequence[ContactPair]) -> None:
+        bad = [q for q in pairs if not isinstance(q, ContactPair)]
+        if bad:
+            raise InputError(f"contact_pairs: {bad[0]!r} is not a ContactPair")
+        self.pairs = list(pairs)
+        self.M: PETSc.Mat | None = None
+        self.A_free: PETSc.Mat | None = None
+        self._paired: npt.NDArray[np.bool_] = np.zeros(0, dtype=bool)
+        self._obstacle_map: ContactMap | None = None
+        self._obstacle_friction: Array = np.zeros(0)
+        self._excluded: npt.NDArray[np.int32] = np.zeros(0, np.int32)
+        self._free_coupling: PETSc.Mat | None = None
+        self.reused = False
+
+    # -- construction ------------------------------------------------------------------------------------
+    def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
+                 ) -> tuple[Any, list[int], Boundary | None]:
+        """The slave surfaces and the obstacles' contact boundary (nodal areas, figures); the obstacles' contact
+        nodes from ``contact`` (required with obstacles)."""
+        if obstacles and contact is None:
+            raise InputError("obstacles with contact pairs: give the contact boundary of the obstacles too "
+                             "(contact=(facet_tags, markers))")
+        obstacle_contact = contact if obstacles else None
+        markers = sorted({int(t) for q in self.pairs for t in np.atleast_1d(q.slave)}
+                         | ({int(m) for m in obstacle_contact[1]} if obstacle_contact else set()))
+        return self.pairs[0].facet_tags, markers, obstacle_contact
+
+    def default_obstacles(self) -> list[Obstacle]:
+        return []
+
+    def build(self, model: ContactModel, contact: Boundary | None, friction: Friction) -> None:
+        """The bodies, their supports, A_free and the obstacles' contact nodes once; then the pairing of the
+        reference configuration (collective)."""
+        V, comm = model.V, model.comm
+        #: Never slave contact nodes: clamped, or held at a non-zero value.
+        self._excluded = model.not_contact()
+        self.body_of_block, self.num_bodies = connected_bodies(V)
+        check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows)
+        self.A_free = dolfinx.fem.petsc.assemble_matrix(model.a)
+        self.A_free.assemble()
+        self.A_free.setOptionsPrefix(f"{model.prefix}A_free_")
+        if contact is not None:
+            tags, markers = contact
+            self._obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], model.not_contact(),
+                                                   model.obstacles, held=model.held)
+            check_not_overlapping(model.obstacles, self._obstacle_map.coordinates, comm=comm)
+            self._obstacle_friction = np.asarray(model.friction_at_nodes(friction, self._obstacle_map.blocks))
+        self._adopt(model, self._merge(model, pair_surfaces(V, self.pairs, self._excluded), None))
+
+    def held_pairing(self, model: ContactModel, pairing: Pairing) -> tuple[Pairing, npt.NDArray[np.bool_]]:
+        """The pairing with the frames of its slave nodes with held components (held axes first, the normal
+        projected: :func:`~fenics_coulomb.model.frames.held_frames` with the pairs' tolerance), without the nodes
+        whose held direction is not orthogonal to their normal (logged; collective), and the held components of
+        its nodes, shape (m, 3)."""
+        held = model.held[pairing.blocks]
+        if not model.comm.allreduce(bool(np.any(held)), op=MPI.LOR):
+            return pairing, held
+        frames, conflict = held_frames(pairing.frames, held, PAIR_HELD_NORMAL_TOL)
+        pairing = dataclasses.replace(pairing, frames=frames)
+        count = model.comm.allreduce(int(np.sum(conflict)), op=MPI.SUM)
+        if count:
+            if model.comm.rank == 0:
+                logger.info("%d slave node(s) with a held component not orthogonal to the contact normal are moved "
+                            "by their support, not contact nodes", count)
+            pairing = pairing.subset(~conflict, model.comm)
+            held = held[~conflict]
+        return pairing, np.ascontiguousarray(held)
+
+    def _merge(self, model: ContactModel, pairing: Pairing, u: Array | None) -> Pairing:
+        """The pairing without the nodes that belong to a rigid obstacle: a node that is both a paired slave node
+        and an obstacle contact node belongs to the one with the smaller |g| in X + u (``u`` ghosted, None: X;
+        ties: the pair; collective)."""
+        obstacle_map = self._obstacle_map
+        if obstacle_map is None:
+            return pairing
+        x = obstacle_map.coordinates if u is None else obstacle_map.coordinates + u.reshape(-1, 3)[obstacle_map.blocks]
+        _, obstacle_gap, _, _ = closest_obstacle(model.obstacles, x)
+        both_p = np.isin(pairing.blocks, obstacle_map.blocks)
+        where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
+        lose = np.zeros(pairing.blocks.size, dtype=bool)
+        lose[np.flatnonzero(both_p)] = np.abs(obstacle_gap[where]) < np.abs(pairing.gap[both_p])
+        return pairing.subset(~lose, model.comm)
+
+    def _adopt(self, model: ContactModel, pairing: Pairing) -> None:
+        """Make ``pairing`` (of the model's configuration) the model's: the obstacles' contact nodes merged in,
+        M = I + Φ, Ã = Mᵀ A_free M with the Dirichlet rows and columns of s I, l̃_z and the contact map
+        (collective)."""
+        V, comm, prefix = model.V, model.comm, model.prefix
+        pairing, pair_held = self.held_pairing(model, pairing)
+        obstacle_map = self._obstacle_map
+        obstacle_friction = self._obstacle_friction
+        if obstacle_map is not None:
+            keep = ~np.isin(obstacle_map.blocks, pairing.blocks)
+            obstacle_map = obstacle_map.subset(keep, comm)
+            obstacle_friction = obstacle_friction[keep]
+        if model.configuration is not None:  # the pairing of X + u keeps the nodes' reference coordinates X
+            pairing = dataclasses.replace(pairing, coordinates=V.tabulate_dof_coordinates()[pairing.blocks])
+        self.pairing = pairing
+        M = coupling_matrix(V, pairing.blocks, pairing.master_blocks, pairing.weights, prefix, pair_held)
+        #: Whether the last configuration kept M's nonzero pattern on every rank: M's Mat then takes the new
+        #: values and Ã is overwritten in place by PtAP's numeric phase (the same bits as a new product; PtAP's
+        #: reuse needs the very Mat its product was made from).
+        self.reused = self.M is not None and model.A is not None and _same_pattern(self.M, M)
+        if self.reused:
+            assert self.M is not None
+            M.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+            M.destroy()
+            model.A = self.stiffness(model, prefix, reuse=model.A)
+        else:
+            if self.M is not None:
+                self.M.destroy()
+            #: M = I + Φ (Φ's rows of held slave components 0).
+            self.M = M
+            if model.A is not None:
+                model.A.destroy()
+            model.A = self.stiffness(model, prefix)
+        r0 = V.dofmap.index_map.local_range[0]
+        model.dirichlet_diagonal = model.scale_dirichlet_rows(model.dirichlet_rows)
+        if model.load is None:
+            model.load = model.A.createVecRight()
+            model.load.setOptionsPrefix(f"{prefix}load_")
+        model.assemble_load()
+        blocks, coordinates, gap, frames = pairing.blocks, pairing.coordinates, pairing.gap, pairing.frames
+        index: np.ndarray = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
+        paired = np.ones(blocks.size, dtype=bool)
+        held = pair_held
+        node_friction = pairing.friction
+        if obstacle_map is not None:
+            blocks = np.concatenate([blocks, obstacle_map.blocks])
+            coordinates = np.concatenate([coordinates, obstacle_map.coordinates])
+            gap = np.concatenate([gap, obstacle_map.gap])
+            frames = np.concatenate([frames, obstacle_map.frames])
+            index = np.concatenate([index, obstacle_map.obstacle_index])
+            held = np.concatenate([held, obstacle_map.held_components])
+            paired = np.concatenate([paired, np.zeros(obstacle_map.size, dtype=bool)])
+            node_friction = np.concatenate([node_friction, obstacle_friction])
+        order = np.argsort(blocks, kind="stable")
+        blocks = blocks[order].astype(np.int32)
+        offsets = np.arange(3, dtype=np.int32)
+        model.contact = ContactMap(
+            blocks=blocks, local_dofs=(3 * blocks[:, None] + offsets).astype(np.int32),
+            global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
+            coordinates=np.ascontiguousarray(coordinates[order]), gap=np.ascontiguousarray(gap[order]),
+            frames=np.ascontiguousarray(frames[order]), obstacle_index=index[order],
+            num_global=comm.allreduce(int(blocks.size), op=MPI.SUM), held=np.ascontiguousarray(held[order]))
+        self._paired = paired[order]
+        model.friction = np.ascontiguousarray(np.asarray(node_friction, dtype=np.float64)[order])
+        model.p = model.contact.num_global
+        if self._free_coupling is not None:
+            self._free_coupling.destroy()
+            self._free_coupling = None
+
+    def stiffness(self, model: ContactModel, prefix: str, reuse: PETSc.Mat | None = None) -> PETSc.Mat:
+        """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity; ``reuse``: the Ã of M's
+        previous values, overwritten in place (PtAP's numeric phase only, the same bits)."""
+        assert self.A_free is not None and self.M is not None, "build() first"
+        if reuse is not None:
+            A = self.A_free.ptap(self.M, result=reuse)
+        else:
+            A = self.A_free.ptap(self.M)
+            A.setOptionsPrefix(f"{prefix}A_")
+        r0 = model.V.dofmap.index_map.local_range[0]
+        A.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
+        return A
+
+    def assemble_load(self, model: ContactModel) -> None:
+        """l̃_z = Mᵀ(l − A_free M x_D) on the free DOFs and s u_D on D (:mod:`fenics_coulomb.model.pairs.two_body`)."""
+        assert self.A_free is not None and self.M is not None and model.A is not None and model.load is not None
+        l = dolfinx.fem.petsc.assemble_vector(model.L)
+        l.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        x_d = model.A.createVecRight()  # M x_D: the Dirichlet values g on D, 0 elsewhere
+        x_d.set(0.0)
+        x_d.array[model.dirichlet_rows] = model.dirichlet_values
+        t, y = self.A_free.createVecs()
+        self.M.mult(x_d, t)
+        self.A_free.mult(t, y)
+        y.scale(-1.0)
+        y.axpy(1.0, l)  # y = l − A_free M x_D
+        self.M.multTranspose(y, model.load)
+        model.load.array[model.dirichlet_rows] = model.dirichlet_diagonal * x_d.array[model.dirichlet_rows]
+        for vec in (l, x_d, t, y):
+            vec.destroy()
+
+    # -- geometry ----------------------------------------------------------------------------------------
+    def paired_mask(self, size: int) -> npt.NDArray[np.bool_]:
+        assert self._paired.size == size, "the mask of another contact map"
+        return self._paired.copy()
+
+    def place(self, model: ContactModel) -> None:
+        """The paired nodes' gaps: the pairing's, linearized about the configuration in the unknown w = z_s."""
+        assert self.pairing is not None
+        cmap = model.contact
+        gap = self.pairing.gap
+        if model.configuration is not None:
+            w = self.relative(model.configuration[:3 * model.V.dofmap.index_map.size_local])
+            gap = gap - np.einsum("ij,ij->i", cmap.frames[self._paired][:, :, 2], w[cmap.local_dofs[self._paired]])
+        cmap.gap[self._paired] = gap
+
+    def pair_in(self, model: ContactModel, u: npt.ArrayLike | None) -> Pairing:
+        """The pairing of X + u (``u`` the physical displacement of the owned DOFs; None: X), the obstacles' nodes
+        merged (collective)."""
+        if u is None:
+            return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded), None)
+        ug = model.ghosted(u)
+        x = model.V.tabulate_dof_coordinates() + ug.reshape(-1, 3)
+        return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded, coordinates=x), ug)
+
+    def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None) -> bool:
+        self._adopt(model, pairing if pairing is not None else self.pair_in(model, u))
+        return True
+
+    def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
+                       pressed: npt.NDArray[np.bool_]) -> StencilChange:
+        assert self.pairing is not None
+        pairing, held = self.held_pairing(model, self.pair_in(model, u))  # as configure would make it
+        return stencil_change(model, self.pairing, pairing, held, self._paired, u, z, previous, tolerance, pressed)
+
+    # -- the change of variables ---------------------------------------------------------------------------
+    def physical(self, z: Array) -> Array:
+        assert self.M is not None
+        x, y = self.M.createVecs()
+        x.array[:] = z
+        self.M.mult(x, y)
+        u = y.getArray(readonly=True).copy()
+        x.destroy()
+        y.destroy()
+        return u
+
+    def relative(self, u: Array) -> Array:
+        """z = M⁻¹ u = (I − Φ) u = 2u − M u (Φ² = 0)."""
+        return 2.0 * np.asarray(u, dtype=np.float64) - self.physical(u)
+
+    def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
+        """(I − Φ) r_b per body b (:func:`fenics_coulomb.model.pairs.two_body.body_rigid_modes`)."""
+        assert self.body_of_block is not None and self.M is not None
+        return body_rigid_modes(V, self.body_of_block, self.num_bodies, self.M)
+
+    def energy_matrix(self, model: ContactModel) -> PETSc.Mat:
+        """A_free: the energy of both bodies, invariant under their rigid motions."""
+        assert self.A_free is not None
+        return self.A_free
+
+    # -- outputs -----------------------------------------------------------------------------------------
+    def master_forces(self, contact_force: Array, local_dofs: npt.NDArray[np.int32]) -> Array:
+        """f_j = −Σ_s φ_sj f_s: Mᵀ f − f = Φᵀ f with f on the slave contact DOFs ``local_dofs``, shape (m, 3)."""
+        assert self.M is not None
+        x, y = self.M.createVecs()
+        x.set(0.0)
+        x.array[local_dofs] = np.asarray(contact_force, dtype=np.float64).reshape(-1, 3)
+        self.M.multTranspose(x, y)  # Mᵀ f = f + Φᵀ f
+        y.axpy(-1.0, x)
+        out = -y.getArray(readonly=True).copy()
+        x.destroy()
+        y.destroy()
+        return out
+
+    def initial_master_force(self, size: int) -> Array:
+        return np.zeros(size)
+
+    def finish(self, model: ContactModel, result: SolveResult) -> None:
+        """u = M z (z kept as ``relative_displacement``), the master forces, and a warning for free slave nodes
+        that penetrate (collective)."""
+        result.relative_displacement = result.displacement
+        result.displacement = self.physical(result.displacement)
+        result.master_force = self.master_forces(result.contact_force, model.contact.local_dofs)
+        penetrating = self.free_slave_penetrations(model, result.displacement)
+        if penetrating and model.comm.rank == 0:
+            logger.warning("%d free slave node(s) (beyond the search distance, with a Dirichlet component, or "
+                           "a mortar node not fully covered by the master surface) penetrate the master "
+                           "surface: enlarge the pairs' search_distance, and make the smaller surface the "
+                           "slave (mortar drops the slave nodes whose facets reach past the master's border)",
+                           penetrating)
+
+    def _free_gaps(self, model: ContactModel, u: Array) -> Array:
+        """The linearized gaps g + n·(u_s − Σ_j φ_j u_j) of the owned free slave nodes (over a master surface, but
+        not contact nodes: beyond the search distance, with a Dirichlet component, or a mortar node not fully
+        covered), ``u`` physical (collective)."""
+        assert self.pairing is not None
+        free = self.pairing.free
+        if self._free_coupling is None:
+            self._free_coupling = coupling_matrix(model.V, free["blocks"], free["master_blocks"], free["weights"],
+                                                  f"{model.prefix}free_")
+        coupling = self._free_coupling
+        x, y = coupling.createVecs()
+
+        def w_of(v: npt.ArrayLike) -> Array:
+            x.array[:] = np.asarray(v, dtype=np.float64)[:x.getLocalSize()]
+            coupling.mult(x, y)  # (I + Φ_free) v
+            return (2.0 * x.getArray(readonly=True) - y.getArray(readonly=True)).reshape(-1, 3)[free["blocks"]]
+
+        w = w_of(u)
+        if model.configuration is not None:  # free["gap"] is g(X + u_c): linearized about the configuration
+            w = w - w_of(model.configuration)
+        x.destroy()
+        y.destroy()
+        return free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+
+    def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
+        """The number of free slave nodes whose gap is below −tol × the mesh size, on all ranks (collective)."""
+        gap = self._free_gaps(model, u)
+        return int(model.comm.allreduce(int(np.sum(gap < -tol * model.mesh_size)), op=MPI.SUM))
+
+    def free_slave_depth(self, model: ContactModel, u: Array) -> float:
+        gap = self._free_gaps(model, u)
+        return float(model.comm.allreduce(float(np.max(-gap, initial=0.0)), op=MPI.MAX))
+
+    def contact_areas(self, areas: Array) -> Array:
+        """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""
+        assert self.pairing is not None
+        if self.pairing.size:
+            paired = np.flatnonzero(self._paired)  # the pairing's nodes, in the same ascending block order
+            mortar = np.isfinite(self.pairing.area)
+            areas[paired[mortar]] = self.pairing.area[mortar]
+        return areas
+
+    def contact_groups(self, obstacle_index: npt.NDArray[np.int64], num_obstacles: int) -> npt.NDArray[np.int64]:
+        assert self.pairing is not None
+        group = np.array(obstacle_index, dtype=np.int64).reshape(-1)
+        if self._paired.any():
+            group[self._paired] = num_obstacles + np.asarray(self.pairing.pair_index, dtype=np.int64)
+        return group
+
+    def balance_sum(self, model: ContactModel, residual: Array, contact_force: Array,
+                    clamped_blocks: npt.NDArray[np.int32]) -> Array:
+        """u = M z: the contact forces are internal (Σ_j φ_sj = 1), so the residual summed over every node
+        (supports, slave and master nodes; zero elsewhere) balances the applied load."""
+        return residual[: model.V.dofmap.index_map.size_local].sum(axis=0)
+
+    def pair_forces(self, model: ContactModel, result: SolveResult) -> list[dict[str, Any]]:
+        return pair_forces(model, result, self.pairs)
+
+    def output_fields(self, model: ContactModel, result: SolveResult, S: dolfinx.fem.FunctionSpace,
+                      to_scalar: npt.NDArray[np.int32]) -> tuple[dolfinx.fem.Function, ...]:
+        """``body`` (1, 2, …: the body of every node) and ``master_reaction`` (the reaction on the master nodes)."""
+        fields: tuple[dolfinx.fem.Function, ...] = ()
+        if self.num_bodies > 1:
+            body = dolfinx.fem.Function(S, name="body")
+            body.x.array[to_scalar] = np.asarray(self.body_of_block, dtype=np.float64) + 1.0
+            body.x.scatter_forward()
+            fields = (body,)
+        reaction = dolfinx.fem.Function(model.V, name="master_reaction")
+        if result.master_force is not None:
+            set_owned_values(reaction, result.master_force)
+        return (*fields, reaction)
+
+    def summary_entries(self, model: ContactModel, result: SolveResult, per_pair: list[dict[str, Any]]
+                        ) -> dict[str, Any]:
+        """``contact_pairs``: per pair its forces (:func:`~fenics_coulomb.model.pairs.forces.pair_forces`) and its
+        contact statistics."""
+        return {"contact_pairs": [{**forces, **{k: v for k, v in stats.items() if k != "name"}}
+                                  for forces, stats in zip(pair_forces(model, result), per_pair, strict=False)]}
+
+    def destroy(self) -> None:
+        for obj in (self.M, self.A_free, self._free_coupling):
+            if obj is not None:
+                obj.destroy()
+        self.M = self.A_free = self._free_coupling = None

@@ -1,0 +1,438 @@
+r"""The closest point of a surface of P1/Q1 facets: the node-to-surface projection, its normal and normal cone.
+
+A surface is a set of facets gathered on every rank (:class:`Surface`: vertex coordinates, global DOF blocks, the
+outward orientation); :func:`project` gives for points x_s the closest point x_m, the facet's shape functions
+there (the stencil weights φ_j), the normal n and whether x_s lies in the normal cone. The node-to-surface method
+(:mod:`fenics_coulomb.model.pairs.node_to_surface`), the mortar method's anchors and free-node checks
+(:mod:`fenics_coulomb.model.pairs.mortar`), the pairing's overlap checks and the triangulated rigid obstacles
+(:mod:`fenics_coulomb.model.surface`) use it.
+
+Geometry
+--------
+Master facets are P1 triangles (tetrahedral meshes) or Q1 bilinear quadrilaterals (hexahedral meshes),
+x(ξ, η) = v₀(1−ξ)(1−η) + v₁ξ(1−η) + v₂(1−ξ)η + v₃ξη on [0, 1]² (DOLFINx/basix tensor vertex order). For
+each vertex x_s of S (owned by this rank, with no Dirichlet component):
+
+Master facets are P1 triangles (tetrahedral meshes) or Q1 bilinear quadrilaterals (hexahedral meshes),
+x(ξ, η) = v₀(1−ξ)(1−η) + v₁ξ(1−η) + v₂(1−ξ)η + v₃ξη on [0, 1]² (DOLFINx/basix tensor vertex order). For
+each vertex x_s of S (owned by this rank, with no Dirichlet component):
+
+* x_m = the closest point of M to x_s: the minimum over the master facets of the distance to the facet
+  (triangle: projection on the plane, else the closest point of the three edges; quadrilateral: Newton's
+  method for the stationary point (ξ, η) of ½|x(ξ, η) − x_s|² from the centre (the Gauss–Newton matrix
+  where the full Hessian is not positive definite), accepted when it converges inside [0, 1]²; else, or when
+  nearer, the closest point of the four straight edges — "edge/vertex clamping"). Candidate facets: a bound
+  U on the distance from the 4 nearest facet centroids, then every facet whose centroid lies within
+  U + its radius (+ the tie tolerance) — KD-trees per facet-radius class (powers of 2), so the small facets
+  of a graded surface are not searched with the radius of its largest one.
+* Facets "containing x_m" (the tie set T): the facets whose own closest point lies within 1e-10 h of the
+  best one (h = the diameter of the best facet) at a distance within 1e-10 h of the best distance.
+  φ_j = the shape functions at x_m of the facet of T whose SORTED GLOBAL vertex (DOF-block) indices are
+  lexicographically smallest (P1: barycentric; Q1: bilinear); x_m is that facet's point, so
+  Σ_j φ_j x_j = x_m exactly up to round-off and Σ_j φ_j = 1. On a shared edge or vertex every facet of T
+  gives the same non-zero φ_j (conforming P1/Q1 shape functions restrict to the edge's linear ones, and to
+  1 at a vertex): the rule only fixes which zero-weight vertices are listed, so the stencil does not depend
+  on the global numbering (which depends on the partition).
+* n_f(x) = the outward unit normal of facet f at x: of the plane (triangle) or of the bilinear surface,
+  ±(x_ξ × x_η)/|x_ξ × x_η| at (ξ, η) — the sign fixed per facet so that it points out of the MASTER body
+  (away from the centroid of the facet's cell, evaluated at the facet centre; a bilinear facet that is not
+  folded keeps that orientation everywhere).
+* x_m in the interior of its facet (|T| = 1 and the reference coordinates farther than 1e-10 from the
+  facet's boundary): n = n_f(x_m). Otherwise (x_m on an edge or vertex, shared by the facets T or on M's
+  outer boundary): n = d/|d|, d = x_s − x_m; when |d| <= 1e-10 h: n = the normalized sum of n_f(x_m), f ∈ T.
+* g = (x_s − x_m)·n; t₁, t₂ = :func:`fenics_coulomb.model.frames.frames_from_normals` (deterministic).
+* Normal cone C = cone{n_f(x_m) : f ∈ T} (the outward normals at x_m of the facets containing it; a single
+  ray inside a facet or on M's outer boundary, so a node beside M's outer edge is free). The node is a
+  contact node of the pair if dist(d, C) <= 1e-8 h or dist(−d, C) <= 1e-8 h (or |d| <= 1e-10 h) and
+  |g| <= ``search_distance`` (default 0.1 × the diagonal of the master surface's bounding box).
+* SIGN CHOICE: "d lies in the normal cone" is read as "±d lies in it", so that a slave node inside the
+  master body (d points into it: −d is in C) is paired with g < 0 (n = −d/|d| at an edge/vertex, n_f inside
+  a facet; g = d·n = −|d|). When both hold (only possible for a cone containing a line), +d is used.
+
+Dist(d, C) for a polyhedral cone in ℝ³ is evaluated exactly via Carathéodory: the minimum of the
+non-negative least-squares residuals over the single generators and the pairs of generators, and 0 when d
+is a non-negative combination of three independent generators.
+
+Parallel
+--------
+Every rank gathers every pair's whole master surface (vertex coordinates, global DOF-block indices, outward
+orientation; facets deduplicated by their global vertices), so the pairing of a slave node does not depend
+on where the master facets are: 1 rank and N ranks give the same pairing (up to the numbering, and the
+zero-weight vertices listed for a node on a shared edge or vertex, see the tie rule).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from itertools import chain
+
+from mpi4py import MPI
+
+import basix
+import dolfinx.fem
+import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+__all__ = ["TIE_TOL", "CONE_TOL", "Surface", "norm", "dot", "where", "outward_normals", "local_facets", "facet_data",
+           "gather_surface", "project", "node_size", "facet_sizes", "facet_ranks"]
+
+Array = npt.NDArray[np.float64]
+
+#: Relative tolerances (× the facet size h): coincident closest points, |x_s − x_m| ≈ 0, "on the boundary"
+#: (in reference coordinates); the normal cone.
+TIE_TOL = 1e-10
+CONE_TOL = 1e-8
+
+
+# -- facet geometry ---------------------------------------------------------------------------------------
+def norm(x: Array) -> Array:
+    return np.linalg.norm(x, axis=-1)
+
+
+def dot(a: Array, b: Array) -> Array:
+    return np.einsum("...i,...i->...", a, b)
+
+
+def _segment(p: Array, a: Array, b: Array) -> tuple[Array, Array]:
+    """Closest points of the segments [a, b] to p and their parameters t ∈ [0, 1]."""
+    ab = b - a
+    t = np.clip(dot(p - a, ab) / np.maximum(dot(ab, ab), np.finfo(float).tiny), 0.0, 1.0)
+    return a + t[:, None] * ab, t
+
+
+def _closest_triangle(p: Array, X: Array) -> tuple[Array, Array, Array]:
+    """Closest points of triangles X (k, 3, 3) to p (k, 3): (points, barycentric weights (k, 3), distance)."""
+    A, B, C = X[:, 0], X[:, 1], X[:, 2]
+    e1, e2, r = B - A, C - A, p - A
+    a11, a12, a22 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
+    b1, b2 = dot(e1, r), dot(e2, r)
+    det = a11 * a22 - a12 * a12
+    l1 = (a22 * b1 - a12 * b2) / det
+    l2 = (a11 * b2 - a12 * b1) / det
+    inside = (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
+    w = np.stack([1 - l1 - l2, l1, l2], axis=1)
+    candidates = [(A + l1[:, None] * e1 + l2[:, None] * e2, w, inside)]
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        q, t = _segment(p, X[:, i], X[:, j])
+        we = np.zeros((p.shape[0], 3))
+        we[:, i], we[:, j] = 1 - t, t
+        candidates.append((q, we, np.ones_like(inside)))
+    return _pick(p, candidates)
+
+
+def _quad_map(X: Array, xi: Array, eta: Array) -> tuple[Array, Array, Array]:
+    """x(ξ, η), x_ξ, x_η of bilinear quadrilaterals X (k, 4, 3)."""
+    a, b = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
+    c = X[:, 0] - X[:, 1] - X[:, 2] + X[:, 3]
+    x = X[:, 0] + xi[:, None] * a + eta[:, None] * b + (xi * eta)[:, None] * c
+    return x, a + eta[:, None] * c, b + xi[:, None] * c
+
+
+def _quad_weights(xi: Array, eta: Array) -> Array:
+    return np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), (1 - xi) * eta, xi * eta], axis=1)
+
+
+def _closest_quad(p: Array, X: Array) -> tuple[Array, Array, Array]:
+    """Closest points of bilinear quadrilaterals X (k, 4, 3) to p (k, 3): (points, weights (k, 4), distance)."""
+    k = p.shape[0]
+    xi, eta = np.full(k, 0.5), np.full(k, 0.5)
+    scale = np.maximum(norm(X[:, 3] - X[:, 0]), norm(X[:, 2] - X[:, 1]))
+    active = np.arange(k)
+    for _ in range(50):  # Newton on the stationarity of ½|x − p|², vectorized over the pairs still moving
+        Xa, pa, xa, ea = X[active], p[active], xi[active], eta[active]
+        x, xx, xe = _quad_map(Xa, xa, ea)
+        r = x - pa
+        g1, g2 = dot(xx, r), dot(xe, r)
+        h11, h22, h12 = dot(xx, xx), dot(xe, xe), dot(xx, xe)
+        full = h12 + dot(r, Xa[:, 0] - Xa[:, 1] - Xa[:, 2] + Xa[:, 3])
+        det_full = h11 * h22 - full * full
+        h12 = np.where(det_full > 1e-12 * h11 * h22, full, h12)  # Gauss–Newton where not positive definite
+        det = np.maximum(h11 * h22 - h12 * h12, np.finfo(float).tiny)
+        dxi = -(h22 * g1 - h12 * g2) / det
+        deta = -(h11 * g2 - h12 * g1) / det
+        xa, ea = np.clip(xa + dxi, -0.5, 1.5), np.clip(ea + deta, -0.5, 1.5)
+        xi[active], eta[active] = xa, ea
+        # done: converged, or pushed to the clipping box (far outside the patch: the edges hold the minimum)
+        moving = (np.maximum(np.abs(dxi), np.abs(deta)) > 1e-14) & (np.abs(xa - 0.5) < 1) & (np.abs(ea - 0.5) < 1)
+        active = active[moving]
+        if active.size == 0:
+            break
+    x, xx, xe = _quad_map(X, xi, eta)
+    r = x - p
+    # the stationarity residual, relative to the patch: a converged interior point
+    stationary = (np.abs(dot(xx, r)) + np.abs(dot(xe, r))) <= 1e-12 * scale * (scale + norm(r))
+    inside = stationary & (xi >= -TIE_TOL) & (xi <= 1 + TIE_TOL) & (eta >= -TIE_TOL) & (eta <= 1 + TIE_TOL)
+    xi_c, eta_c = np.clip(xi, 0.0, 1.0), np.clip(eta, 0.0, 1.0)
+    candidates = [(_quad_map(X, xi_c, eta_c)[0], _quad_weights(xi_c, eta_c), inside)]
+    ones, zeros = np.ones(k), np.zeros(k)
+    for i, j, fixed in ((0, 1, "eta0"), (2, 3, "eta1"), (0, 2, "xi0"), (1, 3, "xi1")):
+        q, t = _segment(p, X[:, i], X[:, j])
+        if fixed.startswith("eta"):
+            a, b = t, (zeros if fixed == "eta0" else ones)
+        else:
+            a, b = (zeros if fixed == "xi0" else ones), t
+        candidates.append((q, _quad_weights(a, b), np.ones(k, dtype=bool)))
+    return _pick(p, candidates)
+
+
+def _pick(p: Array, candidates: list) -> tuple[Array, Array, Array]:
+    """The nearest valid candidate (the first on exact ties)."""
+    dist = np.stack([np.where(ok, norm(q - p), np.inf) for q, _, ok in candidates])
+    best = np.argmin(dist, axis=0)
+    rows = np.arange(p.shape[0])
+    q = np.stack([c[0] for c in candidates])[best, rows]
+    w = np.stack([c[1] for c in candidates])[best, rows]
+    return q, w, dist[best, rows]
+
+
+def _reference(w: Array) -> tuple[Array, Array]:
+    """Reference coordinates recovered from the weights (triangle: (λ₁, λ₂); quad: (ξ, η))."""
+    if w.shape[-1] == 3:
+        return w[..., 1], w[..., 2]
+    return w[..., 1] + w[..., 3], w[..., 2] + w[..., 3]
+
+
+def _on_boundary(w: Array) -> Array:
+    """Whether the reference point of the weights lies on its facet's boundary (within TIE_TOL)."""
+    if w.shape[-1] == 3:
+        return w.min(axis=-1) <= TIE_TOL
+    xi, eta = _reference(w)
+    return np.minimum(np.minimum(xi, 1 - xi), np.minimum(eta, 1 - eta)) <= TIE_TOL
+
+
+def outward_normals(X: Array, w: Array, sign: Array) -> Array:
+    """Outward unit normals of facets X (k, nv, 3) at the reference points of the weights w (k, nv)."""
+    if X.shape[1] == 3:
+        N = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+    else:
+        xi, eta = _reference(w)
+        _, xx, xe = _quad_map(X, xi, eta)
+        N = np.cross(xx, xe)
+    return sign[:, None] * N / norm(N)[:, None]
+
+
+# -- the master surface -----------------------------------------------------------------------------------
+@dataclass
+class Surface:
+    """Facets of a surface: vertex coordinates (k, nv, 3), global DOF blocks (k, nv), orientation (k,)."""
+
+    X: Array
+    blocks: npt.NDArray[np.int64]
+    sign: Array
+
+    def unique(self) -> Surface:
+        """Without duplicates (a facet gathered from several ranks), in sorted order of the global blocks."""
+        key = np.sort(self.blocks, axis=1)
+        _, first = np.unique(key, axis=0, return_index=True)
+        return Surface(self.X[first], self.blocks[first], self.sign[first])
+
+
+def local_facets(facet_tags: dolfinx.mesh.MeshTags, tags: Sequence[int]) -> npt.NDArray[np.int32]:
+    """This rank's facets carrying any of ``tags``, ascending."""
+    found = [facet_tags.find(t) for t in tags]
+    return np.unique(np.concatenate(found)).astype(np.int32) if found else np.zeros(0, np.int32)
+
+
+def facet_data(V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], X_dofs: Array) -> Surface:
+    """This rank's facets with their vertex coordinates, global blocks and outward orientation."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    c2f = msh.topology.connectivity(tdim, tdim - 1)
+    cells = f2c.array[f2c.offsets[facets]]  # boundary facets: one cell
+    nf = c2f.offsets[1] - c2f.offsets[0] if c2f.offsets.size > 1 else 1
+    local = np.argmax(c2f.array.reshape(-1, nf)[cells] == facets[:, None], axis=1)
+    ref = np.asarray(basix.topology(_basix_cell(msh))[tdim - 1], dtype=np.int64)
+    dofs = V.dofmap.list[cells]
+    blocks = np.take_along_axis(dofs, ref[local], axis=1)
+    X = X_dofs[blocks]
+    centroid = X_dofs[dofs].mean(axis=1)
+    nv = ref.shape[1]
+    w = np.full((facets.size, nv), 1.0 / nv)
+    N = outward_normals(X, w, np.ones(facets.size)) if facets.size else np.zeros((0, 3))
+    centre = X.mean(axis=1)
+    sign = np.where(dot(N, centroid - centre) > 0, -1.0, 1.0)
+    imap = V.dofmap.index_map
+    gblocks = imap.local_to_global(blocks.ravel().astype(np.int32)).reshape(blocks.shape).astype(np.int64)
+    return Surface(X, gblocks, sign)
+
+
+def _basix_cell(msh: dolfinx.mesh.Mesh) -> basix.CellType:
+    return {"hexahedron": basix.CellType.hexahedron, "tetrahedron": basix.CellType.tetrahedron}[
+        msh.topology.cell_name()]
+
+
+def gather_surface(comm: MPI.Comm, surface: Surface, nv: int) -> Surface:
+    X = np.concatenate(comm.allgather(surface.X.reshape(-1, nv, 3)))
+    blocks = np.concatenate(comm.allgather(surface.blocks.reshape(-1, nv)))
+    sign = np.concatenate(comm.allgather(surface.sign))
+    return Surface(X, blocks, sign).unique()
+
+
+# -- closest points ---------------------------------------------------------------------------------------
+def _closest(p: Array, X: Array) -> tuple[Array, Array, Array]:
+    return _closest_triangle(p, X) if X.shape[1] == 3 else _closest_quad(p, X)
+
+
+def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
+    """dist(d, cone{N[:, i] : mask[:, i]}) for each row: d (k, 3), N (k, q, 3), mask (k, q)."""
+    k, q = mask.shape
+    best = np.full(k, np.inf)
+    for i in range(q):
+        c = np.maximum(dot(d, N[:, i]), 0.0)
+        best = np.where(mask[:, i], np.minimum(best, norm(d - c[:, None] * N[:, i])), best)
+    for i in range(q):
+        for j in range(i + 1, q):
+            a, b = N[:, i], N[:, j]
+            aa, ab, bb = dot(a, a), dot(a, b), dot(b, b)
+            det = aa * bb - ab * ab
+            ok = mask[:, i] & mask[:, j] & (det > 1e-14)
+            da, db = dot(d, a), dot(d, b)
+            safe = np.where(ok, det, 1.0)
+            ca, cb = (bb * da - ab * db) / safe, (aa * db - ab * da) / safe
+            ok &= (ca >= 0) & (cb >= 0)
+            res = norm(d - ca[:, None] * a - cb[:, None] * b)
+            best = np.where(ok, np.minimum(best, res), best)
+    for i in range(q):
+        for j in range(i + 1, q):
+            for m in range(j + 1, q):
+                M = np.stack([N[:, i], N[:, j], N[:, m]], axis=2)
+                det = np.linalg.det(M)
+                ok = mask[:, i] & mask[:, j] & mask[:, m] & (np.abs(det) > 1e-12)
+                if not ok.any():
+                    continue
+                coef = np.linalg.solve(np.where(ok[:, None, None], M, np.eye(3)), d[:, :, None])[:, :, 0]
+                ok &= (coef >= 0).all(axis=1)
+                best = np.where(ok, 0.0, best)
+    return best
+
+
+def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp]) -> dict[str, Array]:
+    """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface.
+
+    Candidate facets: a first bound U on each node's distance from its 4 nearest facet centres, then every facet
+    whose centre lies within U + r_f (+ the tie tolerance) of the node — a facet nearer than U, or tied with the
+    nearest, is among them (its distance is at least its centre distance − its radius r_f). The facets are
+    grouped by radius (powers of 2) with a KD-tree per group, so the small facets of a graded surface are not
+    searched with the radius of its largest facet."""
+    m, nv = x.shape[0], surface.X.shape[1]
+    out = {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
+           "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
+    nf = surface.X.shape[0]
+    if m == 0 or nf == 0:
+        return out
+    centres = surface.X.mean(axis=1)
+    radius = norm(surface.X - centres[:, None]).max(axis=1)
+    hmax = float(size.max())
+    k0 = min(nf, 4)
+    _, ii = cKDTree(centres).query(x, k=k0)
+    ii = ii.reshape(m, k0)
+    _, _, dist = _closest(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
+    bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
+    # the candidate (node, facet) pairs, by radius classes
+    level = np.floor(np.log2(np.maximum(radius, np.finfo(float).tiny))).astype(np.int64)
+    nodes_l, facets_l = [], []
+    for lv in np.unique(level):
+        members = np.flatnonzero(level == lv)
+        lists = cKDTree(centres[members]).query_ball_point(x, bound + radius[members].max())
+        lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
+        nodes_l.append(np.repeat(np.arange(m), lengths))
+        facets_l.append(members[np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))])
+    node = np.concatenate(nodes_l)
+    facet = np.concatenate(facets_l)
+    order = np.lexsort((facet, node))
+    node, facet = node[order], facet[order]
+    q, w, dist = _closest(x[node], surface.X[facet])
+    # rectangular batches of nodes with similar candidate counts (padding: distance inf, never tied or chosen)
+    count = np.bincount(node, minlength=m)
+    first = np.concatenate([[0], np.cumsum(count)[:-1]])
+    width = np.maximum(1, 2 ** np.ceil(np.log2(np.maximum(count, 1)))).astype(np.intp)
+    for k in np.unique(width):
+        sel = np.flatnonzero(width == k)
+        slot = np.arange(k)[None, :]
+        valid = slot < count[sel, None]
+        src = np.where(valid, first[sel, None] + slot, first[sel, None])
+        dk = np.where(valid, dist[src], np.inf)
+        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel)
+    return out
+
+
+def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array, surface: Surface,
+            size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], nodes: npt.NDArray[np.intp]) -> None:
+    """Pick x_m, the lexicographic facet among the tied ones, n and the cone test for a batch of nodes."""
+    if nodes.size == 0:
+        return
+    rows = np.arange(nodes.size)
+    near = np.argmin(dist, axis=1)
+    h = size[ii[rows, near]]
+    tol = TIE_TOL * h
+    tied = (dist <= dist[rows, near][:, None] + tol[:, None]) & (norm(q - q[rows, near][:, None]) <= tol[:, None])
+    chosen = np.argmin(np.where(tied, rank[ii], np.iinfo(np.intp).max), axis=1)
+    facet = ii[rows, chosen]
+    xm, wm = q[rows, chosen], w[rows, chosen]
+    kq = ii.shape[1]
+    normals = outward_normals(surface.X[ii.ravel()], w.reshape(-1, w.shape[-1]),
+                             surface.sign[ii.ravel()]).reshape(-1, kq, 3)
+    d = x - xm
+    dn = norm(d)
+    tiny = dn <= tol
+    edge = (tied.sum(axis=1) > 1) | _on_boundary(wm)
+    n = normals[rows, chosen].copy()
+    # inside a facet: n = n_f(x_m); the node is paired if ±d is along n (always, up to round-off)
+    along = norm(d - dot(d, n)[:, None] * n) <= CONE_TOL * h
+    paired = along.copy()
+    # on an edge or vertex: n = ±d/|d| if ±d lies in the cone of the tied facets' normals
+    sel = np.flatnonzero(edge & ~tiny)
+    if sel.size:
+        order = np.argsort(~tied[sel], axis=1, kind="stable")  # tied facets first
+        qt = int(tied[sel].sum(axis=1).max())
+        order = order[:, :qt]
+        Nt = np.take_along_axis(normals[sel], order[:, :, None], axis=1)
+        mt = np.take_along_axis(tied[sel], order, axis=1)
+        plus = _cone_distance(d[sel], Nt, mt) <= CONE_TOL * h[sel]
+        minus = _cone_distance(-d[sel], Nt, mt) <= CONE_TOL * h[sel]
+        unit = d[sel] / dn[sel, None]
+        n[sel] = np.where(plus[:, None], unit, np.where(minus[:, None], -unit, n[sel]))
+        paired[sel] = plus | minus
+    # x_s on the surface: the normalized sum of the tied facets' normals
+    sel = np.flatnonzero(tiny)
+    if sel.size:
+        s = np.einsum("kq,kqi->ki", tied[sel].astype(float), normals[sel])
+        n[sel] = s / norm(s)[:, None]
+        paired[sel] = True
+    out["closest"][nodes], out["weights"][nodes], out["facet"][nodes] = xm, wm, facet
+    out["normal"][nodes], out["paired"][nodes] = n, paired
+
+
+def node_size(surface: Surface, nodes: npt.NDArray[np.int64]) -> Array:
+    """The largest diameter of the facets of ``surface`` at each of the global blocks ``nodes`` (0: none)."""
+    nv = surface.X.shape[1]
+    diameter = np.max([norm(surface.X[:, i] - surface.X[:, j]) for i in range(nv) for j in range(i + 1, nv)], axis=0) \
+        if surface.X.shape[0] else np.zeros(0)
+    vertices, inverse = np.unique(surface.blocks.ravel(), return_inverse=True)
+    largest = np.zeros(vertices.size)
+    np.maximum.at(largest, inverse.ravel(), np.repeat(diameter, nv))
+    pos = np.clip(np.searchsorted(vertices, nodes), 0, max(vertices.size - 1, 0))
+    return np.where(vertices[pos] == nodes, largest[pos], 0.0) if vertices.size else np.zeros(nodes.size)
+
+
+def where(x: Array) -> str:
+    return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
+
+
+def facet_sizes(surface: Surface) -> Array:
+    """The diameter of every facet of ``surface`` (its longest vertex-to-vertex distance)."""
+    nv = surface.X.shape[1]
+    return np.max([norm(surface.X[:, i] - surface.X[:, j]) for i in range(nv) for j in range(i + 1, nv)], axis=0)
+
+
+def facet_ranks(surface: Surface) -> npt.NDArray[np.intp]:
+    """The rank of every facet of ``surface`` in the lexicographic order of its sorted global vertices (the tie
+    rule of :func:`project`)."""
+    key = np.sort(surface.blocks, axis=1)
+    rank = np.empty(key.shape[0], dtype=np.intp)
+    rank[np.lexsort(key.T[::-1])] = np.arange(key.shape[0])
+    return rank
