@@ -57,7 +57,7 @@ from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
-from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, _select
+from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, select_candidates
 from fenics_coulomb.model.pairs.projection import Surface as _Surface
 from fenics_coulomb.model.pairs.projection import norm as _norm
 
@@ -399,18 +399,7 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, Array]:
     plane = np.abs(np.einsum("ij,ij->i", index.normals[facet], x[node]) - index.offsets[facet])
     near = plane <= bound[node]
     node, facet = node[near], facet[near]
-    q, w, dist = _closest(x[node], surface.X[facet])
-    # rectangular batches of points with similar candidate counts (padding: distance inf, never tied or chosen)
-    count = np.bincount(node, minlength=m)
-    first = np.concatenate([[0], np.cumsum(count)[:-1]])
-    width = np.maximum(1, 2 ** np.ceil(np.log2(np.maximum(count, 1)))).astype(np.intp)
-    for k in np.unique(width):
-        sel = np.flatnonzero(width == k)
-        slot = np.arange(k)[None, :]
-        valid = slot < count[sel, None]
-        src = np.where(valid, first[sel, None] + slot, first[sel, None])
-        dk = np.where(valid, dist[src], np.inf)
-        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, index.rank, out, sel)
+    select_candidates(x, node, facet, surface, size, index.rank, out)
     return out
 
 

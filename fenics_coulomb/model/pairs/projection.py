@@ -77,7 +77,7 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 __all__ = ["TIE_TOL", "CONE_TOL", "Surface", "norm", "dot", "where", "outward_normals", "local_facets", "facet_data",
-           "gather_surface", "project", "node_size", "facet_sizes", "facet_ranks"]
+           "gather_surface", "project", "select_candidates", "node_size", "facet_sizes", "facet_ranks"]
 
 Array = npt.NDArray[np.float64]
 
@@ -345,6 +345,15 @@ def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp])
     facet = np.concatenate(facets_l)
     order = np.lexsort((facet, node))
     node, facet = node[order], facet[order]
+    select_candidates(x, node, facet, surface, size, rank, out)
+    return out
+
+
+def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[np.intp], surface: Surface,
+                      size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array]) -> None:
+    """The closest point of each point x_i among its candidate facets (the pairs (``node``, ``facet``), sorted by
+    node), with the tie and normal-cone rules (:func:`_select`), written into ``out``."""
+    m = x.shape[0]
     q, w, dist = _closest(x[node], surface.X[facet])
     # rectangular batches of nodes with similar candidate counts (padding: distance inf, never tied or chosen)
     count = np.bincount(node, minlength=m)
@@ -357,7 +366,6 @@ def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp])
         src = np.where(valid, first[sel, None] + slot, first[sel, None])
         dk = np.where(valid, dist[src], np.inf)
         _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel)
-    return out
 
 
 def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array, surface: Surface,
