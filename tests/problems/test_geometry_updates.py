@@ -83,3 +83,29 @@ def test_the_solver_stays_and_answers_as_a_new_hierarchy_at_every_update(monkeyp
     finally:
         reused["blocks"].destroy()
         fresh["blocks"].destroy()
+
+
+@pytest.mark.parametrize("changes, decisions", [
+    ((4e-11, 3.9e-11), ["update", "settled"]),  # stagnant below the round-off cap: settled
+    ((4e-11, 1e-12), ["update", "update"]),  # still contracting: another update
+    ((4e-6, 3.9e-6), ["update", "update"]),  # stagnant but far above the round-off: a real change, update
+])
+def test_a_change_that_stops_shrinking_at_round_off_settles(monkeypatch: pytest.MonkeyPatch, changes, decisions):
+    """GeometryIteration: at full accuracy, with the same nodes and supports, a largest change that no longer
+    shrinks (≥ ROUND_OFF_STAGNATION × the previous one) and lies below ROUND_OFF_CAP × the mesh's extent is the
+    geometry's round-off and settles; a contracting or a large one updates (the changes scripted, ε below all)."""
+    from fenics_coulomb.model import sliding
+
+    blocks = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=RTOL, prefix="roundoff_", **SMALL)
+    try:
+        model = blocks.problem.model
+        script = iter(changes)
+        monkeypatch.setattr(sliding, "geometry_change", lambda *args, **kwargs: sliding.GeometryChange(
+            settled=False, changed=0, discrepancy=next(script), tolerance=1e-14))
+        iteration = sliding.GeometryIteration(model, RTOL, 8.0, None)
+        assert 4e-11 < iteration.extent * sliding.ROUND_OFF_CAP < 4e-6  # the scripted changes on both sides
+        u = np.zeros(3 * model.V.dofmap.index_map.size_local)
+        taken = [iteration.after(u, u, RTOL, iterations=3).action for _ in changes]
+        assert taken == decisions
+    finally:
+        blocks.destroy()
