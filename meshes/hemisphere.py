@@ -25,6 +25,7 @@ import math
 from pathlib import Path
 
 import gmsh
+from meshes.gmsh_session import gmsh_session, write_volume_mesh
 
 TAGS = {"top": 1, "bottom": 2, "apex": 3}
 
@@ -40,10 +41,7 @@ def build(size: float, path: Path, radius: float = 1.0, apex: float = 0.05, grad
         grading: Ratio of the element size far from the apex to the size at the apex (1: uniform).
     """
     R = radius
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("hemisphere")
+    with gmsh_session("hemisphere"):
         occ = gmsh.model.occ
         ball = occ.addSphere(0.0, 0.0, R, R)
         # gmsh's sphere has its poles on the x3 axis and its seam in the x1-x3 plane: tilt them by 60 degrees
@@ -98,12 +96,7 @@ def build(size: float, path: Path, radius: float = 1.0, apex: float = 0.05, grad
             gmsh.model.mesh.field.setString(
                 field, "F", f"Min({size}, {small} + {size - small}*Sqrt(x*x + y*y + z*z)/{R})")
             gmsh.model.mesh.field.setAsBackgroundMesh(field)
-        gmsh.model.mesh.generate(3)
-        gmsh.model.mesh.optimize()
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_volume_mesh(path, optimize=True)
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import gmsh
 import numpy as np
+from meshes.gmsh_session import gmsh_session, write_volume_mesh
 
 __all__ = ["TAGS", "TAN_ALPHA", "SIZE", "rotation", "build"]
 
@@ -41,10 +42,7 @@ def rotation(tan_alpha: float = TAN_ALPHA) -> np.ndarray:
 def build(path: Path, cells: tuple[int, int, int] = (4, 4, 2), tan_alpha: float = TAN_ALPHA) -> None:
     """Mesh the rotated block with ``cells`` hexahedra along (L, B, H) and write ``path`` (gmsh 4.1)."""
     R = rotation(tan_alpha)
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("incline")
+    with gmsh_session("incline"):
         occ = gmsh.model.occ
         volume = occ.addBox(0.0, 0.0, 0.0, *SIZE)
         occ.rotate([(3, volume)], 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -math.atan(tan_alpha))
@@ -69,11 +67,7 @@ def build(path: Path, cells: tuple[int, int, int] = (4, 4, 2), tan_alpha: float 
             faces[name].append(surface)
         for name, tags in faces.items():
             gmsh.model.addPhysicalGroup(2, tags, TAGS[name], name=name)
-        gmsh.model.mesh.generate(3)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_volume_mesh(path)
 
 
 if __name__ == "__main__":

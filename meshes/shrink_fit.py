@@ -25,6 +25,7 @@ from pathlib import Path
 
 import gmsh
 import numpy as np
+from meshes.gmsh_session import gmsh_session, write_volume_mesh
 
 __all__ = ["BODIES", "TAGS", "GEOMETRY", "build"]
 
@@ -40,10 +41,7 @@ def build(path: Path, shaft: float = 0.05, ring: float = 0.04, geometry: dict[st
     through the thickness) and write ``path`` (gmsh 4.1)."""
     g = {**GEOMETRY, **(geometry or {})}
     b, c, delta, t = g["b"], g["c"], g["delta"], g["t"]
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("shrink_fit")
+    with gmsh_session("shrink_fit"):
         occ = gmsh.model.occ
         # the quarter cross-sections, extruded in x3 with ``layers`` layers (structured through the thickness)
         disc = occ.addDisk(0.0, 0.0, 0.0, b, b)
@@ -79,11 +77,7 @@ def build(path: Path, shaft: float = 0.05, ring: float = 0.04, geometry: dict[st
                 faces[key].append(surface)
         for name, tags in faces.items():
             gmsh.model.addPhysicalGroup(2, tags, TAGS[name], name=name)
-        gmsh.model.mesh.generate(3)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_volume_mesh(path)
 
 
 if __name__ == "__main__":

@@ -22,6 +22,7 @@ import argparse
 from pathlib import Path
 
 import gmsh
+from meshes.gmsh_session import gmsh_session, write_volume_mesh
 
 BODIES = {"lower": 1, "upper": 2}
 TAGS = {"lower_top": 1, "upper_bottom": 2, "lower_bottom": 3, "upper_top": 4, "lower_sides": 5, "upper_sides": 6}
@@ -29,10 +30,7 @@ TAGS = {"lower_top": 1, "upper_bottom": 2, "lower_bottom": 3, "upper_top": 4, "l
 
 def build(path: Path, lower: float = 0.2, upper: float = 0.125) -> None:
     """Mesh both blocks and write ``path`` (gmsh 4.1)."""
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("slide_off")
+    with gmsh_session("slide_off"):
         occ = gmsh.model.occ
         boxes = {"lower": (occ.addBox(0.0, 0.0, 0.0, 2.0, 1.0, 0.5), 0.0, 0.5, lower),
                  "upper": (occ.addBox(0.5, 0.25, 0.502, 1.0, 0.5, 0.5), 0.502, 1.002, upper)}
@@ -48,11 +46,7 @@ def build(path: Path, lower: float = 0.2, upper: float = 0.125) -> None:
                 gmsh.model.addPhysicalGroup(2, tags, TAGS[face], name=face)
             points = gmsh.model.getBoundary([(3, volume)], combined=False, oriented=False, recursive=True)
             gmsh.model.mesh.setSize(points, size)
-        gmsh.model.mesh.generate(3)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(str(path))
-    finally:
-        gmsh.finalize()
+        write_volume_mesh(path)
 
 
 if __name__ == "__main__":
