@@ -69,3 +69,11 @@ def test_a_taken_or_invalid_name_is_refused(name):
 def test_unregistering_an_unknown_method_is_refused():
     with pytest.raises(InputError, match="method = 'nitsche'"):
         unregister_pair_method("nitsche")
+
+
+@pytest.mark.parametrize("method", [None, "node_to_surface", 3.0])
+def test_a_method_that_is_not_callable_is_refused(method):
+    """register_pair_method refuses a non-callable method with a message naming it, and registers nothing."""
+    with pytest.raises(InputError, match="not callable"):
+        register_pair_method("not_a_method", method)
+    assert "not_a_method" not in pair_methods()

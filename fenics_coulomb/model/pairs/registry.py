@@ -25,9 +25,12 @@ _METHODS: dict[str, PairMethod] = {}
 
 
 def register_pair_method(name: str, method: PairMethod) -> None:
-    """Register ``method`` under ``name`` (InputError for a name taken or not a non-empty string)."""
+    """Register ``method`` under ``name`` (InputError for a name taken or not a non-empty string, or a method that
+    is not callable)."""
     if not isinstance(name, str) or not name:
         raise InputError(f"pair method name {name!r}: must be a non-empty string")
+    if not callable(method):
+        raise InputError(f"pair method {name!r}: {method!r} is not callable (a function of PairInput -> Stencils)")
     if name in _METHODS:
         raise InputError(f"pair method {name!r}: already registered")
     _METHODS[name] = method
