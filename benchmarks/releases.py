@@ -41,7 +41,8 @@ from benchmarks.scale import aggregate_rss, launcher_command, machine, phases, r
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 COLUMNS = ["lev", "repeat", "release", "commit", "n", "wall_s", "mesh_s", "assembly_s", "setup_s", "solve_s",
-           "output_s", "newton", "krylov", "converged", "returncode", "rss_sum_MiB", "load1_before", "load1_after"]
+           "output_s", "newton", "krylov", "final_residual", "converged", "returncode", "rss_sum_MiB",
+           "load1_before", "load1_after"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -58,6 +59,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--base-tree", type=Path, help="a checkout of the base made beforehand (where git is not "
                         "available, e.g. inside container/run: `git worktree add --detach DIR COMMIT` on the host)")
     parser.add_argument("--head-tree", type=Path, help="a checkout of the head made beforehand")
+    parser.add_argument("--head-args", default="", help="extra options of the head's command, e.g. '--rtol 2e-7' "
+                        "to compare the two at the same accuracy (the table's column 'final |y|' shows it)")
     return parser
 
 
@@ -91,14 +94,15 @@ def checkout(commit: str, parent: Path) -> Path:
     return path
 
 
-def run_job(tree: Path, lev: int, args: argparse.Namespace, mpi_version: str, work: Path, log: Any) -> dict[str, Any]:
-    """The cuboid at ``lev`` solved by the checkout ``tree``; its row."""
+def run_job(tree: Path, lev: int, args: argparse.Namespace, mpi_version: str, work: Path, log: Any,
+            extra: list[str] | None = None) -> dict[str, Any]:
+    """The cuboid at ``lev`` solved by the checkout ``tree`` (``extra``: more options of the command); its row."""
     out, rss = work / "out", work / "rss"
     for path in (out, rss):
         shutil.rmtree(path, ignore_errors=True)
     rss.mkdir(parents=True)
     command = [args.python, "-m", "fenics_coulomb", "--lev", str(lev), "--gap", "d3", "--load", "L2",
-               "--no-plots", "--quiet", "--out", str(out)]
+               "--no-plots", "--quiet", "--out", str(out), *(extra or [])]
     argv = [*launcher_command(args.launcher, args.np, len(os.sched_getaffinity(0)), mpi_version),
             args.python, str(HERE / "peak_rss.py"), str(rss), "--", *command]
     env = dict(os.environ, PYTHONPATH=str(tree), MPLBACKEND="Agg")
@@ -109,30 +113,35 @@ def run_job(tree: Path, lev: int, args: argparse.Namespace, mpi_version: str, wo
                            "load1_before": load_before, "load1_after": os.getloadavg()[0]}
     summary = out / "summary.json"
     if summary.exists():
-        row.update(phases("contact", json.loads(summary.read_text())))
+        data = json.loads(summary.read_text())
+        row.update(phases("contact", data))
+        # The residual norm the solve ended at (the same scale in both releases): the accuracy delivered.
+        row["final_residual"] = float(data["residual_history"][-1])
     row.update(aggregate_rss(read_rss(rss)))
     return row
 
 
 def table(rows: list[dict[str, Any]], base: str, head: str) -> list[str]:
     """Per level: the median of each release's repeats and head / base."""
-    lines = ["| lev | n | release | wall s | assembly s | solve s | Newton | Krylov | RSS sum MiB |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| lev | n | release | wall s | assembly s | solve s | Newton | Krylov | final \\|y\\| | RSS sum MiB |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for lev in sorted({r["lev"] for r in rows}):
         medians = {}
         for release in ("base", "head"):
             mine = [r for r in rows if r["lev"] == lev and r["release"] == release]
             medians[release] = {k: statistics.median(float(r.get(k, float("nan"))) for r in mine)
-                                for k in ("wall_s", "assembly_s", "solve_s", "newton", "krylov", "rss_sum_MiB")}
+                                for k in ("wall_s", "assembly_s", "solve_s", "newton", "krylov", "final_residual",
+                                          "rss_sum_MiB")}
             m, n = medians[release], mine[0].get("n", 0) if mine else 0
             commit = base if release == "base" else head
             lines.append(f"| {lev} | {n} | {release} {commit[:7]} | {m['wall_s']:.1f} | {m['assembly_s']:.1f} | "
-                         f"{m['solve_s']:.1f} | {m['newton']:.0f} | {m['krylov']:.0f} | {m['rss_sum_MiB']:.0f} |")
+                         f"{m['solve_s']:.1f} | {m['newton']:.0f} | {m['krylov']:.0f} | {m['final_residual']:.2e} | "
+                         f"{m['rss_sum_MiB']:.0f} |")
         b, h = medians["base"], medians["head"]
         lines.append(f"| {lev} | | head / base | {h['wall_s'] / b['wall_s']:.3f} | "
                      f"{h['assembly_s'] / b['assembly_s']:.3f} | {h['solve_s'] / b['solve_s']:.3f} | "
                      f"{h['newton'] / b['newton']:.2f} | {h['krylov'] / b['krylov']:.2f} | "
-                     f"{h['rss_sum_MiB'] / b['rss_sum_MiB']:.3f} |")
+                     f"{h['final_residual'] / b['final_residual']:.2f} | {h['rss_sum_MiB'] / b['rss_sum_MiB']:.3f} |")
     return lines
 
 
@@ -155,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
                 for repeat in range(args.repeats):
                     order = ("base", "head") if repeat % 2 == 0 else ("head", "base")
                     for release in order:
-                        row = run_job(trees[release], lev, args, mpi_version, parent / "work", log)
+                        extra = args.head_args.split() if release == "head" else []
+                        row = run_job(trees[release], lev, args, mpi_version, parent / "work", log, extra)
                         row.update({"repeat": repeat, "release": release,
                                     "commit": base if release == "base" else head})
                         rows.append(row)
@@ -169,12 +179,14 @@ def main(argv: list[str] | None = None) -> int:
         writer = csv.DictWriter(fh, fieldnames=COLUMNS, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-    meta = {"base": base, "head": head, "ranks": args.np, "levels": args.levels, "repeats": args.repeats,
+    meta = {"base": base, "head": head, "head_args": args.head_args, "ranks": args.np, "levels": args.levels,
+            "repeats": args.repeats,
             "machine": machine(), "uptime_before": started, "uptime_after": uptime()}
     (args.out / "releases.json").write_text(json.dumps(meta, indent=2) + "\n")
     text = [f"# Release against release: base {base[:7]}, head {head[:7]}", "",
             f"The paper's cuboid (d3/L2, default settings) on {args.np} ranks, whole command "
-            f"(`python3 -m fenics_coulomb --lev L --gap d3 --load L2 --no-plots`), the two commits alternating "
+            f"(`python3 -m fenics_coulomb --lev L --gap d3 --load L2 --no-plots`"
+            f"{'; the head with ' + repr(args.head_args) if args.head_args else ''}), the two commits alternating "
             f"(ABBA), {args.repeats} repeat(s) each, medians; written by `benchmarks/releases.py`. Load before: "
             f"{started}; after: {meta['uptime_after']}. Machine: {meta['machine']}.", "", *table(rows, base, head), ""]
     (args.out / "README.md").write_text("\n".join(text))
