@@ -38,6 +38,7 @@ from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.nullspace import rigid_body_modes
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping
+from fenics_coulomb.model.reproducible import assemble_matrix
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel, Friction
@@ -245,8 +246,7 @@ class IdentityCoupling(Coupling):
         model.friction = model.friction_at_nodes(friction)
 
     def stiffness(self, model: ContactModel, prefix: str) -> PETSc.Mat:
-        A = dolfinx.fem.petsc.assemble_matrix(model.a, bcs=model.bcs)
-        A.assemble()
+        A = assemble_matrix(model.a, bcs=model.bcs)
         A.setOptionsPrefix(f"{prefix}A_")
         return A
 

@@ -18,6 +18,7 @@ import dolfinx.la
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.nullspace import rigid_body_modes
+from fenics_coulomb.model.reproducible import FIXED_ORDER_PTAP, MIN_RANKS
 
 __all__ = ["AUTO_GAMG_UNKNOWNS", "AUTO_ILU_MAX_RANKS", "AUTO_STALL_ITS", "AUTO_LU_MAX_UNKNOWNS",
            "DETERMINISTIC_PTAP", "DETERMINISTIC_PTAP_MIN_RANKS", "GAMG_SMOOTHER_SWEEPS",
@@ -44,17 +45,13 @@ AUTO_STALL_ITS = 200
 #: The last resort of the ladder, a direct solver (MUMPS in parallel), only up to this many unknowns (about
 #: 2 GiB of factors for 3D elasticity at 300 000 unknowns).
 AUTO_LU_MAX_UNKNOWNS = 300_000
-#: PETSc's default parallel triple product P^T A P (GAMG's Galerkin coarse matrices) adds the off-process
-#: contributions in the order the messages arrive, so the coarse matrices, and every later bit, can differ
-#: from run to run on 3 and more ranks (docs/partition). The "allatonce" algorithm sums them in a fixed order.
-#: PETSc creates these product matrices without an options prefix, so the option can only be given
-#: unprefixed: the solver sets it for the duration of its own KSP solves (where GAMG sets up) and removes
-#: it afterwards; a value the user gave is left alone.
-DETERMINISTIC_PTAP = ("matptap_via", "allatonce")
-#: ... and only from this many ranks: on 2 ranks every rank has one neighbour, the messages arrive in one order
-#: and the default product repeats bit for bit (docs/partition), while "allatonce" costs: d3/L2 lev 8 on 2 ranks
-#: solves in 16.3 s with it, 9.5 s without (identical bits in three runs; docs/scale/idle-2026-11-23).
-DETERMINISTIC_PTAP_MIN_RANKS = 3
+#: GAMG's Galerkin coarse matrices are parallel triple products PᵀAP, which PETSc by default sums in the order
+#: the messages arrive (three and more ranks): :mod:`fenics_coulomb.model.reproducible` has the option that fixes
+#: the order; the solver sets it for the duration of its own KSP solves (where GAMG sets up), unless the user
+#: gave it. Only from MIN_RANKS ranks: on 2 the default product repeats bit for bit, while "allatonce" costs
+#: (d3/L2 lev 8 on 2 ranks: 16.3 s with it, 9.5 s without; docs/scale/idle-2026-11-23).
+DETERMINISTIC_PTAP = FIXED_ORDER_PTAP
+DETERMINISTIC_PTAP_MIN_RANKS = MIN_RANKS
 #: GAMG's level smoother (Chebyshev) sweeps unless -<prefix>mg_levels_ksp_max_it says otherwise: one sweep
 #: costs more Krylov iterations than PETSc's two but less time (lev 8: 8.4 s against 10.3 s; lev 10: 78 s
 #: against 105 s).

@@ -35,6 +35,7 @@ from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
+from fenics_coulomb.model.reproducible import assemble_matrix, fixed_order_products
 from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies,
                                                  coupling_matrix)
 
@@ -104,8 +105,7 @@ class PairCoupling(Coupling):
         self._excluded = model.not_contact()
         self.body_of_block, self.num_bodies = connected_bodies(V)
         check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows)
-        self.A_free = dolfinx.fem.petsc.assemble_matrix(model.a)
-        self.A_free.assemble()
+        self.A_free = assemble_matrix(model.a)
         self.A_free.setOptionsPrefix(f"{model.prefix}A_free_")
         if contact is not None:
             tags, markers = contact
@@ -222,11 +222,12 @@ class PairCoupling(Coupling):
         """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity; ``reuse``: the Ã of M's
         previous values, overwritten in place (PtAP's numeric phase only, the same bits)."""
         assert self.A_free is not None and self.M is not None, "build() first"
-        if reuse is not None:
-            A = self.A_free.ptap(self.M, result=reuse)
-        else:
-            A = self.A_free.ptap(self.M)
-            A.setOptionsPrefix(f"{prefix}A_")
+        with fixed_order_products(model.comm):
+            if reuse is not None:
+                A = self.A_free.ptap(self.M, result=reuse)
+            else:
+                A = self.A_free.ptap(self.M)
+                A.setOptionsPrefix(f"{prefix}A_")
         r0 = model.V.dofmap.index_map.local_range[0]
         A.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
         return A
