@@ -70,9 +70,9 @@ from benchmarks.verification_two_body import (  # noqa: E402
 )
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
-__all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "incline", "incline_scene", "incline_reference",
-           "hertz_indentation", "lubkin", "patch", "shrink_fit", "shrink_fit_reference", "SHRINK_LEVELS",
-           "collect_two_body", "main"]
+__all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "INCLINE_TWO_BODY_SCENE", "SLOPE_LEVELS", "incline",
+           "incline_scene", "incline_reference", "incline_two_body_rows", "hertz_indentation", "lubkin", "patch",
+           "shrink_fit", "shrink_fit_reference", "SHRINK_LEVELS", "collect_two_body", "main"]
 
 LOG = logging.getLogger("verification")
 
@@ -86,6 +86,10 @@ E_BLOCK, NU_BLOCK, WEIGHT_DENSITY, PUSH = 1000.0, 0.0, 1.0, 0.01
 INCLINE_LEVELS = {0: (4, 4, 2), 1: (8, 8, 4)}
 #: The incline as a user runs it: a scene file on a gmsh mesh (meshes/incline.py; level 0 is meshes/incline.msh).
 INCLINE_SCENE = ROOT / "docs" / "verification" / "incline.toml"
+#: ... and on an elastic slope (two bodies; meshes/incline_on_slope.py, level 0 is meshes/incline_on_slope.msh),
+#: the slope's hexahedra per level.
+INCLINE_TWO_BODY_SCENE = ROOT / "docs" / "verification" / "incline_two_bodies.toml"
+SLOPE_LEVELS = {0: (6, 3, 2), 1: (12, 6, 4)}
 #: Patch-test levels: (cells of the lower (master) block, cells of the upper (slave) block), non-matching.
 PATCH_LEVELS = {0: ((4, 4, 2), (5, 5, 2)), 1: ((8, 8, 2), (10, 10, 2))}
 #: Hertz levels of benchmarks/hertz.py used by the table (h₀ = a/4, a/8, a/11.3).
@@ -178,13 +182,16 @@ def incline(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, Any]:
             "weight": weight, "wall": time.perf_counter() - t0}
 
 
-def incline_scene(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, Any]:
+def incline_scene(comm: MPI.Comm, friction: float, level: int = 0, two_bodies: bool = False) -> dict[str, Any]:
     """The incline of :func:`incline` as a scene: docs/verification/incline.toml through ``build_problem`` (the
     command line's path), with the friction coefficient ``friction`` and, above level 0, the gmsh mesh of
     meshes/incline.py at ``INCLINE_LEVELS[level]`` (written by rank 0 into a temporary directory). The push is
     ``[prescribed] lower_end = [0.01, "free", "free"]`` on the whole lower end (its bottom edge, driven along the
     contact, is no contact node), u2 is held by rollers on the faces x2 = 0, B (their bottom edges stay contact
-    nodes). Returns what :func:`incline` returns (``hold``: the rollers' reaction over the weight)."""
+    nodes). ``two_bodies``: docs/verification/incline_two_bodies.toml instead, the slope an elastic block
+    (meshes/incline_on_slope.py, the slope's cells ``SLOPE_LEVELS[level]``; the block rests on it by contact
+    alone along the normal). Returns what :func:`incline` returns (``hold``: the rollers' reaction over the
+    weight)."""
     import dataclasses
     import tempfile
 
@@ -192,19 +199,28 @@ def incline_scene(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, 
     from fenics_coulomb.scenes.scene import Scene
 
     t0 = time.perf_counter()
-    scene = Scene.from_toml(INCLINE_SCENE)
+    scene = Scene.from_toml(INCLINE_TWO_BODY_SCENE if two_bodies else INCLINE_SCENE)
     body = scene.body
     folder = None
     if level != 0:
         path = None
         if comm.rank == 0:
             from meshes import incline as incline_mesh
+            from meshes import incline_on_slope
 
             folder = tempfile.mkdtemp(prefix="incline_")
             path = str(Path(folder) / f"incline_{level}.msh")
-            incline_mesh.build(Path(path), INCLINE_LEVELS[level], TAN_ALPHA)
+            if two_bodies:
+                incline_on_slope.build(Path(path), INCLINE_LEVELS[level], SLOPE_LEVELS[level], TAN_ALPHA)
+            else:
+                incline_mesh.build(Path(path), INCLINE_LEVELS[level], TAN_ALPHA)
         body = dataclasses.replace(body, mesh=comm.bcast(path))
-    scene = dataclasses.replace(scene, body=body, friction=dataclasses.replace(scene.friction, coefficient=friction))
+    if two_bodies:
+        pairs = [dataclasses.replace(pair, friction=friction) for pair in scene.contact_pairs]
+        scene = dataclasses.replace(scene, body=body, contact_pairs=pairs)
+    else:
+        scene = dataclasses.replace(scene, body=body,
+                                    friction=dataclasses.replace(scene.friction, coefficient=friction))
     built = build_problem(scene, comm, petsc_options_prefix="incline_scene_")
     with built.problem as problem:
         _, result = problem.solve()
@@ -216,7 +232,12 @@ def incline_scene(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, 
 
         shutil.rmtree(folder, ignore_errors=True)
     weight = -float(report.applied_load[2])
-    total = sum(report.reactions.values()) + report.total_force + report.applied_load
+    if two_bodies:  # the applied load holds the slope's weight too: the block's is its volume × ρg
+        from meshes.incline import SIZE
+
+        weight = -float(np.prod(SIZE)) * float(scene.load.body_force[2])
+    # the supports, the loads and (one body) the plane's force balance; two bodies: their contact is internal
+    total = sum(report.reactions.values()) + report.applied_load + (0.0 if two_bodies else report.total_force)
     ratio = float(report.reactions["lower_end"][0]) / weight
     reference = incline_reference(friction)
     hold = np.linalg.norm(report.reactions["front"] + report.reactions["back"]) / weight
@@ -444,6 +465,36 @@ def _pct(x: float) -> str:
     return f"{x:+.2e}" if abs(x) < 1e-3 else f"{100 * x:+.3f} %"
 
 
+def incline_two_body_rows(comm: MPI.Comm) -> list[dict[str, Any]]:
+    """Case 5: the incline with the slope an elastic block (docs/verification/incline_two_bodies.toml), every
+    friction coefficient at both levels; the coarse level also on one rank."""
+    rows = []
+    for friction in FRICTIONS:
+        for level in INCLINE_LEVELS:
+            r = incline_scene(comm, friction, level, two_bodies=True)
+            agree = "—"
+            if level == 0:
+                one = _serial(comm, incline_scene, friction, level, True)
+                agree = f"{_agreement(r, comm.bcast(one), ('value',)):.1e}"
+            if comm.rank == 0:
+                LOG.info(f"incline on an elastic slope μ = {friction}: level {level}, push/weight {r['value']:.9f} "
+                         f"(error {r['error']:+.2e}), every closed node slides: {r['all_slide']}, {r['open']} open, "
+                         f"{r['wall']:.1f} s")
+            block, slope = INCLINE_LEVELS[level], SLOPE_LEVELS[level]
+            rows.append({"case": "5. incline, two bodies", "quantity": f"push/weight, μ = {friction}, the slope an "
+                         "elastic block (docs/verification/incline_two_bodies.toml)",
+                         "level": f"{level}: {'×'.join(map(str, block))} on {'×'.join(map(str, slope))} hex (gmsh)",
+                         "reference": f"{r['reference']:.6f}",
+                         "source": "equilibrium of the block (statics), docs/verification §1 and §5",
+                         "value": f"{r['value']:.9f}", "error": r["error"], "bound": 1e-6,
+                         "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree,
+                         "note": ("every closed contact node slides" if r["all_slide"] else
+                                  "NOT every closed node slides") + "; dual mortar, non-matching meshes, small "
+                                  "sliding; the block held along the slope's normal by contact alone"
+                                  + f"; {r['open']} of {r['contact_nodes']} contact nodes open" * (r["open"] > 0)})
+    return rows
+
+
 def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
             ) -> tuple[list[dict[str, Any]], dict[str, list[Any]]]:
     """Solve every case at both levels (and the coarse level on one rank); the table's rows and the curves of
@@ -495,6 +546,7 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
                                   "NOT every closed node slides") + "; push [0.01, \"free\", \"free\"] on the "
                                   "lower end, rollers on x2 = 0, B" + f"; {r['open']} of {r['contact_nodes']} "
                                   "contact nodes open" * (r["open"] > 0)})
+    rows += incline_two_body_rows(comm)
     johnson = "Johnson, Contact Mechanics (1985), §4.2 (Hertz, spheres)"
     for i, level in enumerate(hertz_levels):
         r = hertz_indentation(comm, level)
@@ -663,9 +715,8 @@ inflated accordingly).
 
 {table}
 
-The "not yet" rows: the cases of the verification plan not in this table yet: steady rolling (Carter) and the
-incline with the slope as a second elastic body. The incline on an elastic slope needs a body held by contact
-alone, which contact pairs refuse; Carter needs a longer roll than docs/rolling has had. The Mindlin–Deresiewicz
+The "not yet" row: the case of the verification plan not in this table yet, steady rolling (Carter), which
+needs a longer roll than docs/rolling has had. The Mindlin–Deresiewicz
 tangential compliance and the unloading of case 6 are not measured (the hemisphere's own shear between its
 pressed face and the contact adds to the compliance of two half-spaces). Support reactions (a node on two
 supports, one-component pushes, rollers, a driven master body) are checked against an assembly of K u − l of
@@ -762,6 +813,29 @@ The torque rises with the twist as the slip annulus spreads inward and is flat f
 
 ![torque over the full-slip torque against the twist](lubkin.png)
 
+## 5. The incline on an elastic slope (two bodies)
+
+**Set-up.** The block and push of §1's scene file (hexahedra 4×4×2 and 8×8×4, E = 1000, ν = 0, ρg = 1, the lower
+end pushed by u1 = 0.01, rollers u2 = 0 on the faces x2 = 0 and B) resting on a second elastic body instead of
+the rigid plane: the slope [−0.5, 1.5] × [0, 1] × [−0.5, 0] in the block's frame (hexahedra 6×3×2 and 12×6×4,
+non-matching; the same material), clamped at its bottom — `docs/verification/incline_two_bodies.toml` on
+`meshes/incline_on_slope.py`'s mesh, one contact pair (slave: the block's bottom, master: the slope's top, dual
+mortar), small sliding (the reference configuration's frames, in which the statics below is exact; finite sliding
+would turn the frames with the deformed surface, by O(load/E)).
+
+**Held by contact alone.** The push and the rollers hold five of the block's rigid motions; its motion along the
+slope's normal is held only by the contact with the slope, which its own support holds. The coupling accepts
+such a body: every rigid motion its supports leave free must move the contact surface along its normals
+(`check_rigid_support` in `fenics_coulomb/model/pairs/two_body.py`); a body that only contact could hold sideways
+is refused as before (tests/model/test_two_body.py).
+
+**Reference.** The block's statics does not involve the slope's elasticity: with every contact node sliding,
+the contact forces are N along the slope's normal and μN against the slip, so the push over the block's weight is
+(tan α + μ)/(1 − μ tan α) as in §1 (the weight is the block's alone: ρg × its volume, 0.5; the applied load
+also holds the slope's). The pushed end's bottom-edge nodes are driven along x1, which is not orthogonal to the
+slope's normal, so they are no contact nodes (20 of the 25 bottom nodes are); they carry no contact force and
+the statics is unchanged.
+
 ## 6. Cattaneo–Mindlin with β = 0
 
 `benchmarks/verification_two_body.py` (`cattaneo_mindlin`): an elastic hemisphere of radius R = 4 on an elastic
@@ -850,10 +924,6 @@ NOT_YET = [
      "error": float("nan"), "bound": None, "unknowns": "—", "ranks": "—", "wall": float("nan"), "agree": "—",
      "note": note}
     for case, quantity, reference, source, note in [
-        ("5. incline, two bodies", "push/weight, the slope an elastic block", "(tan α + μ)/(1 − μ tan α)",
-         "as case 1", "the block would rest on the slope by contact alone, which contact pairs refuse today "
-         "(every body needs supports that remove its six rigid motions); per-component prescribed values exist "
-         "(case 1's scene file)"),
         ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))",
          "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
          "docs/rolling did not reach the steady state; a longer roll is not in this table yet"),
@@ -937,10 +1007,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "verification")
     parser.add_argument("--hertz-levels", type=int, nargs="*", default=list(HERTZ_LEVELS))
-    parser.add_argument("--cases", choices=("all", "two-body", "mindlin"), default="all",
+    parser.add_argument("--cases", choices=("all", "two-body", "mindlin", "incline-two-bodies"), default="all",
                         help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), mindlin: only "
-                             "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md (to be merged "
-                             "into the table)")
+                             "Cattaneo–Mindlin's, incline-two-bodies: only case 5's, into verification_two_body.csv "
+                             "and two_body_rows.md (to be merged into the table)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if comm.rank == 0:
@@ -948,8 +1018,9 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("fenics_coulomb").setLevel(logging.WARNING)
     load_before = _load() if comm.rank == 0 else ""
     t0 = time.perf_counter()
-    if args.cases in ("two-body", "mindlin"):
-        rows = collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS)
+    if args.cases in ("two-body", "mindlin", "incline-two-bodies"):
+        rows = (incline_two_body_rows(comm) if args.cases == "incline-two-bodies" else
+                collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS))
         if comm.rank == 0:
             args.out.mkdir(parents=True, exist_ok=True)
             with open(args.out / "verification_two_body.csv", "w", newline="") as f:

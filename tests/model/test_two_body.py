@@ -24,6 +24,7 @@ from fenics_coulomb import ContactProblem, Plane
 from fenics_coulomb.model.checks import physics_residuals, unconstrained_residual
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.pairs import ContactPair
+from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.dof_values import owned_values
 
 from meshes.two_blocks import TAGS  # noqa: E402
@@ -375,3 +376,33 @@ def test_bad_input():
     with pytest.raises(InputError, match="give the contact boundary of the obstacles"):
         ContactProblem(a, None, [bottom], contact_pairs=[pair], obstacles=[Plane(point=[0, 0, 0], normal=[0, 0, 1])],
                        petsc_options_prefix="bad_")
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_a_body_held_along_the_contact_normal_by_contact_alone(friction):
+    """The upper block held only in x1 and x2 on its top face (its motion along x3 left free) and pressed by a
+    traction q on the clamped lower block: accepted; the pair carries the load, P = q·area, the contact
+    balance and physics hold. Held in x1 only (x2 and the rotation about x3 free: tangential, which contact
+    cannot hold) it is refused, naming the body."""
+    msh, ft = two_blocks(MPI.COMM_WORLD, gap=0.0)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    a = elasticity(V)
+    clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)
+    top = ft.find(UPPER_TOP)
+    held = [dolfinx.fem.dirichletbc(0.0, dolfinx.fem.locate_dofs_topological(V.sub(k), 2, top), V.sub(k))
+            for k in (0, 1)]
+    q = 0.05
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=ft)
+    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -q])), ufl.TestFunction(V)) * ds(UPPER_TOP)
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
+    with ContactProblem(a, L, [clamp, *held], contact_pairs=[pair], settings=TIGHT,
+                        petsc_options_prefix="held_by_contact_") as problem:
+        _, result = problem.solve()
+        assert result.converged
+        assert_physics(problem, result)
+        (forces,) = pair_forces(problem.model, result, [pair])
+        load = q * 1.6 * 0.8  # the traction on the upper top
+        assert abs(forces["force_on_slave_body"][2] - load) <= 1e-8 * load  # the lower block pushes it up by q·area
+        assert forces["balance"] < 1e-8
+    with pytest.raises(InputError, match="body 1 .* rigid motions"):
+        ContactProblem(a, L, [clamp, held[0]], contact_pairs=[pair], petsc_options_prefix="held_by_contact_")

@@ -85,7 +85,8 @@ def main() -> None:
     solutions = []
     for k in range(2):
         with ContactProblem(a_ufl, L, bcs=[bc], contact=(tags, [1]), friction=0.23,
-                            settings={"pc": "gamg", "rtol": 1e-10}, petsc_options_prefix=f"fixed_order_{k}_") as problem:
+                            settings={"pc": "gamg", "rtol": 1e-10},
+                            petsc_options_prefix=f"fixed_order_{k}_") as problem:
             uh, result = problem.solve()
             assert result.converged
             solutions.append(digest(comm, uh.x.array[: 3 * V.dofmap.index_map.size_local]))

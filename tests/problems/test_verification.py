@@ -74,6 +74,19 @@ def test_block_pushed_up_an_incline_as_a_scene(friction):
     assert r["hold"] <= 1e-9 and r["balance"] <= 1e-9
 
 
+@pytest.mark.parametrize("friction", [0.0, 0.3])
+def test_block_pushed_up_an_elastic_slope(friction):
+    """docs/verification/incline_two_bodies.toml (meshes/incline_on_slope.msh): the slope an elastic block, the
+    block held along its normal by contact alone; every contact node slides, push/weight is the statics' ratio to
+    1e-9, the supports and the two bodies' weights balance (the contact is internal)."""
+    r = incline_scene(MPI.COMM_WORLD, friction, level=0, two_bodies=True)
+    assert r["converged"] and r["all_slide"] and r["open"] == 0
+    assert abs(r["error"]) <= 1e-9
+    assert r["contact_nodes"] == 20
+    assert r["weight"] == pytest.approx(0.5, rel=1e-12)
+    assert r["hold"] <= 1e-9 and r["balance"] <= 1e-9
+
+
 @pytest.mark.parametrize("friction", FRICTIONS)
 def test_block_pushed_up_an_incline(friction):
     """Every closed contact node slides (at μ = 0.5 the pushed end lifts off) and the push support's reaction

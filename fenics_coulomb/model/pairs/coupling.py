@@ -104,7 +104,7 @@ class PairCoupling(Coupling):
         #: Never slave contact nodes: clamped, or held at a non-zero value.
         self._excluded = model.not_contact()
         self.body_of_block, self.num_bodies = connected_bodies(V)
-        check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows)
+        check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows, self.pairs)
         self.A_free = assemble_matrix(model.a)
         self.A_free.setOptionsPrefix(f"{model.prefix}A_free_")
         if contact is not None:

@@ -47,18 +47,24 @@ node j the reaction f_j = −Σ_s φ_sj f_s.
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
 import dolfinx.la
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 import scipy.sparse.csgraph as csgraph
 
 from fenics_coulomb.errors import check_all
+
+if TYPE_CHECKING:
+    from fenics_coulomb.model.pairs.pair import ContactPair
 
 __all__ = ["connected_bodies", "check_rigid_support", "coupling_matrix", "body_rigid_modes"]
 
@@ -126,13 +132,39 @@ def _modes_at(x: Array) -> Array:
     return r
 
 
-def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
-                        dirichlet: npt.NDArray[np.int32]) -> None:
-    """InputError on every rank unless the Dirichlet DOFs of every body remove its six rigid motions.
+def _surface_normals(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], facet_tags: dolfinx.mesh.MeshTags,
+                     markers: Sequence[int]) -> tuple[npt.NDArray[np.int64], Array, Array]:
+    """The body, midpoint and unit normal (either sign) of each local facet of the surface ``markers``."""
+    msh = V.mesh
+    facets = facet_tags.indices[np.isin(facet_tags.values, np.asarray(markers))].astype(np.int32)
+    if facets.size == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3)), np.zeros((0, 3))
+    x = msh.geometry.x[dolfinx.mesh.entities_to_geometry(msh, 2, facets)]
+    if x.shape[1] == 4:  # a quadrilateral (DOLFINx vertex order 0 1 / 2 3): the cross product of its diagonals
+        normal = np.cross(x[:, 3] - x[:, 0], x[:, 2] - x[:, 1])
+    else:
+        normal = np.cross(x[:, 1] - x[:, 0], x[:, 2] - x[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1), np.finfo(float).tiny)[:, None]
+    msh.topology.create_connectivity(2, 3)
+    f2c = msh.topology.connectivity(2, 3)
+    cells = f2c.array[f2c.offsets[facets]]
+    return body[V.dofmap.list[cells, 0]], x.mean(axis=1), normal
 
-    The rigid modes of body b restricted to its prescribed (owned, unrolled) DOFs must have rank 6: the Gram
-    matrix Σ r_Dᵀ r_D (summed over ranks; coordinates relative to the body's centroid, scaled by its size)
-    must be positive definite.
+
+def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
+                        dirichlet: npt.NDArray[np.int32], pairs: Sequence[ContactPair] = ()) -> None:
+    """InputError on every rank unless every body's rigid motions are held: by its Dirichlet DOFs, or those its
+    Dirichlet DOFs leave free by contact with a body that its own supports hold.
+
+    The rigid modes r of body b restricted to its prescribed (owned, unrolled) DOFs give the Gram matrix
+    G = Σ r_Dᵀ r_D (summed over ranks; coordinates relative to the body's centroid, scaled by its size); its
+    null space N (eigenvalues ≤ 1e-10 × its trace) are the motions the supports leave free. Contact holds
+    such a motion along the contact normals only: N is held when Nᵀ G_c N is positive definite, with
+    G_c = Σ (n·r)ᵀ(n·r) over the facets of b's pair surfaces whose partner surface lies on a fully supported
+    body (n the facet normal, r the modes at its midpoint). A block resting on a clamped slope, pushed along
+    one component of one face and on rollers, is held this way (its motion along the slope's normal); a body
+    that only contact could hold sideways, or one resting on another floating body, is refused. Unilateral
+    contact holds it only while the loads press it on: otherwise the solve fails (exit 3), as without support.
     """
     comm = V.mesh.comm
     imap = V.dofmap.index_map
@@ -154,14 +186,39 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     gram = np.zeros((num_bodies, 6, 6))
     np.add.at(gram, b, np.einsum("ka,kb->kab", rows, rows))
     comm.Allreduce(MPI.IN_PLACE, gram, op=MPI.SUM)
-    smallest = np.array([np.linalg.eigvalsh(g)[0] for g in gram])
-    bad = np.flatnonzero(smallest <= 1e-10 * np.maximum(np.trace(gram, axis1=1, axis2=2), 1.0))
+    eigenvalues, eigenvectors = np.linalg.eigh(gram)
+    floor = 1e-10 * np.maximum(np.trace(gram, axis1=1, axis2=2), 1.0)
+    free = eigenvalues <= floor[:, None]  # (bodies, 6): the motions each body's supports leave free
+    supported = ~free.any(axis=1)
+    held_by_contact = np.zeros((num_bodies, 6, 6))  # G_c per body
+    for pair in pairs:
+        sides = [_surface_normals(V, body, pair.facet_tags, tags) for tags in (pair.slave_tags, pair.master_tags)]
+        on = [np.unique(np.concatenate(comm.allgather(np.unique(side[0])))) for side in sides]
+        for this, other in ((0, 1), (1, 0)):
+            if not np.all(supported[on[other]]):
+                continue
+            fb, midpoint, normal = sides[this]
+            modes = _modes_at((midpoint - centroid[fb]) / extent[fb, None])
+            seen = np.einsum("fi,fia->fa", normal, modes)
+            np.add.at(held_by_contact, fb, np.einsum("fa,fb->fab", seen, seen))
+    comm.Allreduce(MPI.IN_PLACE, held_by_contact, op=MPI.SUM)
+    bad = []
+    for k in range(num_bodies):
+        if supported[k]:
+            continue
+        N = eigenvectors[k][:, free[k]]
+        held = N.T @ held_by_contact[k] @ N
+        if np.linalg.eigvalsh(held)[0] <= 1e-10 * max(float(np.trace(held_by_contact[k])), 1.0):
+            bad.append(k)
+        elif comm.rank == 0:
+            logger.info("body %d: %d rigid motion(s) left free by its supports are held by contact alone", k,
+                        int(free[k].sum()))
     where = ""
-    if bad.size:
+    if bad:
         where = f" (centroid {np.array2string(centroid[bad[0]], precision=4, separator=', ')})"
-    check_all(comm, bad.size == 0, f"body {int(bad[0]) if bad.size else 0}{where} of the {num_bodies} bodies has no "
-              "boundary conditions that remove its rigid motions: prescribe or clamp enough of its boundary "
-              "(contact alone does not hold it)")
+    check_all(comm, not bad, f"body {bad[0] if bad else 0}{where} of the {num_bodies} bodies has no boundary "
+              "conditions that remove its rigid motions: prescribe or clamp enough of its boundary (contact holds "
+              "a body only along the normals of a pair with a body its own supports hold)")
 
 
 def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
