@@ -1,0 +1,92 @@
+"""Generate the quarter of a large block for the Hertz indentation (linear tetrahedra, strongly graded).
+
+The block is [0, W] × [0, W] × [−D, 0] (W = ``width``·a, D = ``depth``·a, a the Hertz contact radius): a rigid
+sphere touching its top x3 = 0 at the origin indents it about the x3 axis, which is the box's edge x1 = x2 = 0,
+and the planes x1 = 0 and x2 = 0 are planes of symmetry (rollers). The mesh is fine only where the solution
+varies on the scale of a: the edge is ``h0`` within the distance ``fine``·a of the origin and grows linearly
+with the distance beyond, by ``growth`` per unit distance (a geometric coarsening: the number of elements
+across each doubling of the distance is the same), up to ``largest``·W. The volume is therefore mostly far
+field at a cost logarithmic in W/a: a domain ≫ a, whose support removes little of the half-space's
+compliance, at few unknowns. Physical groups (facet tags):
+
+    1 "top"       x3 = 0 (the contact boundary)
+    2 "bottom"    x3 = −D (clamped in the benchmarks)
+    3 "sides"     x1 = W and x2 = W (free)
+    4 "sym_x"     x1 = 0 (roller: u1 = 0)
+    5 "sym_y"     x2 = 0 (roller: u2 = 0)
+
+The x3 axis is an edge of the geometry, so the mesh has vertices on it (the points under the contact's
+centre, where Hertz's sub-surface stresses are tabulated), and the origin is a vertex.
+
+Run inside the environment::
+
+    container/run python3 meshes/hertz_quarter.py --a 0.5 --h0 0.0294 --out out/hertz_quarter.msh
+
+Sizes (a = 0.5, W = D = 200 a, fine = 1.5, growth 0.08): h0 = a/8 about 20 k unknowns, h0 = a/17 about 120 k
+(benchmarks/hertz_quarter.py measures them).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import gmsh
+from meshes.gmsh_session import gmsh_session, write_volume_mesh
+
+__all__ = ["TAGS", "build"]
+
+TAGS = {"top": 1, "bottom": 2, "sides": 3, "sym_x": 4, "sym_y": 5}
+
+
+def build(path: Path | str, a: float, h0: float, width: float = 200.0, depth: float | None = None,
+          fine: float = 1.5, growth: float = 0.08, largest: float = 0.25) -> None:
+    """Write the quarter block to ``path`` (gmsh 4.1 format).
+
+    Args:
+        path: Output .msh file.
+        a: The length scale of the contact (the Hertz contact radius).
+        h0: The element edge within ``fine``·a of the origin.
+        width: W/a, the block's half width (the quarter spans [0, W] in x1 and x2).
+        depth: D/a, the block's depth (default: ``width``).
+        fine: The radius of the uniformly fine region around the origin, relative to a.
+        growth: The edge's growth per unit distance beyond the fine region (0.08: about 12 elements across
+            each doubling of the distance).
+        largest: The largest edge relative to W.
+    """
+    W = width * a
+    D = (width if depth is None else depth) * a
+    with gmsh_session("hertz_quarter"):
+        occ = gmsh.model.occ
+        box = occ.addBox(0.0, 0.0, -D, W, W, D)
+        occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [box], 1, name="block")
+        groups: dict[str, list[int]] = {name: [] for name in TAGS}
+        for _, surface in gmsh.model.getBoundary([(3, box)], oriented=False):
+            x, y, z = occ.getCenterOfMass(2, surface)
+            tol = 1e-9 * W
+            name = ("top" if abs(z) < tol else "bottom" if abs(z + D) < tol else "sym_x" if abs(x) < tol
+                    else "sym_y" if abs(y) < tol else "sides")
+            groups[name].append(surface)
+        for name, surfaces in groups.items():
+            gmsh.model.addPhysicalGroup(2, surfaces, TAGS[name], name=name)
+        field = gmsh.model.mesh.field.add("MathEval")
+        gmsh.model.mesh.field.setString(
+            field, "F", f"Min({largest * W}, {h0} + {growth}*Max(0, Sqrt(x*x + y*y + z*z) - {fine * a}))")
+        gmsh.model.mesh.field.setAsBackgroundMesh(field)
+        for option in ("MeshSizeFromPoints", "MeshSizeFromCurvature", "MeshSizeExtendFromBoundary"):
+            gmsh.option.setNumber(f"Mesh.{option}", 0)
+        write_volume_mesh(path, optimize=True)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--a", type=float, default=0.5, help="the contact radius a (default 0.5)")
+    parser.add_argument("--h0", type=float, default=0.5 / 8, help="the edge near the contact (default a/8)")
+    parser.add_argument("--width", type=float, default=200.0, help="W/a (default 200)")
+    parser.add_argument("--depth", type=float, default=None, help="D/a (default W/a)")
+    parser.add_argument("--fine", type=float, default=1.5, help="radius of the fine region / a (default 1.5)")
+    parser.add_argument("--growth", type=float, default=0.08, help="edge growth per unit distance (default 0.08)")
+    parser.add_argument("--out", default="hertz_quarter.msh")
+    args = parser.parse_args()
+    build(Path(args.out), args.a, args.h0, args.width, args.depth, args.fine, args.growth)
