@@ -88,8 +88,8 @@ INCLINE_LEVELS = {0: (4, 4, 2), 1: (8, 8, 4)}
 INCLINE_SCENE = ROOT / "docs" / "verification" / "incline.toml"
 #: Patch-test levels: (cells of the lower (master) block, cells of the upper (slave) block), non-matching.
 PATCH_LEVELS = {0: ((4, 4, 2), (5, 5, 2)), 1: ((8, 8, 2), (10, 10, 2))}
-#: Hertz levels of benchmarks/hertz.py used by the table (h₀ = a/4, a/8, a/11.3).
-HERTZ_LEVELS = (1, 2)
+#: Hertz levels of benchmarks/hertz_quarter.py used by the table (h₀ = a/12 and a/24).
+HERTZ_LEVELS = (1, 3)
 #: Lubkin levels (the same meshes).
 LUBKIN_LEVELS = (0, 1)
 #: Hertz between two elastic bodies: the levels of benchmarks/verification_two_body.py in the table.
@@ -332,26 +332,15 @@ def _indented_block(comm: MPI.Comm, level: int | tuple[float, float]) -> tuple[A
     return demo, V, demo.elasticity(V), bc, bottom, tags, sphere, fraction * a
 
 
-def hertz_indentation(comm: MPI.Comm, level: int | tuple[float, float]) -> dict[str, Any]:
-    """The rigid sphere pressed δ into the block of benchmarks/hertz.py at mesh ``level`` (frictionless): the
-    contact radius a and p₀ against Hertz for the measured force P, and P against Hertz for δ."""
-    t0 = time.perf_counter()
-    demo, V, a, bc, bottom, tags, sphere, h = _indented_block(comm, level)
-    with ContactProblem(a, None, bcs=[bc], contact=(tags, [demo.TOP]), friction=0.0, obstacles=[sphere],
-                        settings={"pc": "ilu", "rtol": 1e-11}, petsc_options_prefix="hertz_") as problem:
-        _, result = problem.solve()
-        m = demo.measure("sphere into block", -1, 0.0, h, problem, result, demo.DEPTH, demo.R_INDENTER, -1.0,
-                         bottom, 0.0)
-        nodes = problem.report(result).nodes  # gathered in a partition-independent order
-        radii = np.hypot(nodes.coordinates[:, 0], nodes.coordinates[:, 1])
-        profile = (radii[nodes.closed], nodes.pressure[nodes.closed])
-    return {"radius": m.radius, "radius_ref": m.radius_from_force, "err_radius": m.err_radius_from_force,
-            "pressure": m.pressure, "pressure_ref": m.pressure_from_force,
-            "err_pressure": m.err_pressure_from_force, "force": m.force, "force_ref": float(m.hertz_force),
-            "err_force": float(m.err_force), "h_over_a": h / np.sqrt(demo.R_INDENTER * demo.DEPTH),
-            "unknowns": int(m.unknowns), "contact_nodes": int(m.contact_nodes), "reaction": m.reaction,
-            "physics": m.max_physics_residual, "converged": bool(result.converged), "profile": profile,
-            "wall": time.perf_counter() - t0}
+def hertz_indentation(comm: MPI.Comm, level: int | tuple[float, ...]) -> dict[str, Any]:
+    """The rigid sphere pressed into the quarter block of benchmarks/hertz_quarter.py at mesh ``level``
+    (frictionless, symmetry rollers, a/R = 0.005): a and p₀ against Hertz for the measured force P, P against
+    Hertz for δ (directly, and for the approach relative to the axis point at depth 4 a with the half-space
+    below it in closed form), the peak ``contact_pressure`` (the XDMF field) against p₀ and the axis's largest
+    shear against 0.31 p₀ at 0.48 a."""
+    from benchmarks.hertz_quarter import indent_quarter
+
+    return indent_quarter(comm, level)
 
 
 def lubkin(comm: MPI.Comm, level: int | tuple[float, float], friction: float = 0.3,
@@ -495,31 +484,7 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
                                   "NOT every closed node slides") + "; push [0.01, \"free\", \"free\"] on the "
                                   "lower end, rollers on x2 = 0, B" + f"; {r['open']} of {r['contact_nodes']} "
                                   "contact nodes open" * (r["open"] > 0)})
-    johnson = "Johnson, Contact Mechanics (1985), §4.2 (Hertz, spheres)"
-    for i, level in enumerate(hertz_levels):
-        r = hertz_indentation(comm, level)
-        curves["hertz"].append((level, r))
-        agree = "—"
-        if i == 0:
-            one = comm.bcast(_serial(comm, hertz_indentation, level))
-            agree = f"{_agreement(r, one, ('force', 'radius', 'pressure')):.1e}"
-        log(f"Hertz: level {level}, a {r['radius']:.5f} ({r['err_radius']:+.2%}), p0 {r['pressure']:.5f} "
-            f"({r['err_pressure']:+.2%}), P(δ) {r['force']:.5f} ({r['err_force']:+.2%}), {r['unknowns']} "
-            f"unknowns, {r['wall']:.1f} s")
-        lvl = f"{level}: h₀ = a/{1 / r['h_over_a']:.3g}, tetra"
-        common = {"case": "2. Hertz: rigid sphere into a block", "level": lvl, "unknowns": r["unknowns"],
-                  "ranks": ranks, "wall": r["wall"], "agree": agree, "bound": 1e-2}
-        rows += [
-            {**common, "quantity": "contact radius a (for the measured P)", "reference": f"{r['radius_ref']:.5f}",
-             "source": johnson + ": a = (3PR/4E*)^{1/3}", "value": f"{r['radius']:.5f}",
-             "error": r["err_radius"], "note": "a read between closed and open nodes (resolution ±h₀/2)"},
-            {**common, "quantity": "p₀ (for the measured P)", "reference": f"{r['pressure_ref']:.5f}",
-             "source": johnson + ": p₀ = 3P/(2πa²)", "value": f"{r['pressure']:.5f}",
-             "error": r["err_pressure"], "note": "mean nodal pressure over r < a/2, / 0.9346"},
-            {**common, "quantity": "P(δ), δ = 0.025", "reference": f"{r['force_ref']:.5f}",
-             "source": johnson + ": P = (4/3)E*√R δ^{3/2}", "value": f"{r['force']:.5f}",
-             "error": r["err_force"], "note": "block of size 100 a, clamped bottom (half-space: see §2)"},
-        ]
+    rows += hertz_rows(comm, hertz_levels, curves)
     for method in ("mortar", "node-to-surface"):
         for level in PATCH_LEVELS:
             r = patch(comm, method, level)
@@ -581,6 +546,81 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
     rows += collect_two_body(comm)
     rows += NOT_YET
     return rows, curves
+
+
+def hertz_rows(comm: MPI.Comm, levels: tuple[int, ...], curves: dict[str, list[Any]] | None = None
+               ) -> list[dict[str, Any]]:
+    """Case 2's rows (benchmarks/hertz_quarter.py) at ``levels``, the first also on one rank; the pressure
+    profiles into ``curves["hertz"]``."""
+    rows: list[dict[str, Any]] = []
+    johnson = "Johnson, Contact Mechanics (1985), §4.2 (Hertz, spheres)"
+    previous: dict[str, float] = {}
+    for i, level in enumerate(levels):
+        r = hertz_indentation(comm, level)
+        if curves is not None:
+            curves["hertz"].append((level, r))
+        agree = "—"
+        if i == 0:
+            one = comm.bcast(_serial(comm, hertz_indentation, level))
+            agree = f"{_agreement(r, one, ('force', 'radius', 'pressure', 'peak_pressure', 'axis_tau')):.1e}"
+        if comm.rank == 0:
+            LOG.info(f"Hertz: level {level}, a {r['radius']:.5f} ({r['err_radius']:+.2%}), p0 {r['pressure']:.5f} "
+                     f"({r['err_pressure']:+.2%}), P(δ) {r['force']:.5f} ({r['err_force']:+.2%}; relative approach "
+                     f"{r['err_force_relative']:+.2%}), peak pressure {r['err_peak']:+.2%}, axis τ_max "
+                     f"{r['axis_tau']:.4f} p0 at {r['axis_depth']:.3f} a, {r['unknowns']} unknowns, {r['wall']:.1f} s")
+        lvl = (f"{level}: h₀ = a/{1 / r['h_over_a']:.3g} (structured core {r['fine']:g} a), W = {r['width']:g} a, "
+               "quarter, tetra")
+        common = {"case": "2. Hertz: rigid sphere into a block", "level": lvl, "unknowns": r["unknowns"],
+                  "ranks": comm.size, "wall": r["wall"], "agree": agree}
+
+        def trend(key: str, r: dict[str, Any] = r) -> str:
+            text = f"; from {previous[key]:+.2%}" if key in previous else ""
+            previous[key] = r[key]
+            return text
+
+        rows += [
+            {**common, "quantity": "contact radius a (for the measured P)", "reference": f"{r['radius_ref']:.5f}",
+             "source": johnson + ": a = (3PR/4E*)^{1/3}", "value": f"{r['radius']:.5f}", "bound": 1e-2,
+             "error": r["err_radius"], "note": "a read between closed and open nodes (resolution ±h₀/2)"
+             + trend("err_radius")},
+            {**common, "quantity": "p₀ (for the measured P)", "reference": f"{r['pressure_ref']:.5f}",
+             "source": johnson + ": p₀ = 3P/(2πa²)", "value": f"{r['pressure']:.5f}", "bound": 1e-2,
+             "error": r["err_pressure"], "note": "mean nodal pressure over r < a/2, / 0.9346" + trend("err_pressure")},
+            {**common, "quantity": f"P(δ), δ = {r['depth']:g}, R = {r['radius_sphere']:g}",
+             "reference": f"{r['force_ref']:.5f}", "source": johnson + ": P = (4/3)E*√R δ^{3/2}",
+             "value": f"{r['force']:.5f}", "bound": 1e-2, "error": r["err_force"],
+             "note": f"δ of the sphere against the clamped bottom at W = {r['width']:g} a (it removes ≈ "
+                     f"{_clamp_share(r):.2%} of P's compliance: see §2)" + trend("err_force")},
+            {**common,
+             "quantity": f"P(δ), δ the approach to the axis point at depth {r['relative_depth_over_a']:.2f} a",
+             "reference": f"{r['force_ref_relative']:.5f}",
+             "source": johnson + " and §3.2 (Boussinesq): δ_H(P) − w_H(d; P) = δ − w(d)",
+             "value": f"{r['force']:.5f}", "bound": 1e-2, "error": r["err_force_relative"],
+             "note": f"w(d) = {r['relative_w']:.4e} measured; the half-space below d in closed form (§2)"
+                     + trend("err_force_relative")},
+            {**common, "quantity": "peak contact_pressure (the XDMF field) / p₀",
+             "reference": f"{r['pressure_ref']:.5f}",
+             "source": johnson + ": p₀ = 3P/(2πa²) (the measured P)", "value": f"{r['peak_pressure']:.5f}",
+             "bound": 3e-2, "error": r["err_peak"],
+             "note": f"at r = {r['peak_at'] / r['radius_ref']:.3f} a; = report.nodes.pressure.max()"
+                     + trend("err_peak")},
+            {**common, "quantity": "axis max shear (σ₁ − σ₃)/2 / p₀", "reference": f"{r['tau_ref']:.4f}",
+             "source": "Johnson (1985), §4.2, eq. (4.23) on the axis (ν = 0.3): 0.310 p₀ at 0.481 a",
+             "value": f"{r['axis_tau']:.4f}", "bound": 5e-2, "error": r["err_tau"],
+             "note": f"lumped-projected stress at the axis vertices; at depth {r['axis_depth']:.3f} a (vertex of the "
+                     f"parabola through the 3 largest: {r['vertex_depth']:.3f} a; axis spacing "
+                     f"{r['axis_spacing']:.3f} a)" + trend("err_tau")},
+        ]
+    return rows
+
+
+def _clamp_share(r: dict[str, Any]) -> float:
+    """The share of Hertz's approach the clamped bottom at the depth W removes, as a relative change of P:
+    1.5 w_H(W)/δ (w_H the half-space's axis displacement at the depth W, benchmarks/hertz_quarter.py)."""
+    from benchmarks.hertz_quarter import axis_displacement
+
+    W = r["width"] * r["radius_ref"]
+    return 1.5 * axis_displacement(r["force"], W, radius=r["radius_sphere"]) / r["depth"]
 
 
 def _mindlin_rows(comm: MPI.Comm, levels: tuple[int, ...]) -> list[dict[str, Any]]:
@@ -937,9 +977,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "verification")
     parser.add_argument("--hertz-levels", type=int, nargs="*", default=list(HERTZ_LEVELS))
-    parser.add_argument("--cases", choices=("all", "two-body", "mindlin"), default="all",
+    parser.add_argument("--cases", choices=("all", "two-body", "mindlin", "hertz"), default="all",
                         help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), mindlin: only "
-                             "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md (to be merged "
+                             "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md; hertz: only "
+                             "case 2's, into verification_hertz.csv, hertz_rows.md and hertz.png (to be merged "
                              "into the table)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -948,15 +989,19 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("fenics_coulomb").setLevel(logging.WARNING)
     load_before = _load() if comm.rank == 0 else ""
     t0 = time.perf_counter()
-    if args.cases in ("two-body", "mindlin"):
-        rows = collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS)
+    if args.cases in ("two-body", "mindlin", "hertz"):
+        curves: dict[str, list[Any]] = {"hertz": [], "lubkin": []}
+        rows = (hertz_rows(comm, tuple(args.hertz_levels), curves) if args.cases == "hertz" else
+                collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS))
+        name = "hertz" if args.cases == "hertz" else "two_body"
         if comm.rank == 0:
             args.out.mkdir(parents=True, exist_ok=True)
-            with open(args.out / "verification_two_body.csv", "w", newline="") as f:
+            with open(args.out / f"verification_{name}.csv", "w", newline="") as f:
                 writer = csv.DictWriter(f, fieldnames=list(rows[0]))
                 writer.writeheader()
                 writer.writerows(rows)
-            (args.out / "two_body_rows.md").write_text(
+            figures(curves, args.out)
+            (args.out / f"{name}_rows.md").write_text(
                 f"{table(rows)}\n\n{_machine()}; {comm.size} MPI ranks; {time.perf_counter() - t0:.0f} s; load "
                 f"before: `{load_before}`, after: `{_load()}`\n")
         return 0

@@ -3,11 +3,13 @@
 The block is [0, W] × [0, W] × [−D, 0] (W = ``width``·a, D = ``depth``·a, a the Hertz contact radius): a rigid
 sphere touching its top x3 = 0 at the origin indents it about the x3 axis, which is the box's edge x1 = x2 = 0,
 and the planes x1 = 0 and x2 = 0 are planes of symmetry (rollers). The mesh is fine only where the solution
-varies on the scale of a: the edge is ``h0`` within the distance ``fine``·a of the origin and grows linearly
-with the distance beyond, by ``growth`` per unit distance (a geometric coarsening: the number of elements
-across each doubling of the distance is the same), up to ``largest``·W. The volume is therefore mostly far
-field at a cost logarithmic in W/a: a domain ≫ a, whose support removes little of the half-space's
-compliance, at few unknowns. Physical groups (facet tags):
+varies on the scale of a: under the contact a structured core, the cube [0, L]² × [−L, 0] (L = ``fine``·a)
+as a grid of edge ``h0`` with each grid cube cut into six tetrahedra (regular nodes share the contact surface
+evenly, so the nodal pressures do not scatter with the shapes of unstructured cells); beyond it unstructured
+tetrahedra whose edge grows linearly with the distance from the origin, by ``growth`` per unit distance (a
+geometric coarsening: the same number of elements across each doubling of the distance), up to
+``largest``·W. The volume is therefore mostly far field at a cost logarithmic in W/a: a domain ≫ a, whose
+support removes little of the half-space's compliance, at few unknowns. Physical groups (facet tags):
 
     1 "top"       x3 = 0 (the contact boundary)
     2 "bottom"    x3 = −D (clamped in the benchmarks)
@@ -22,8 +24,8 @@ Run inside the environment::
 
     container/run python3 meshes/hertz_quarter.py --a 0.5 --h0 0.0294 --out out/hertz_quarter.msh
 
-Sizes (a = 0.5, W = D = 200 a, fine = 1.5, growth 0.08): h0 = a/8 about 20 k unknowns, h0 = a/17 about 120 k
-(benchmarks/hertz_quarter.py measures them).
+Sizes (W = D = 1000 a, growth 0.1, L = 1.5 a; benchmarks/hertz_quarter.py's levels): h0 = a/12: 53 661
+unknowns, a/17: 97 275, a/24: about 200 k; with L = 1.2 a and growth 0.15, h0 = a/16: 37 407.
 """
 
 from __future__ import annotations
@@ -39,8 +41,8 @@ __all__ = ["TAGS", "build"]
 TAGS = {"top": 1, "bottom": 2, "sides": 3, "sym_x": 4, "sym_y": 5}
 
 
-def build(path: Path | str, a: float, h0: float, width: float = 200.0, depth: float | None = None,
-          fine: float = 1.5, growth: float = 0.08, largest: float = 0.25) -> None:
+def build(path: Path | str, a: float, h0: float, width: float = 1000.0, depth: float | None = None,
+          fine: float = 1.5, growth: float = 0.1, largest: float = 0.25, structured: bool = True) -> None:
     """Write the quarter block to ``path`` (gmsh 4.1 format).
 
     Args:
@@ -49,20 +51,39 @@ def build(path: Path | str, a: float, h0: float, width: float = 200.0, depth: fl
         h0: The element edge within ``fine``·a of the origin.
         width: W/a, the block's half width (the quarter spans [0, W] in x1 and x2).
         depth: D/a, the block's depth (default: ``width``).
-        fine: The radius of the uniformly fine region around the origin, relative to a.
-        growth: The edge's growth per unit distance beyond the fine region (0.08: about 12 elements across
+        fine: L/a, the size of the fine core (structured) or the radius of the fine region (unstructured).
+        growth: The edge's growth per unit distance beyond the fine region (0.1: about 7 elements across
             each doubling of the distance).
         largest: The largest edge relative to W.
+        structured: The structured core (else unstructured tetrahedra of edge ``h0`` within the distance
+            ``fine``·a of the origin).
     """
     W = width * a
     D = (width if depth is None else depth) * a
     with gmsh_session("hertz_quarter"):
         occ = gmsh.model.occ
         box = occ.addBox(0.0, 0.0, -D, W, W, D)
+        L = fine * a
+        if structured:
+            core = occ.addBox(0.0, 0.0, -L, L, L, L)
+            occ.fragment([(3, box)], [(3, core)])
         occ.synchronize()
-        gmsh.model.addPhysicalGroup(3, [box], 1, name="block")
+        volumes = [tag for _, tag in gmsh.model.getEntities(3)]
+        gmsh.model.addPhysicalGroup(3, volumes, 1, name="block")
+        if structured:
+            inner = [v for v in volumes if occ.getMass(3, v) < 1.5 * L**3]
+            n = max(1, round(L / h0))
+            faces = gmsh.model.getBoundary([(3, v) for v in inner], combined=False, oriented=False)
+            curves = {c for _, c in gmsh.model.getBoundary(faces, combined=False, oriented=False)}
+            for curve in curves:
+                gmsh.model.mesh.setTransfiniteCurve(curve, n + 1)
+            for _, surface in gmsh.model.getBoundary([(3, v) for v in inner], combined=False, oriented=False):
+                gmsh.model.mesh.setTransfiniteSurface(surface)
+            for v in inner:
+                gmsh.model.mesh.setTransfiniteVolume(v)
         groups: dict[str, list[int]] = {name: [] for name in TAGS}
-        for _, surface in gmsh.model.getBoundary([(3, box)], oriented=False):
+        boundary = gmsh.model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False)
+        for _, surface in boundary:
             x, y, z = occ.getCenterOfMass(2, surface)
             tol = 1e-9 * W
             name = ("top" if abs(z) < tol else "bottom" if abs(z + D) < tol else "sym_x" if abs(x) < tol
@@ -83,10 +104,12 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--a", type=float, default=0.5, help="the contact radius a (default 0.5)")
     parser.add_argument("--h0", type=float, default=0.5 / 8, help="the edge near the contact (default a/8)")
-    parser.add_argument("--width", type=float, default=200.0, help="W/a (default 200)")
+    parser.add_argument("--width", type=float, default=1000.0, help="W/a (default 1000)")
     parser.add_argument("--depth", type=float, default=None, help="D/a (default W/a)")
-    parser.add_argument("--fine", type=float, default=1.5, help="radius of the fine region / a (default 1.5)")
-    parser.add_argument("--growth", type=float, default=0.08, help="edge growth per unit distance (default 0.08)")
+    parser.add_argument("--fine", type=float, default=1.5, help="size of the fine core / a (default 1.5)")
+    parser.add_argument("--growth", type=float, default=0.1, help="edge growth per unit distance (default 0.1)")
+    parser.add_argument("--unstructured", action="store_true", help="no structured core")
     parser.add_argument("--out", default="hertz_quarter.msh")
     args = parser.parse_args()
-    build(Path(args.out), args.a, args.h0, args.width, args.depth, args.fine, args.growth)
+    build(Path(args.out), args.a, args.h0, args.width, args.depth, args.fine, args.growth,
+          structured=not args.unstructured)
