@@ -3,7 +3,7 @@ sub-surface shear (benchmarks/hertz_quarter.py, docs/verification §2).
 
 One solve, shared by the tests (module fixture): the rigid sphere (R = 100) pressed δ = 0.0025 into the quarter
 block of meshes/hertz_quarter.py at level 0 (h₀ = a/16 in a structured core of 1.2 a, the edge growing by 0.15
-per unit distance beyond, W = 1000 a, symmetry rollers on x1 = 0 and x2 = 0; 37 407 unknowns, about 13 s on one
+per unit distance beyond, W = 1000 a, symmetry rollers on x1 = 0 and x2 = 0; 37 407 unknowns, about 9 s on one
 rank), written with write_results. Measured on this level: peak pressure +1.55 % over p₀ (at the first node off
 the axis), axis τ_max −0.56 % at 0.439 a (parabola vertex 0.450 a), a −0.14 %, p₀ +0.62 %, P(δ) +1.8 % (approach
 to the axis point at 4 a: +1.2 %). The bounds:
