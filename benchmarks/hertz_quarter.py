@@ -180,9 +180,11 @@ def indent_quarter(comm: MPI.Comm, level: int | tuple[float, float, float], out:
         report = problem.report(result, reactions={"bottom": clamp})
         nodes = report.nodes
         sigma, _ = stress_functions(stress_from_form(problem.model.a_ufl, uh), msh)
-        xdmf_peak = np.nan
+        xdmf_peak, summary = np.nan, {}
         if out is not None:
-            write_results(out, problem, result)
+            data = write_results(out, problem, result)
+            summary = comm.bcast({k: data.get(k) for k in ("max_shear", "max_shear_at", "peak_pressure",
+                                                              "peak_pressure_at")} if comm.rank == 0 else None)
             xdmf_peak = _xdmf_peak(comm, Path(out))
         checks = problem.checks(result)
         physics = max(v for k, v in checks.items() if k not in ("contact_resultant", "reaction_balance"))
@@ -227,7 +229,7 @@ def indent_quarter(comm: MPI.Comm, level: int | tuple[float, float, float], out:
         "bottom_reaction": 4.0 * float(report.reactions["bottom"][2]),
         "radius": a_measured, "radius_ref": a_ref, "err_radius": a_measured / a_ref - 1.0,
         "pressure": p0, "pressure_ref": p0_ref, "err_pressure": p0 / p0_ref - 1.0,
-        "peak_pressure": float(nodes.pressure[k]), "peak_at": float(r[k]),
+        "peak_pressure": float(nodes.pressure[k]), "peak_at": float(r[k]), "summary": summary,
         "err_peak": float(nodes.pressure[k]) / p0_ref - 1.0, "xdmf_peak": float(xdmf_peak),
         "axis_tau": float(axis_tau[m] / p0_ref), "axis_depth": float(-axis_z[m] / a_ref),
         "tau_ref": tau_ref, "depth_ref": depth_ref, "err_tau": float(axis_tau[m] / p0_ref) / tau_ref - 1.0,

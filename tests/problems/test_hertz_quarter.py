@@ -18,7 +18,9 @@ to the axis point at 4 a: +1.2 %). The bounds:
   (a/12 … a/17), half an element would test that bias's scatter rather than the solution;
 * a and p₀ within 1 % of Hertz's for the measured P (issue 36's bound, met here already); P(δ) above Hertz's
   (linear tetrahedra are stiff) by less than 2.5 % here (the table's levels a/12, a/24 meet 1 %);
-* the bottom's reaction equals the contact force (a quarter: four times each is the full model's).
+* the bottom's reaction equals the contact force (a quarter: four times each is the full model's);
+* summary.json's largest shear in the whole body is that on the axis (the sub-surface maximum), its peak
+  pressure the XDMF's.
 """
 
 from __future__ import annotations
@@ -67,6 +69,17 @@ def test_sub_surface_shear(solved):
     assert abs(r["err_tau"]) <= 0.05
     assert abs(r["axis_depth"] - r["depth_ref"]) <= r["h_over_a"]
     assert abs(r["vertex_depth"] - r["depth_ref"]) <= r["h_over_a"]
+
+
+def test_summary_maxima(solved):
+    """summary.json's largest shear anywhere in the body is the axis's, below the contact's centre (the sub-surface
+    maximum, not a surface value); its peak pressure is the XDMF's."""
+    r, summary = solved, solved["summary"]
+    p0, a = r["pressure_ref"], r["radius_ref"]
+    assert summary["max_shear"] == pytest.approx(r["axis_tau"] * p0, rel=1e-12)
+    x = np.asarray(summary["max_shear_at"])
+    assert np.hypot(x[0], x[1]) <= 1e-9 and -x[2] / a == pytest.approx(r["axis_depth"], rel=1e-9)
+    assert summary["peak_pressure"] == pytest.approx(r["xdmf_peak"], rel=1e-12)
 
 
 def test_contact_radius_pressure_and_force(solved):
