@@ -17,11 +17,12 @@ Measured (one rank, the machine shared, load 7–8):
 | 2 | a/17 | 97 275 | +1.39 % | 0.3084 p₀ (−0.53 %) | 0.460 a (0.454 a) |
 | 3 | a/24 | 196 880 | +1.00 % | 0.3094 p₀ (−0.18 %) | 0.457 a (0.462 a) |
 
-(level 3 on 2 ranks, 127 s: docs/verification §2's table; summary.json's global max_shear is the axis's). The
-earlier full block of benchmarks/hertz.py (unstructured tetrahedra of edge h₀ within 1.2 a) gave a peak contact_pressure +12 %, +6.5 %, +4.6 % over p₀ at h₀ = a/4, a/8, a/11.3
-(the scatter of nodal pressures on unstructured cells) and τ_max 0.285/0.300/0.303 p₀ at 0.62/0.39/0.41 a; the
-structured core under the contact removes the scatter. The sampled maximum of τ sits 0.5–0.8 h₀ above 0.481 a
-(the lumped projection averages each vertex's cells, ±h₀ in depth, and Hertz's τ(z) is flat at its maximum)."""
+(level 3 on 2 ranks, 127 s: docs/verification §2's table; summary.json's global max_shear is the axis's).
+The earlier full block of benchmarks/hertz.py (unstructured tetrahedra of edge h₀ within 1.2 a) gave a peak
+contact_pressure +12 %, +6.5 %, +4.6 % over p₀ at h₀ = a/4, a/8, a/11.3 (the scatter of nodal pressures on
+unstructured cells) and τ_max 0.285/0.300/0.303 p₀ at 0.62/0.39/0.41 a; the structured core under the contact
+removes the scatter. The sampled maximum of τ sits 0.5–0.8 h₀ above 0.481 a (the lumped projection averages
+each vertex's cells, ±h₀ in depth, and Hertz's τ(z) is flat at its maximum)."""
 
 from __future__ import annotations
 
