@@ -778,7 +778,8 @@ unstructured tetrahedra whose edge grows by 0.1 per unit distance from the origi
 doubling of the distance) up to W/4, so the domain W = 1000 a costs few unknowns (W = 200 a → 1000 a adds 17 %).
 The contact boundary is the core's top [0, L]², where the sphere can touch (the gap at its corner is 2.2 δ):
 with the whole top face as the contact boundary the far nodes' gaps (up to ~10⁵ δ) set the solver's round-off
-floor of the residual, and 1 and 2 ranks then agreed to 3e-6 only (now 2e-10 on the test level).
+floor of the residual, and 1 and 2 ranks then agreed to 3e-6 only (the core's top alone: 1.2e-8 at the
+reduction 1e-11, 2e-10 at 1e-13, on the test level).
 The quarter on the axis x1 = x2 = 0 (an edge of the mesh) samples Hertz's sub-surface stresses exactly there.
 
 **Measured.** P is the total contact force (= the clamped bottom's reaction); a the radius that best separates
