@@ -140,3 +140,14 @@ def assert_physics(model, relative_displacement: np.ndarray, tol: float = 1e-8,
     for key in keys:
         assert checks[key] < tol, (key, checks[key])
     return checks
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """On one rank, deselect the tests marked ``parallel`` (they compare several ranks with one; the 2-rank job
+    of make test-mpi runs them) — deselected, not skipped: nothing is reported as passed that did not run."""
+    if MPI.COMM_WORLD.size > 1:
+        return
+    kept = [item for item in items if item.get_closest_marker("parallel") is None]
+    if len(kept) != len(items):
+        config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("parallel")])
+        items[:] = kept

@@ -6,10 +6,8 @@ Coarse meshes of every case, each with its own bound derived from the reference:
   solver's tolerance on any mesh — built through the API, and as the scene file docs/verification/incline.toml
   (a per-component push, rollers through the contact face);
 * the mortar patch test is exact (round-off); node-to-surface fails it on non-matching meshes;
-* Hertz on the coarse block (h₀ = a/3): the contact radius within the mesh's resolution h₀/2 of Hertz's
-  a = (3PR/4E*)^{1/3}; linear tetrahedra are stiffer than the exact solution and the clamped block stiffer than
-  a half-space, so under the imposed δ the force lies ABOVE Hertz's P(δ) (by 11.6 % at h₀ = a/3, 6.9 % at a/4,
-  2.6 % at a/11.3), and p₀ above 3P/(2πa²);
+* Hertz (case 2, the quarter model of benchmarks/hertz_quarter.py) is tests/problems/test_hertz_quarter.py: a,
+  p₀, P(δ), the peak contact_pressure of the XDMF and the sub-surface shear on its refined test level;
 * the shrink fit (Lamé, a quarter slice on rollers, interference δ = 0.5 % of b) on the coarse level: faceted
   curved surfaces lie inside their circles, so the discrete interference is smaller and the pressure and hoop
   stress lie BELOW Lamé's, by the facetting's O(h²): within 6 % (mortar, −4.3 %) and 20 % (node-to-surface,
@@ -40,7 +38,6 @@ from benchmarks.verification_two_body import MINDLIN_LEVELS, cattaneo_mindlin, h
 from benchmarks.verification import (  # noqa: E402
     FRICTIONS,
     TAN_ALPHA,
-    hertz_indentation,
     incline,
     incline_reference,
     incline_scene,
@@ -49,7 +46,7 @@ from benchmarks.verification import (  # noqa: E402
     shrink_fit,
 )
 
-#: The coarse block of the Hertz and Lubkin tests: (h₀/a, growth of the edge per unit distance).
+#: The coarse block of the Lubkin test (benchmarks/hertz.py's): (h₀/a, growth of the edge per unit distance).
 COARSE = (1 / 3, 0.3)
 
 
@@ -108,18 +105,6 @@ def test_patch_test(method, passes):
         assert abs(r["error"]) <= 1e-12 and abs(r["force_error"]) <= 1e-12
     else:
         assert abs(r["error"]) > 1e-3 and abs(r["force_error"]) < 0.05
-
-
-def test_hertz_coarse():
-    """The contact radius within h₀/2 of Hertz's for the measured force, the force above Hertz's for the
-    imposed δ (stiff elements, finite block) by less than 15 %, p₀ above 3P/(2πa²) by less than 10 %, and the
-    support's reaction equal to the contact force."""
-    r = hertz_indentation(MPI.COMM_WORLD, COARSE)
-    assert r["converged"] and r["physics"] < 1e-7
-    assert abs(r["radius"] - r["radius_ref"]) <= 0.5 * r["h_over_a"] * r["radius_ref"]
-    assert 0.0 < r["err_force"] < 0.15
-    assert 0.0 < r["err_pressure"] < 0.10
-    assert r["reaction"] == pytest.approx(r["force"], rel=1e-6)
 
 
 def test_hertz_two_elastic_bodies_coarse():
