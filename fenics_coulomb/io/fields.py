@@ -17,6 +17,7 @@ One meaning per name, in the XDMF file, summary.json, the CSV files, the figures
 
 from __future__ import annotations
 
+import weakref
 from typing import Any
 
 from mpi4py import MPI
@@ -90,9 +91,9 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
         point_field(S, "gap", scalar_dofs, result.gap),
         point_field(V, "contact_normal", vector_dofs, cmap.normals),
     )
-    stress = stress_from_form(model.a_ufl, u)
+    stress = _model_stress(model, result)
     if stress is not None:
-        fields = (*fields, *stress_functions(stress, msh))
+        fields = (*fields, *stress)
     return (*fields, *model.coupling.output_fields(model, result, S, to_scalar))  # contact pairs: body, reaction
 
 
@@ -100,11 +101,10 @@ def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any
     """The largest von Mises stress and the largest shear stress τ = (σ₁ − σ₃)/2 of the projected stress
     (:func:`stress_functions`) and the reference positions of their vertices (ties: the first in x₁, x₂, x₃;
     collective). Empty when the bilinear form gives no stress (:func:`stress_from_form`)."""
-    u = set_owned_values(dolfinx.fem.Function(model.V), result.displacement)
-    stress = stress_from_form(model.a_ufl, u)
+    stress = _model_stress(model, result)
     if stress is None:
         return {}
-    sigma, mises = stress_functions(stress, model.V.mesh)
+    sigma, mises = stress
     S = mises.function_space
     owned = S.dofmap.index_map.size_local
     x = S.tabulate_dof_coordinates()[:owned]
@@ -285,25 +285,63 @@ def stress_functions(stress: ufl.core.expr.Expr,
     oscillates at boundaries and kinks like the consistent L2 projection does, needs no linear solve, and
     reproduces a uniform stress exactly. The von Mises stress √(3/2 s : s), s = σ − tr σ / 3 I, is evaluated at
     the vertices from the projected tensor. Like every nodal recovery it smooths a peak over one element."""
-    T = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3, 3)))
-    S = dolfinx.fem.functionspace(mesh, ("Lagrange", 1))
-    moments = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.inner(stress, ufl.TestFunction(T)) * ufl.dx))
-    mass = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.TestFunction(S) * ufl.dx))
-    for b in (moments, mass):
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    # T and S share the scalar P1 dofmap: block k of T is DOF k of S
-    sigma = moments.getArray(readonly=True).reshape(-1, 9) / mass.getArray(readonly=True)[:, None]
-    moments.destroy()
-    mass.destroy()
-    owned = sigma.shape[0]
-    tensor = dolfinx.fem.Function(T, name="stress")
-    tensor.x.array[: 9 * owned] = sigma.ravel()
-    tensor.x.scatter_forward()
-    deviator = sigma.reshape(-1, 3, 3) - np.einsum("nii->n", sigma.reshape(-1, 3, 3))[:, None, None] / 3 * np.eye(3)
-    mises = dolfinx.fem.Function(S, name="von_mises")
-    mises.x.array[:owned] = np.sqrt(1.5 * np.einsum("nij,nij->n", deviator, deviator))
-    mises.x.scatter_forward()
-    return tensor, mises
+    return _StressRecovery(stress, mesh).functions()
+
+
+class _StressRecovery:
+    """The compiled forms of :func:`stress_functions` for one stress expression, assembled again for every state
+    of its displacement Function (the load path's steps: no form compiled per step). Holds no PETSc object
+    between calls (a cached PETSc vector freed by the collector at different times on different ranks would
+    desynchronize them: docs/testing.md)."""
+
+    def __init__(self, stress: ufl.core.expr.Expr, mesh: dolfinx.mesh.Mesh) -> None:
+        self.T = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3, 3)))
+        self.S = dolfinx.fem.functionspace(mesh, ("Lagrange", 1))
+        self.moments = dolfinx.fem.form(ufl.inner(stress, ufl.TestFunction(self.T)) * ufl.dx)
+        mass = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.TestFunction(self.S) * ufl.dx))
+        mass.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self.mass = mass.getArray(readonly=True).copy()
+        mass.destroy()
+
+    def functions(self) -> tuple[dolfinx.fem.Function, dolfinx.fem.Function]:
+        """(stress, von_mises) of the expression's displacement as it is now (collective)."""
+        moments = dolfinx.fem.petsc.assemble_vector(self.moments)
+        moments.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        # T and S share the scalar P1 dofmap: block k of T is DOF k of S
+        sigma = moments.getArray(readonly=True).reshape(-1, 9) / self.mass[:, None]
+        moments.destroy()
+        owned = sigma.shape[0]
+        tensor = dolfinx.fem.Function(self.T, name="stress")
+        tensor.x.array[: 9 * owned] = sigma.ravel()
+        tensor.x.scatter_forward()
+        deviator = (sigma.reshape(-1, 3, 3)
+                    - np.einsum("nii->n", sigma.reshape(-1, 3, 3))[:, None, None] / 3 * np.eye(3))
+        mises = dolfinx.fem.Function(self.S, name="von_mises")
+        mises.x.array[:owned] = np.sqrt(1.5 * np.einsum("nij,nij->n", deviator, deviator))
+        mises.x.scatter_forward()
+        return tensor, mises
+
+
+#: Per model: (the displacement Function its stress expression reads, the compiled recovery); None when the
+#: bilinear form gives no stress. Weak keys: an entry goes with its model.
+_RECOVERIES: weakref.WeakKeyDictionary[ContactModel, tuple[dolfinx.fem.Function, _StressRecovery] | None] = \
+    weakref.WeakKeyDictionary()
+
+
+def _model_stress(model: ContactModel,
+                  result: SolveResult) -> tuple[dolfinx.fem.Function, dolfinx.fem.Function] | None:
+    """(stress, von_mises) of ``result``'s displacement through the model's compiled recovery (built on first
+    use; collective), or None when the bilinear form gives no stress."""
+    if model not in _RECOVERIES:
+        u = dolfinx.fem.Function(model.V)
+        stress = stress_from_form(model.a_ufl, u)
+        _RECOVERIES[model] = None if stress is None else (u, _StressRecovery(stress, model.V.mesh))
+    entry = _RECOVERIES[model]
+    if entry is None:
+        return None
+    u, recovery = entry
+    set_owned_values(u, result.displacement)
+    return recovery.functions()
 
 
 #: Categories of the (categorical) ``contact_state`` field.

@@ -23,6 +23,7 @@ thresholds do not depend on units:
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping
 from typing import Any
 
@@ -67,6 +68,12 @@ def residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.
     return out
 
 
+#: Per model: the displacement Function and the compiled form K w of :func:`unconstrained_residual` (weak keys:
+#: an entry goes with its model; no PETSc object is kept).
+_ACTIONS: weakref.WeakKeyDictionary[ContactModel, tuple[dolfinx.fem.Function, dolfinx.fem.Form]] = \
+    weakref.WeakKeyDictionary()
+
+
 def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """K ũ − l̃⁰ per owned node (shape (owned nodes, 3)), assembled with UFL WITHOUT boundary conditions: the
     force the supports and the obstacles exert on the body, node by node (collective).
@@ -74,11 +81,14 @@ def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.flo
     Both vectors are completed on their owners (each its own reverse ghost scatter) before they are subtracted:
     the owned part of a ghosted vector does not hold the other ranks' contributions to a node on a partition
     boundary."""
-    uh = dolfinx.fem.Function(model.V)
+    if model not in _ACTIONS:  # compiled once per model (a load path asks at every step)
+        w = dolfinx.fem.Function(model.V)
+        _ACTIONS[model] = (w, dolfinx.fem.form(ufl.action(model.a_ufl, w)))
+    uh, action = _ACTIONS[model]
     set_owned_values(uh, displacement)
     # K ũ and l̃⁰ assembled apart: a and L may integrate over measures with different subdomain data (e.g.
     # dx(body) with cell tags in a and the default L's plain dx), which one form cannot combine
-    b = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.action(model.a_ufl, uh)))
+    b = dolfinx.fem.petsc.assemble_vector(action)
     load = dolfinx.fem.petsc.assemble_vector(model.L)
     for vec in (b, load):
         vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
