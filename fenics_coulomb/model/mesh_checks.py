@@ -37,20 +37,34 @@ def _where(x: Array) -> str:
     return "(" + ", ".join(f"{c:.6g}" for c in x) + ")"
 
 
+#: For each corner c = a + 2b + 4c' of a hexahedron (DOLFINx's vertex numbering x + 2y + 4z): the vertex pairs of
+#: its three edges along ξ, η, ζ (the Jacobian's columns at that corner).
+_CORNER = np.arange(8)
+_A, _B, _C = _CORNER & 1, (_CORNER >> 1) & 1, (_CORNER >> 2) & 1
+_HEX_EDGES = ((1 | (_B << 1) | (_C << 2), _B << 1 | (_C << 2)),
+              (_A | 2 | (_C << 2), _A | (_C << 2)),
+              (_A | (_B << 1) | 4, _A | (_B << 1)))
+
+
 def corner_determinants(cell_type: str, X: Array) -> Array:
     """The Jacobian determinants of each cell's map at its corners, shape (cells, corners), from the vertex
-    coordinates X of shape (cells, vertices, 3) (tetrahedra: one value, the map is affine)."""
+    coordinates X of shape (cells, vertices, 3) (tetrahedra: one value, the map is affine); the triple product
+    a·(b × c) of the corner's three edge vectors, all corners at once."""
     if cell_type == "tetrahedron":
-        e = X[:, 1:] - X[:, :1]
-        return np.linalg.det(np.swapaxes(e, 1, 2))[:, None]
-    corners = []
-    for i in range(8):
-        a, b, c = i & 1, (i >> 1) & 1, (i >> 2) & 1
-        d_xi = X[:, (1 | (b << 1) | (c << 2))] - X[:, (0 | (b << 1) | (c << 2))]
-        d_eta = X[:, (a | (1 << 1) | (c << 2))] - X[:, (a | (0 << 1) | (c << 2))]
-        d_zeta = X[:, (a | (b << 1) | (1 << 2))] - X[:, (a | (b << 1) | (0 << 2))]
-        corners.append(np.linalg.det(np.stack([d_xi, d_eta, d_zeta], axis=2)))
-    return np.stack(corners, axis=1)
+        a, b, c = (X[:, k] - X[:, 0] for k in (1, 2, 3))
+    else:
+        a, b, c = (X[:, hi] - X[:, lo] for hi, lo in _HEX_EDGES)
+    det = (a[..., 0] * (b[..., 1] * c[..., 2] - b[..., 2] * c[..., 1])
+           - a[..., 1] * (b[..., 0] * c[..., 2] - b[..., 2] * c[..., 0])
+           + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0]))
+    return det[:, None] if cell_type == "tetrahedron" else det
+
+
+def _diameters(X: Array) -> Array:
+    """Each cell's largest vertex distance (its diameter), from the vertex coordinates (cells, vertices, 3)."""
+    i, j = np.triu_indices(X.shape[1], 1)
+    d = X[:, i] - X[:, j]
+    return np.sqrt(np.max(np.einsum("cpk,cpk->cp", d, d), axis=1, initial=0.0))
 
 
 def check_mesh(msh: dolfinx.mesh.Mesh) -> None:
@@ -75,8 +89,7 @@ def check_mesh(msh: dolfinx.mesh.Mesh) -> None:
     if dofmap.shape[1] not in (4, 8):  # a higher-order geometry: its cells are not checked here
         return
     X = x[dofmap]
-    edges = X[:, :, None, :] - X[:, None, :, :]
-    h = np.sqrt(np.max(np.einsum("cijk,cijk->cij", edges, edges).reshape(num, -1), axis=1, initial=0.0))
+    h = _diameters(X)
     det = corner_determinants(cell_type, X)
     if cell_type == "hexahedron":
         sign = np.where(det.sum(axis=1) < 0.0, -1.0, 1.0)

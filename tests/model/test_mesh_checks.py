@@ -1,0 +1,41 @@
+"""The cell checks of fenics_coulomb/model/mesh_checks.py against determinants of their own."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fenics_coulomb.model.mesh_checks import corner_determinants
+
+
+def reference_hexahedron(X: np.ndarray) -> np.ndarray:
+    """det of the Jacobian at each corner (x + 2y + 4z numbering): columns the edges leaving the corner along
+    ξ, η, ζ (towards the opposite value of that bit), signed as ξ, η, ζ increase; numpy's det."""
+    out = np.empty((X.shape[0], 8))
+    for corner in range(8):
+        bits = [(corner >> k) & 1 for k in range(3)]
+        columns = []
+        for k in range(3):
+            hi, lo = list(bits), list(bits)
+            hi[k], lo[k] = 1, 0
+            index = lambda b: b[0] + 2 * b[1] + 4 * b[2]  # noqa: E731
+            columns.append(X[:, index(hi)] - X[:, index(lo)])
+        out[:, corner] = np.linalg.det(np.stack(columns, axis=2))
+    return out
+
+
+def test_corner_determinants_of_distorted_hexahedra_and_tetrahedra():
+    rng = np.random.default_rng(7)
+    unit = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=float)
+    X = unit[None] * rng.uniform(0.1, 3.0, (500, 1, 3)) + 0.2 * rng.standard_normal((500, 8, 3))
+    det = corner_determinants("hexahedron", X)
+    assert det.shape == (500, 8)
+    assert np.allclose(det, reference_hexahedron(X), rtol=1e-12, atol=1e-12)
+    # an inverted corner: one vertex pushed through the opposite face
+    Y = unit[None].copy()
+    Y[0, 7] = [0.2, 0.2, 0.2]
+    d = corner_determinants("hexahedron", Y)
+    assert d[0, 7] < 0 < d[0, 0]
+    T = rng.standard_normal((200, 4, 3))
+    dt = corner_determinants("tetrahedron", T)
+    assert dt.shape == (200, 1)
+    assert np.allclose(dt[:, 0], np.linalg.det(np.swapaxes(T[:, 1:] - T[:, :1], 1, 2)), rtol=1e-12, atol=1e-12)
