@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["cross2", "convex", "counter_clockwise", "clip", "clean_polygon", "polygon_area"]
+__all__ = ["cross2", "convex", "counter_clockwise", "clip", "clean_polygon", "polygon_area", "polygon_perimeter"]
 
 Array = npt.NDArray[np.float64]
 
@@ -133,3 +133,8 @@ def polygon_area(P: Array, count: npt.NDArray[np.intp]) -> Array:
     valid = slots < count[:, None]
     nxt = np.take_along_axis(P, ((slots + 1) % np.maximum(count, 1)[:, None])[..., None], axis=1)
     return 0.5 * np.sum(cross2(P, nxt) * valid, axis=1)
+
+
+def polygon_perimeter(P: Array) -> Array:
+    """The perimeters of the closed polygons P (k, n, 2) (every vertex valid)."""
+    return np.sum(_norm(np.roll(P, -1, axis=1) - P), axis=1)
