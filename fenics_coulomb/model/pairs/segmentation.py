@@ -152,6 +152,9 @@ CLEAN_TOL = 1e-6
 DROP_TOL = 1e-12
 #: Clipping: a point within CLIP_TOL × the slave facet's size of an edge's inside counts as inside.
 CLIP_TOL = 1e-12
+#: Candidate search: up to this many (slave facet, master facet) pairs are tested all at once, more with KD-trees
+#: (the same candidates either way).
+BRUTE_FORCE_PAIRS = 250_000
 #: Pairs per batch (bounds the memory: about 56 quadrature points per pair).
 BATCH = 4096
 
@@ -318,20 +321,26 @@ def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Arra
     if anchors.shape[0] == 0 or m_centre.shape[0] == 0:
         return np.zeros(0, np.intp), np.zeros(0, np.intp)
     pad = 1e-9 * float(max(s_radius.max(), m_radius.max()))
-    found = []
-    # r_m <= r_e: within 3 r_e of p_e; r_m > r_e: within 3 r_m of c_m (the two queries cover every pair)
-    lists = cKDTree(m_centre).query_ball_point(anchors, 3 * s_radius + pad)
-    lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-    found.append((np.repeat(np.arange(len(lists)), lengths),
-                  np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))))
-    lists = cKDTree(anchors).query_ball_point(m_centre, 3 * m_radius + pad)
-    lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
-    found.append((np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum())),
-                  np.repeat(np.arange(len(lists)), lengths)))
-    e = np.concatenate([f[0] for f in found])
-    m = np.concatenate([f[1] for f in found])
-    key = np.unique(e.astype(np.int64) * m_centre.shape[0] + m)
-    e, m = key // m_centre.shape[0], key % m_centre.shape[0]
+    if anchors.shape[0] * m_centre.shape[0] <= BRUTE_FORCE_PAIRS:
+        # every pair within 3 max(r_e, r_m) + pad (a superset of the pairs kept below, sorted like the queries')
+        reach = 3 * np.maximum(s_radius[:, None], m_radius[None, :]) + 2 * pad
+        d2 = np.sum((anchors[:, None, :] - m_centre[None, :, :]) ** 2, axis=-1)
+        e, m = np.nonzero(d2 <= reach * reach)
+    else:
+        found = []
+        # r_m <= r_e: within 3 r_e of p_e; r_m > r_e: within 3 r_m of c_m (the two queries cover every pair)
+        lists = cKDTree(m_centre).query_ball_point(anchors, 3 * s_radius + pad)
+        lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
+        found.append((np.repeat(np.arange(len(lists)), lengths),
+                      np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))))
+        lists = cKDTree(anchors).query_ball_point(m_centre, 3 * m_radius + pad)
+        lengths = np.fromiter(map(len, lists), dtype=np.intp, count=len(lists))
+        found.append((np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum())),
+                      np.repeat(np.arange(len(lists)), lengths)))
+        e = np.concatenate([f[0] for f in found])
+        m = np.concatenate([f[1] for f in found])
+        key = np.unique(e.astype(np.int64) * m_centre.shape[0] + m)
+        e, m = key // m_centre.shape[0], key % m_centre.shape[0]
     near = _norm(m_centre[m] - anchors[e]) <= 2 * s_radius[e] + m_radius[m] + pad
     facing = _dot(m_normal[m], s_normal[e]) < 0
     # necessary for overlapping projections: the centres within r_e + r_m of each other along the plane P_e
@@ -429,6 +438,11 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         # each clip polygon without its duplicate and collinear vertices, the fan from its vertex mean, the
         # 7-point rule on each triangle
         P, count = clean_polygon(P, count, CLEAN_TOL * s_radius[e])
+        # an empty clip polygon contributes exact zeros to every sum below: not integrated
+        live = count > 0
+        e, f, m2, P, count = e[live], f[live], m2[live], P[live], count[live]
+        if e.size == 0:
+            continue
         width = P.shape[1]
         valid = np.arange(width)[None, :] < count[:, None]
         mean = np.sum(P * valid[..., None], axis=1) / np.maximum(count, 1)[:, None]
@@ -444,7 +458,10 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         Nm = shape_functions(nvm, xm, em)
         x_s = facet_map(X[e][:, None], xs, es)[0]
         x_m = facet_map(mX[f][:, None], xm, em)[0]
-        ne = facet_normals(X[e][:, None], sign[e][:, None] * np.ones(xs.shape[1]), xs, es)
+        if nv == 3:  # a triangle's normal is the same at every point (the same bits as evaluated point by point)
+            ne = facet_normals(X[e], sign[e], xs[:, 0], es[:, 0])[:, None]
+        else:
+            ne = facet_normals(X[e][:, None], sign[e][:, None] * np.ones(xs.shape[1]), xs, es)
         W = wts / np.abs(_dot(ne, nc[e][:, None]))
         vert = np.searchsorted(vertices, B[e])
         nbar = Ns @ frame_normals[vert]  # (k, q, 3)
