@@ -85,9 +85,11 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     """The clip polygons without their duplicate and collinear vertices.
 
     A vertex within ``tol`` (k,) of its predecessor is a duplicate (a master vertex on a slave edge's line comes
-    out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear. Both
-    are removed, so the polygon, its vertex mean and its fan of triangles are continuous functions of the
-    geometry: the same, up to the size of a perturbation, for a vertex exactly on an edge and for one 1e-9
+    out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear (of
+    two neighbouring collinear vertices the first, then the polygon is looked at again: removed together, two
+    vertices a little more than ``tol`` apart at a corner would each be collinear with the other's line and take
+    the corner, a whole triangle, with them). Both are removed, so the polygon, its vertex mean and its fan of
+    triangles are continuous functions of the geometry: the same, up to the size of a perturbation, for a vertex exactly on an edge and for one 1e-9
     beside it. A polygon left with fewer than 3 vertices (a sliver or a touching edge) is empty.
 
     Args:
@@ -106,13 +108,26 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     keep = valid & (_norm(P - prev) > tol[:, None])
     Q, m = _compact(P, keep)
     slots = np.arange(Q.shape[1])[None, :]
-    n = np.maximum(m, 1)[:, None]
-    a = np.take_along_axis(Q, ((slots - 1) % n)[..., None], axis=1)
-    b = np.take_along_axis(Q, ((slots + 1) % n)[..., None], axis=1)
-    ab = b - a
-    off = np.abs(cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
-    keep = (slots < m[:, None]) & ((off > tol[:, None]) | (m[:, None] < 3))
-    Q, m = _compact(Q, keep)
+    look = np.ones(Q.shape[0], dtype=bool)  # the rows to look at (again)
+    for _ in range(Q.shape[1]):
+        n = np.maximum(m, 1)[:, None]
+        a = np.take_along_axis(Q, ((slots - 1) % n)[..., None], axis=1)
+        b = np.take_along_axis(Q, ((slots + 1) % n)[..., None], axis=1)
+        ab = b - a
+        off = np.abs(cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
+        valid = slots < m[:, None]
+        collinear = valid & (off <= tol[:, None]) & (m[:, None] >= 3) & look[:, None]
+        # two neighbours are never removed at once: each is measured against a line through the other (two
+        # vertices a little more than tol apart near a corner would take the corner with them); of a run of
+        # collinear vertices the first goes, and the row is looked at again. A row of collinear vertices only
+        # is a sliver: empty.
+        after = collinear & np.take_along_axis(collinear, (slots - 1) % n, axis=1)
+        sliver = look & (m >= 3) & np.all(collinear | ~valid, axis=1)
+        drop = (collinear & ~after) | (sliver[:, None] & valid)
+        Q, m = _compact(Q, valid & ~drop)
+        look = after.any(axis=1) & ~sliver
+        if not look.any():
+            break
     return Q, np.where(m >= 3, m, 0)
 
 
