@@ -90,7 +90,8 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     vertices a little more than ``tol`` apart at a corner would each be collinear with the other's line and take
     the corner, a whole triangle, with them). Both are removed, so the polygon, its vertex mean and its fan of
     triangles are continuous functions of the geometry: the same, up to the size of a perturbation, for a vertex
-    exactly on an edge and for one 1e-9 beside it. A polygon left with fewer than 3 vertices (a sliver or a touching edge) is empty.
+    exactly on an edge and for one 1e-9 beside it. A polygon left with fewer than 3 vertices (a sliver or a
+    touching edge) is empty.
 
     Args:
         P: Convex polygons (k, w, 2), the first ``count`` vertices valid.
