@@ -126,6 +126,25 @@ def test_clip_polygons_lose_duplicate_and_collinear_vertices():
     assert np.isclose(polygon_area(P, n)[0], 1.0)
 
 
+def test_two_neighbouring_collinear_vertices_do_not_take_the_corner():
+    """A clip polygon of the drag patch test's stall (docs/sliding: a slave edge on a master grid line, the
+    footprint's whole-cell state after sub-cell states): two vertices 1.7e-7 apart at a corner (tol 1.1e-7), each
+    within tol of the line through the other one and its far neighbour. Removing both left two vertices — an
+    empty polygon, a whole fan triangle (1/3 of a facet's D_j) lost or kept by round-off at every update; one of
+    them goes and the triangle keeps its area."""
+    P = np.array([[[-0.01428595317332, -0.02777732877841], [-0.01428587510903, -0.02777748057041],
+                   [-0.01428570650813, 0.05555559112656], [-0.03095232737789, 0.05555559112656]]])
+    Q, m = clean_polygon(P, np.array([4]), np.array([1.1e-7]))
+    assert m[0] == 3
+    assert abs(polygon_area(Q, m)[0] - polygon_area(P, np.array([4]))[0]) <= 1.1e-7 * 0.2
+    # a run of three collinear vertices along an edge: all go, one by one; a row of only collinear ones is empty
+    P = np.array([[[0, 0], [0.25, 0], [0.5, 0], [0.75, 0], [1, 0], [1, 1], [0, 1]]], dtype=float)
+    Q, m = clean_polygon(P, np.array([7]), np.array([1e-6]))
+    assert m[0] == 4 and np.isclose(polygon_area(Q, m)[0], 1.0)
+    line = np.array([[[0, 0], [0.5, 1e-9], [1, 0], [0.5, -1e-9]]], dtype=float)
+    assert clean_polygon(line, np.array([4]), np.array([1e-6]))[1][0] == 0
+
+
 # -- aligned grids --------------------------------------------------------------------------------------
 def aligned_solve(comm, offset: float, method: str = "mortar"):
     """Lower block [0, 2] × [0, 1] (8 × 4 cells), upper block [0.25, 1.75] × [0.25, 0.75] (12 × 4 cells: its grid

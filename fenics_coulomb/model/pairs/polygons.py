@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["cross2", "convex", "counter_clockwise", "clip", "clean_polygon", "polygon_area"]
+__all__ = ["cross2", "convex", "counter_clockwise", "clip", "clean_polygon", "polygon_area", "polygon_perimeter"]
 
 Array = npt.NDArray[np.float64]
 
@@ -85,10 +85,13 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     """The clip polygons without their duplicate and collinear vertices.
 
     A vertex within ``tol`` (k,) of its predecessor is a duplicate (a master vertex on a slave edge's line comes
-    out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear. Both
-    are removed, so the polygon, its vertex mean and its fan of triangles are continuous functions of the
-    geometry: the same, up to the size of a perturbation, for a vertex exactly on an edge and for one 1e-9
-    beside it. A polygon left with fewer than 3 vertices (a sliver or a touching edge) is empty.
+    out of the clipping twice); a vertex within ``tol`` of the line through its two neighbours is collinear (of
+    two neighbouring collinear vertices the first, then the polygon is looked at again: removed together, two
+    vertices a little more than ``tol`` apart at a corner would each be collinear with the other's line and take
+    the corner, a whole triangle, with them). Both are removed, so the polygon, its vertex mean and its fan of
+    triangles are continuous functions of the geometry: the same, up to the size of a perturbation, for a vertex
+    exactly on an edge and for one 1e-9 beside it. A polygon left with fewer than 3 vertices (a sliver or a
+    touching edge) is empty.
 
     Args:
         P: Convex polygons (k, w, 2), the first ``count`` vertices valid.
@@ -106,13 +109,26 @@ def clean_polygon(P: Array, count: npt.NDArray[np.intp], tol: Array) -> tuple[Ar
     keep = valid & (_norm(P - prev) > tol[:, None])
     Q, m = _compact(P, keep)
     slots = np.arange(Q.shape[1])[None, :]
-    n = np.maximum(m, 1)[:, None]
-    a = np.take_along_axis(Q, ((slots - 1) % n)[..., None], axis=1)
-    b = np.take_along_axis(Q, ((slots + 1) % n)[..., None], axis=1)
-    ab = b - a
-    off = np.abs(cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
-    keep = (slots < m[:, None]) & ((off > tol[:, None]) | (m[:, None] < 3))
-    Q, m = _compact(Q, keep)
+    look = np.ones(Q.shape[0], dtype=bool)  # the rows to look at (again)
+    for _ in range(Q.shape[1]):
+        n = np.maximum(m, 1)[:, None]
+        a = np.take_along_axis(Q, ((slots - 1) % n)[..., None], axis=1)
+        b = np.take_along_axis(Q, ((slots + 1) % n)[..., None], axis=1)
+        ab = b - a
+        off = np.abs(cross2(ab, Q - a)) / np.maximum(_norm(ab), np.finfo(float).tiny)
+        valid = slots < m[:, None]
+        collinear = valid & (off <= tol[:, None]) & (m[:, None] >= 3) & look[:, None]
+        # two neighbours are never removed at once: each is measured against a line through the other (two
+        # vertices a little more than tol apart near a corner would take the corner with them); of a run of
+        # collinear vertices the first goes, and the row is looked at again. A row of collinear vertices only
+        # is a sliver: empty.
+        after = collinear & np.take_along_axis(collinear, (slots - 1) % n, axis=1)
+        sliver = look & (m >= 3) & np.all(collinear | ~valid, axis=1)
+        drop = (collinear & ~after) | (sliver[:, None] & valid)
+        Q, m = _compact(Q, valid & ~drop)
+        look = after.any(axis=1) & ~sliver
+        if not look.any():
+            break
     return Q, np.where(m >= 3, m, 0)
 
 
@@ -133,3 +149,8 @@ def polygon_area(P: Array, count: npt.NDArray[np.intp]) -> Array:
     valid = slots < count[:, None]
     nxt = np.take_along_axis(P, ((slots + 1) % np.maximum(count, 1)[:, None])[..., None], axis=1)
     return 0.5 * np.sum(cross2(P, nxt) * valid, axis=1)
+
+
+def polygon_perimeter(P: Array) -> Array:
+    """The perimeters of the closed polygons P (k, n, 2) (every vertex valid)."""
+    return np.sum(_norm(np.roll(P, -1, axis=1) - P), axis=1)

@@ -278,35 +278,42 @@ def _closest(p: Array, X: Array) -> tuple[Array, Array, Array]:
 
 
 def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
-    """dist(d, cone{N[:, i] : mask[:, i]}) for each row: d (k, 3), N (k, q, 3), mask (k, q)."""
+    """dist(d, cone{N[:, i] : mask[:, i]}) for each row: d (k, 3), N (k, q, 3), mask (k, q).
+
+    The candidates — the rays of single normals, the planar cones of pairs, a triple's solid cone (distance 0
+    when d is a non-negative combination) — are evaluated for every combination at once (the same arithmetic per
+    combination as one at a time, so the same bits)."""
     k, q = mask.shape
     best = np.full(k, np.inf)
-    for i in range(q):
-        c = np.maximum(dot(d, N[:, i]), 0.0)
-        best = np.where(mask[:, i], np.minimum(best, norm(d - c[:, None] * N[:, i])), best)
-    for i in range(q):
-        for j in range(i + 1, q):
-            a, b = N[:, i], N[:, j]
-            aa, ab, bb = dot(a, a), dot(a, b), dot(b, b)
-            det = aa * bb - ab * ab
-            ok = mask[:, i] & mask[:, j] & (det > 1e-14)
-            da, db = dot(d, a), dot(d, b)
-            safe = np.where(ok, det, 1.0)
-            ca, cb = (bb * da - ab * db) / safe, (aa * db - ab * da) / safe
-            ok &= (ca >= 0) & (cb >= 0)
-            res = norm(d - ca[:, None] * a - cb[:, None] * b)
-            best = np.where(ok, np.minimum(best, res), best)
-    for i in range(q):
-        for j in range(i + 1, q):
-            for m in range(j + 1, q):
-                M = np.stack([N[:, i], N[:, j], N[:, m]], axis=2)
-                det = np.linalg.det(M)
-                ok = mask[:, i] & mask[:, j] & mask[:, m] & (np.abs(det) > 1e-12)
-                if not ok.any():
-                    continue
-                coef = np.linalg.solve(np.where(ok[:, None, None], M, np.eye(3)), d[:, :, None])[:, :, 0]
-                ok &= (coef >= 0).all(axis=1)
-                best = np.where(ok, 0.0, best)
+    if k == 0 or q == 0:
+        return best
+    c = np.maximum(dot(d[:, None], N), 0.0)
+    best = np.min(np.where(mask, norm(d[:, None] - c[..., None] * N), np.inf), axis=1, initial=np.inf)
+    if q >= 2:
+        i, j = np.triu_indices(q, 1)
+        a, b = N[:, i], N[:, j]
+        aa, ab, bb = dot(a, a), dot(a, b), dot(b, b)
+        det = aa * bb - ab * ab
+        ok = mask[:, i] & mask[:, j] & (det > 1e-14)
+        dd = d[:, None]
+        da, db = dot(dd, a), dot(dd, b)
+        safe = np.where(ok, det, 1.0)
+        ca, cb = (bb * da - ab * db) / safe, (aa * db - ab * da) / safe
+        ok &= (ca >= 0) & (cb >= 0)
+        res = norm(dd - ca[..., None] * a - cb[..., None] * b)
+        best = np.minimum(best, np.min(np.where(ok, res, np.inf), axis=1, initial=np.inf))
+    if q >= 3:
+        i, j, m = (t.ravel() for t in np.meshgrid(*(np.arange(q),) * 3, indexing="ij"))
+        triple = (i < j) & (j < m)
+        i, j, m = i[triple], j[triple], m[triple]
+        M = np.stack([N[:, i], N[:, j], N[:, m]], axis=3)  # (k, T, 3, 3), columns the three normals
+        det = np.linalg.det(M)
+        ok = mask[:, i] & mask[:, j] & mask[:, m] & (np.abs(det) > 1e-12)
+        if ok.any():
+            coef = np.linalg.solve(np.where(ok[..., None, None], M, np.eye(3)),
+                                   np.broadcast_to(d[:, None, :, None], (*ok.shape, 3, 1)))[..., 0]
+            ok &= (coef >= 0).all(axis=-1)
+            best = np.where(ok.any(axis=1), 0.0, best)
     return best
 
 
