@@ -54,10 +54,16 @@ def assemble_matrix(form: dolfinx.fem.Form, bcs: Sequence[dolfinx.fem.DirichletB
         A = dolfinx.fem.petsc.assemble_matrix(form, bcs=list(bcs), diagonal=diagonal)
         A.assemble()
         return A
-    csr = dolfinx.fem.assemble_matrix(form, bcs=list(bcs), diagonal=diagonal,
-                                      block_mode=dolfinx.la.BlockMode.expanded)
+    # Not dolfinx.fem.assemble_matrix: its insert_diagonal also sets the diagonal of ghost rows of constrained
+    # DOFs (fine for PETSc's INSERT, added up by the CSR's reverse scatter) and, with ghosted cells
+    # (GhostMode.shared_facet), fails with "Entry not in sparsity" on 3 ranks. The owned diagonal is set below.
+    csr = dolfinx.fem.create_matrix(form, block_mode=dolfinx.la.BlockMode.expanded)
+    dolfinx.cpp.fem.assemble_matrix(csr._cpp_object, form._cpp_object, dolfinx.cpp.fem.pack_constants(form._cpp_object),
+                                    dolfinx.cpp.fem.pack_coefficients(form._cpp_object),
+                                    [bc._cpp_object for bc in bcs])
     csr.scatter_reverse()
-    rows_map, bs = form.function_spaces[0].dofmap.index_map, form.function_spaces[0].dofmap.index_map_bs
+    V = form.function_spaces[0]
+    rows_map, bs = V.dofmap.index_map, V.dofmap.index_map_bs
     cols_map = csr.index_map(1)  # the expanded column map: one index per DOF, ghosts included
     owned = rows_map.size_local * bs
     indptr = np.asarray(csr.indptr[: owned + 1], dtype=np.int64)
@@ -66,11 +72,19 @@ def assemble_matrix(form: dolfinx.fem.Form, bcs: Sequence[dolfinx.fem.DirichletB
     to_global = cols_map.local_to_global(np.arange(cols_map.size_local + cols_map.num_ghosts, dtype=np.int32))
     cols = np.asarray(to_global, dtype=np.int64)[local_cols]
     rows = np.repeat(np.arange(owned, dtype=np.int64), np.diff(indptr))
+    data = np.array(csr.data[:nnz], dtype=PETSc.ScalarType)
+    if form.function_spaces[1] is V:  # as dolfinx: ``diagonal`` on the owned diagonal of constrained DOFs
+        constrained = np.zeros(owned, dtype=bool)
+        for bc in bcs:
+            if V.contains(bc.function_space):
+                dofs = bc.dof_indices()[0]
+                constrained[dofs[dofs < owned]] = True
+        data[constrained[rows] & (local_cols == rows)] = diagonal
     order = np.lexsort((cols, rows))  # PETSc wants each row's columns ascending
     size = (owned, rows_map.size_global * bs)
     A = PETSc.Mat().createAIJ(size=(size, size), bsize=bs, comm=comm,
                               csr=(indptr.astype(PETSc.IntType), cols[order].astype(PETSc.IntType),
-                                   np.asarray(csr.data[:nnz], dtype=PETSc.ScalarType)[order]))
+                                   data[order]))
     A.assemble()
     return A
 
