@@ -406,3 +406,41 @@ def test_a_body_held_along_the_contact_normal_by_contact_alone(friction):
         assert forces["balance"] < 1e-8
     with pytest.raises(InputError, match="body 1 .* rigid motions"):
         ContactProblem(a, L, [clamp, held[0]], contact_pairs=[pair], petsc_options_prefix="held_by_contact_")
+
+
+def _grams(midpoints, normals):
+    """G_c and G_r of check_rigid_support for facets (midpoints about the centroid, unit normals)."""
+    from fenics_coulomb.model.pairs.two_body import _modes_at
+
+    modes = _modes_at(midpoints)
+    seen = np.einsum("fi,fia->fa", normals, modes)
+    return np.einsum("fa,fb->ab", seen, seen), np.einsum("fia,fib->ab", modes, modes)
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("sectors", [12, 16, 64])
+def test_held_fraction_of_a_shaft_turning_in_its_bore(sectors):
+    """A faceted cylinder (triangles, their centroids and normals): the rotation about the axis, free in the
+    continuum, has a normal fraction below HELD_FRACTION from 12 facets around (∝ (h/R)²); the translations
+    across the axis are held (fraction ~ 1/2: radial on half the circumference); a flat face's normal
+    translation 1, its turn about the normal 0."""
+    from fenics_coulomb.model.pairs.two_body import HELD_FRACTION, held_fraction
+
+    theta = np.linspace(0.0, 2 * np.pi, sectors + 1)
+    z = np.array([-0.4, 0.4])
+    points, normals = [], []
+    for k in range(sectors):  # each quadrilateral strip split into two triangles
+        a = [np.array([0.3 * np.cos(t), 0.3 * np.sin(t), h]) for t in theta[k:k + 2] for h in z]
+        for tri in ((a[0], a[2], a[3]), (a[0], a[3], a[1])):
+            n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
+            points.append(np.mean(tri, axis=0))
+            normals.append(n / np.linalg.norm(n))
+    Gc, Gr = _grams(np.array(points), np.array(normals))
+    rotation = np.eye(6)[:, [5]]
+    translations = np.eye(6)[:, [0, 1]]
+    assert held_fraction(rotation, Gc, Gr) < HELD_FRACTION
+    assert held_fraction(translations, Gc, Gr) > HELD_FRACTION
+    flat = np.array([[x, y, 0.0] for x in np.linspace(-0.4, 0.4, 5) for y in np.linspace(-0.4, 0.4, 5)])
+    Gc, Gr = _grams(flat, np.tile([0.0, 0.0, 1.0], (flat.shape[0], 1)))
+    assert held_fraction(np.eye(6)[:, [2]], Gc, Gr) == pytest.approx(1.0)
+    assert held_fraction(np.eye(6)[:, [5]], Gc, Gr) == pytest.approx(0.0, abs=1e-15)  # turning on a flat face
