@@ -217,8 +217,10 @@ CORE_LEVELS: dict[int, tuple[float, float, float]] = {
 #: Cattaneo–Mindlin's loading Q/μP aimed at, then its unloading (from the last) to these Q/μP.
 MINDLIN_LOADS = (0.2, 0.5, 0.8)
 MINDLIN_UNLOADS = (0.3, -0.4)
-#: Friction of the bonded (all-stick) tangential step that measures the finite bodies' compliance δ'(0).
-BONDED_FRICTION = 100.0
+#: The first tangential step, Q/μP ≈ 0.002, measures the finite bodies' compliance δ'(0) = δ/Q: the stick zone
+#: is the whole contact but its outermost 0.07 % of a (c/a = 0.998^{1/3}); Mindlin's secant there exceeds his slope
+#: at 0 by x/6 = 3e-4 (s ≈ x²/9 against 2x/3), below what is measured. (A bonded model, μ = 100, stalled GMRES.)
+PROBE_LOAD = 0.002
 CORE_SETTINGS = {"pc": "gamg", "rtol": 1e-10}
 
 
@@ -266,7 +268,7 @@ class _CoreModel:
             mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
             eps_u, eps_v = ufl.sym(ufl.grad(u)), ufl.sym(ufl.grad(v))
             form += ufl.inner(2 * mu * eps_u + lmbda * ufl.tr(eps_u) * ufl.Identity(3), eps_v) * dx(CB[body])
-        self.pair = ContactPair(facet_tags, slave=CT["master"], master=CT["slave"], friction=friction,
+        self.pair = ContactPair(facet_tags, slave=CT["top"], master=CT["cap"], friction=friction,
                                 search_distance=0.5 * A_CORE, name="cap", method="mortar")
         self.problem = ContactProblem(form, None, bcs, contact_pairs=[self.pair], settings=CORE_SETTINGS,
                                       petsc_options_prefix=prefix, sliding=SLIDING)
@@ -286,6 +288,7 @@ class _CoreModel:
                 "Q_side": float(force[1]), "a": separating_radius(r, closed),
                 "c": separating_radius(r[closed], stick[closed]), "closed": int(closed.sum()),
                 "stick": int(stick.sum()), "r": r, "pressure": np.asarray(nodes.pressure),
+                "on_plane": np.min(np.abs(nodes.coordinates[:, :2]), axis=1) < 1e-9 * A_CORE,
                 "unknowns": int(self.problem.model.num_dofs_global), "iterations": int(result.iterations)}
 
     def destroy(self) -> None:
@@ -313,8 +316,11 @@ def hertz_core(comm: MPI.Comm, level: int | tuple[float, float, float]) -> dict[
     a_ref = (3 * s["P"] * R_CORE / (4 * E_star)) ** (1 / 3)
     p0_ref = 3 * s["P"] / (2 * np.pi * a_ref**2)
     p0 = _mean_pressure_p0(s["r"], s["pressure"], a_ref)
+    off = ~s["on_plane"]
+    p0_off = _mean_pressure_p0(s["r"][off], s["pressure"][off], a_ref)
     return {"P": s["P"], "radius": s["a"], "radius_ref": a_ref, "err_radius": s["a"] / a_ref - 1,
             "pressure": p0, "pressure_ref": p0_ref, "err_pressure": p0 / p0_ref - 1,
+            "pressure_off": p0_off, "err_pressure_off": p0_off / p0_ref - 1,
             "peak": float(s["pressure"].max()), "err_peak": float(s["pressure"].max()) / p0_ref - 1,
             "h_over_a": spec[0], "unknowns": s["unknowns"], "closed": s["closed"], "converged": s["converged"],
             "wall": time.perf_counter() - t0}
@@ -348,19 +354,11 @@ def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
     moved along x1 to the displacements aimed at Q/μP = ``loads`` (Mindlin's compliance, ×1.05 for the bodies'
     bulk), then back to those aimed at ``unloads`` (Mindlin–Deresiewicz). Per step Q/μP, c/a against
     (1 − Q/μP)^{1/3} (loading), and the slip part of the displacement s = δ − Q δ'(0) against Mindlin's, δ'(0) the
-    finite bodies' compliance measured by a bonded step (μ = ``BONDED_FRICTION``: all stick) on the same mesh."""
+    finite bodies' compliance measured by the first, tiny step (Q/μP ≈ ``PROBE_LOAD``: all stick)."""
     t0 = time.perf_counter()
     spec = CORE_LEVELS[level] if isinstance(level, int) else level
     mesh = core_mesh(comm, spec, False)
     materials = (MINDLIN_MATERIAL, MINDLIN_MATERIAL)
-    bonded = _CoreModel(comm, mesh, False, materials, BONDED_FRICTION, "mindlin6b_")
-    try:
-        bonded.solve((0.0, 0.0, -CORE_DELTA))
-        probe = 1e-4
-        b = bonded.solve((probe, 0.0, -CORE_DELTA))
-    finally:
-        bonded.destroy()
-    compliance0 = probe / b["Q"]
     model = _CoreModel(comm, mesh, False, materials, MINDLIN_FRICTION, "mindlin6_")
     steps: list[dict[str, Any]] = []
     try:
@@ -368,6 +366,9 @@ def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
         P = pressed["P"]
         E_star = effective_modulus(materials)
         a_ref = (3 * P * R_CORE / (4 * E_star)) ** (1 / 3)
+        probe = 1.05 * float(mindlin_compliance(PROBE_LOAD, P, a_ref))
+        b = model.solve((probe, 0.0, -CORE_DELTA))
+        compliance0 = probe / b["Q"]
         shifts = [("load", 1.05 * float(mindlin_compliance(x, P, a_ref))) for x in loads]
         top = shifts[-1][1]
         x_top = loads[-1]
@@ -401,5 +402,6 @@ def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
             "compliance0": compliance0, "compliance0_ref": 2 * float(mindlin_compliance(1.0, 1.0, a_ref)) / 3
             / MINDLIN_FRICTION, "press_stick": pressed["stick"], "h_over_a": spec[0],
             "unknowns": pressed["unknowns"], "closed": pressed["closed"],
+            "probe": b["Q"] / (MINDLIN_FRICTION * P),
             "converged": pressed["converged"] and b["converged"] and all(s["converged"] for s in steps),
             "wall": time.perf_counter() - t0}

@@ -11,8 +11,13 @@ cap, a hexahedron with one curved face, meshed transfinite): each grid cell is c
 nodes share the contact surface evenly and the nodal pressures do not scatter with the shapes of unstructured
 cells. Beyond the cores unstructured tetrahedra whose edge grows linearly with the distance from the origin by
 ``growth`` per unit distance, up to ``largest``·W. The two bodies are meshed apart (they share no node: two
-disconnected volumes of one mesh, the two-body contact's input); both cores have the same grid, so the slave's
-and the master's nodes nearly coincide at the reference configuration (a conforming-like, still independent pair).
+disconnected volumes of one mesh, the two-body contact's input); the block's core grid is ``master``·h0 (0.85:
+finer), so that the two grids do not coincide (a node on an edge of the other surface would be a partner tie).
+
+Use the block's top as the pair's SLAVE surface: it is flat, so the normals of its nodes on a symmetry plane are
+exactly orthogonal to the held component. With the curved cap as the slave, mortar dropped the slave nodes on
+x2 = 0 and the next row (their facets' projection onto the block reached past the master's border x2 = 0 by
+round-off: "not fully covered") and 18 of them penetrated.
 
 The ball is rotated so that its poles lie on the x2 axis and its seam in the plane x3 = R: with H < R neither
 is in the model (gmsh's sphere parametrisation is singular at the poles).
@@ -20,8 +25,8 @@ is in the model (gmsh's sphere parametrisation is singular at the poles).
 Physical groups::
 
     cells   1 "upper"  2 "block"
-    facets  1 "slave"     the upper core's bottom (the spherical cap |x1|, x2 ≤ L)
-            2 "master"    the block core's top
+    facets  1 "cap"       the upper core's bottom (the spherical cap |x1|, x2 ≤ L): the master surface
+            2 "top"       the block core's top (the slave surface)
             3 "bottom"    x3 = −D (clamped)
             4 "flat"      the upper body's flat face x3 = H (pressed)
             5 "sym_y"     x2 = 0, both bodies (roller u2 = 0)
@@ -45,7 +50,7 @@ from meshes.gmsh_session import gmsh_session, write_volume_mesh
 __all__ = ["BODIES", "TAGS", "build"]
 
 BODIES = {"upper": 1, "block": 2}
-TAGS = {"slave": 1, "master": 2, "bottom": 3, "flat": 4, "sym_y": 5, "sym_x": 6, "free": 7}
+TAGS = {"cap": 1, "top": 2, "bottom": 3, "flat": 4, "sym_y": 5, "sym_x": 6, "free": 7}
 
 
 def _transfinite(volumes: list[int], h0: float) -> None:
@@ -123,10 +128,10 @@ def build(path: Path | str, a: float, h0: float, radius: float, width: float = 2
                 elif quarter and abs(x) < tol:
                     name = "sym_x"
                 elif body == "block":
-                    name = ("master" if abs(z) < tol and max(abs(x), y) < L else "bottom" if abs(z + W) < tol
+                    name = ("top" if abs(z) < tol and max(abs(x), y) < L else "bottom" if abs(z + W) < tol
                             else "free")
                 else:
-                    name = "flat" if abs(z - H) < tol else "slave" if max(abs(x), y, z) < L else "free"
+                    name = "flat" if abs(z - H) < tol else "cap" if max(abs(x), y, z) < L else "free"
                 groups[name].append(surface)
         for name, surfaces in groups.items():
             if surfaces:
