@@ -1130,7 +1130,8 @@ def main(argv: list[str] | None = None) -> int:
                         default="all",
                         help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), mindlin: only "
                              "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md; "
-                             "hertz-two-bodies: only case 9's (verification_hertz_two_bodies.csv, hertz_two_bodies_rows.md); hertz: only "
+                             "hertz-two-bodies: only case 9's (verification_hertz_two_bodies.csv, "
+                             "hertz_two_bodies_rows.md); hertz: only "
                              "case 2's, into verification_hertz.csv, hertz_rows.md and hertz.png; incline-two-bodies: "
                              "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md "
                              "(each to be merged into the table)")
