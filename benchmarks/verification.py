@@ -23,8 +23,10 @@ Cases (the derivations are in docs/verification/README.md):
   meshes, dual mortar and node-to-surface.
 * **Lubkin**: the Hertz indenter with friction, twisted about the contact normal by an obstacle rotation:
   the torque against the full-slip torque 3πμPa/16 (Johnson, §7.4).
-* **Hertz, two elastic bodies** (benchmarks/verification_two_body.py): an elastic hemisphere on an elastic block,
-  dual mortar: a and p₀ against Hertz with 1/E* = Σ (1 − νᵢ²)/Eᵢ for the measured P.
+* **Hertz, two elastic bodies** (benchmarks/verification_two_body.py's ``hertz_core``): an elastic sphere cap
+  (R = 100) on an elastic block, a quarter model with structured cores under the contact in both bodies
+  (meshes/sphere_on_block_half.py), dual mortar: a and p₀ against Hertz with 1/E* = Σ (1 − νᵢ²)/Eᵢ for the
+  measured P.
 * **Cattaneo–Mindlin, β = 0** (benchmarks/verification_two_body.py): a hemisphere of radius 4 on a block of the
   same material, pressed, then sheared in two steps: the stick radius against c/a = (1 − Q/μP)^{1/3}.
 * **Shrink fit (Lamé)**: a ring on a shaft with a radial interference (an initial overlap of two bodies with

@@ -221,7 +221,7 @@ MINDLIN_UNLOADS = (0.3, -0.4)
 #: is the whole contact but its outermost 0.07 % of a (c/a = 0.998^{1/3}); Mindlin's secant there exceeds his slope
 #: at 0 by x/6 = 3e-4 (s ≈ x²/9 against 2x/3), below what is measured. (A bonded model, μ = 100, stalled GMRES.)
 PROBE_LOAD = 0.002
-CORE_SETTINGS = {"pc": "gamg", "rtol": 1e-10}
+CORE_SETTINGS = {"pc": "gamg", "rtol": 1e-12}
 
 
 def core_mesh(comm: MPI.Comm, level: int | tuple[float, float, float], quarter: bool
