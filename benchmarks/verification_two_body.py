@@ -224,10 +224,9 @@ PROBE_LOAD = 0.002
 CORE_SETTINGS = {"pc": "gamg", "rtol": 1e-12}
 
 
-def core_mesh(comm: MPI.Comm, level: int | tuple[float, float, float], quarter: bool, full: bool = False
+def core_mesh(comm: MPI.Comm, level: int | tuple[float, float, float], quarter: bool
               ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
-    """meshes/sphere_on_block_half.py at ``level`` (meshed on rank 0, distributed; collective); ``full``: no
-    symmetry plane."""
+    """meshes/sphere_on_block_half.py at ``level`` (meshed on rank 0, distributed; collective)."""
     import tempfile
     from pathlib import Path
 
@@ -239,7 +238,7 @@ def core_mesh(comm: MPI.Comm, level: int | tuple[float, float, float], quarter: 
         path = comm.bcast(str(Path(tmp) / "core.msh") if comm.rank == 0 else None)
         if comm.rank == 0:
             sphere_on_block_half.build(path, A_CORE, fraction * A_CORE, R_CORE, fine=fine, growth=growth,
-                                       quarter=quarter, full=full)
+                                       quarter=quarter)
         return read_gmsh_tags(path, comm)
 
 
@@ -248,19 +247,18 @@ class _CoreModel:
     ``self.flat``; ``copies`` the full model's multiple of the forces (2 or 4)."""
 
     def __init__(self, comm: MPI.Comm, mesh: tuple[Any, Any, Any], quarter: bool,
-                 materials: tuple[tuple[float, float], tuple[float, float]], friction: float, prefix: str,
-                 full: bool = False):
+                 materials: tuple[tuple[float, float], tuple[float, float]], friction: float, prefix: str):
         from meshes.sphere_on_block_half import BODIES as CB
         from meshes.sphere_on_block_half import TAGS as CT
 
         msh, cell_tags, facet_tags = mesh
-        self.copies = 4 if quarter else 1 if full else 2
+        self.copies = 4 if quarter else 2
         V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
         bottom = dolfinx.fem.locate_dofs_topological(V, 2, facet_tags.find(CT["bottom"]))
         flat = dolfinx.fem.locate_dofs_topological(V, 2, facet_tags.find(CT["flat"]))
         self.flat = dolfinx.fem.Constant(msh, np.zeros(3))
         bcs = [dolfinx.fem.dirichletbc(np.zeros(3), bottom, V), dolfinx.fem.dirichletbc(self.flat, flat, V)]
-        for i, name in ((1, "sym_y"), (0, "sym_x")) if quarter else () if full else ((1, "sym_y"),):
+        for i, name in ((1, "sym_y"), (0, "sym_x")) if quarter else ((1, "sym_y"),):
             dofs = dolfinx.fem.locate_dofs_topological(V.sub(i), 2, facet_tags.find(CT[name]))
             bcs.append(dolfinx.fem.dirichletbc(np.float64(0.0), dofs, V.sub(i)))
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -350,8 +348,8 @@ def unloading_slip(x_star: float, x: float, P: float, a: float) -> float:
 
 
 def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
-                 loads: tuple[float, ...] = MINDLIN_LOADS, unloads: tuple[float, ...] = MINDLIN_UNLOADS,
-                 full: bool = False) -> dict[str, Any]:
+                 loads: tuple[float, ...] = MINDLIN_LOADS, unloads: tuple[float, ...] = MINDLIN_UNLOADS
+                 ) -> dict[str, Any]:
     """Case 6 on the half model, both bodies E 70, ν 0.3 (β = 0), μ = 0.3: pressed δ = a²/R, then the flat face
     moved along x1 to the displacements aimed at Q/μP = ``loads`` (Mindlin's compliance, ×1.05 for the bodies'
     bulk), then back to those aimed at ``unloads`` (Mindlin–Deresiewicz). Per step Q/μP, c/a against
@@ -359,9 +357,9 @@ def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
     finite bodies' compliance measured by the first, tiny step (Q/μP ≈ ``PROBE_LOAD``: all stick)."""
     t0 = time.perf_counter()
     spec = CORE_LEVELS[level] if isinstance(level, int) else level
-    mesh = core_mesh(comm, spec, False, full)
+    mesh = core_mesh(comm, spec, False)
     materials = (MINDLIN_MATERIAL, MINDLIN_MATERIAL)
-    model = _CoreModel(comm, mesh, False, materials, MINDLIN_FRICTION, "mindlin6_", full)
+    model = _CoreModel(comm, mesh, False, materials, MINDLIN_FRICTION, "mindlin6_")
     steps: list[dict[str, Any]] = []
     try:
         pressed = model.solve((0.0, 0.0, -CORE_DELTA))

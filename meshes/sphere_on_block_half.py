@@ -72,7 +72,7 @@ def _transfinite(volumes: list[int], h0: float) -> None:
 
 def build(path: Path | str, a: float, h0: float, radius: float, width: float = 200.0, fine: float = 1.2,
           growth: float = 0.15, largest: float = 0.25, height: float = 0.5, quarter: bool = False,
-          master: float = 0.85, full: bool = False) -> None:
+          master: float = 0.85) -> None:
     """Write the sphere cap on the block to ``path`` (gmsh 4.1 format).
 
     Args:
@@ -88,26 +88,24 @@ def build(path: Path | str, a: float, h0: float, radius: float, width: float = 2
         quarter: x1 ≥ 0 too (else x1 spans [−W, W]).
         master: The block core's edge / ``h0`` (its grid differs from the cap's, so that no slave node sits on a
             master edge in the reference configuration, where its partner facet would be a tie).
-        full: No symmetry plane x2 = 0 either (x2 spans [−W, W]; ``quarter`` must be False).
     """
     W = width * a
     L = fine * a
     H = height * radius
     x0 = 0.0 if quarter else -1.0
-    y0 = -1.0 if full else 0.0
     with gmsh_session("sphere_on_block_half"):
         occ = gmsh.model.occ
-        block = occ.addBox(x0 * W, y0 * W, -W, (1 - x0) * W, (1 - y0) * W, W)
-        block_core = occ.addBox(x0 * L, y0 * L, -L, (1 - x0) * L, (1 - y0) * L, L)
+        block = occ.addBox(x0 * W, 0.0, -W, (1 - x0) * W, W, W)
+        block_core = occ.addBox(x0 * L, 0.0, -L, (1 - x0) * L, L, L)
         block_parts, _ = occ.fragment([(3, block)], [(3, block_core)])
         ball = occ.addSphere(0.0, 0.0, radius, radius)
         occ.rotate([(3, ball)], 0.0, 0.0, radius, 1.0, 0.0, 0.0, math.pi / 2)
         span = 1.1 * radius
-        cut = occ.addBox(x0 * span, y0 * span, -0.1 * radius, (1 - x0) * span, (1 - y0) * span, H + 0.1 * radius)
+        cut = occ.addBox(x0 * span, 0.0, -0.1 * radius, (1 - x0) * span, span, H + 0.1 * radius)
         upper, _ = occ.intersect([(3, ball)], [(3, cut)])
-        cut2 = occ.addBox(x0 * span, y0 * span, H, (1 - x0) * span, (1 - y0) * span, radius)
+        cut2 = occ.addBox(x0 * span, 0.0, H, (1 - x0) * span, span, radius)
         upper, _ = occ.cut(upper, [(3, cut2)])
-        core_box = occ.addBox(x0 * L, y0 * L, -0.1 * radius, (1 - x0) * L, (1 - y0) * L, 0.1 * radius + L)
+        core_box = occ.addBox(x0 * L, 0.0, -0.1 * radius, (1 - x0) * L, L, 0.1 * radius + L)
         ball2 = occ.addSphere(0.0, 0.0, radius, radius)
         occ.rotate([(3, ball2)], 0.0, 0.0, radius, 1.0, 0.0, 0.0, math.pi / 2)
         upper_core, _ = occ.intersect([(3, core_box)], [(3, ball2)])
@@ -117,7 +115,7 @@ def build(path: Path | str, a: float, h0: float, radius: float, width: float = 2
         def small(tags: list[tuple[int, int]], size: float) -> list[int]:
             return [t for d, t in tags if d == 3 and occ.getMass(3, t) < size]
 
-        core_volume = (1 - x0) * (1 - y0) * L * L * L * 1.5
+        core_volume = (1 - x0) * L * L * L * 1.5
         block_volumes = [t for d, t in block_parts if d == 3]
         upper_volumes = [t for d, t in upper_parts if d == 3]
         gmsh.model.addPhysicalGroup(3, upper_volumes, BODIES["upper"], name="upper")
@@ -129,15 +127,15 @@ def build(path: Path | str, a: float, h0: float, radius: float, width: float = 2
         for body, volumes in (("upper", upper_volumes), ("block", block_volumes)):
             for _, surface in gmsh.model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False):
                 x, y, z = occ.getCenterOfMass(2, surface)
-                if abs(y) < tol and not full:
+                if abs(y) < tol:
                     name = "sym_y"
                 elif quarter and abs(x) < tol:
                     name = "sym_x"
                 elif body == "block":
-                    name = ("top" if abs(z) < tol and max(abs(x), abs(y)) < L else "bottom" if abs(z + W) < tol
+                    name = ("top" if abs(z) < tol and max(abs(x), y) < L else "bottom" if abs(z + W) < tol
                             else "free")
                 else:
-                    name = "flat" if abs(z - H) < tol else "cap" if max(abs(x), abs(y), z) < L else "free"
+                    name = "flat" if abs(z - H) < tol else "cap" if max(abs(x), y, z) < L else "free"
                 groups[name].append(surface)
         for name, surfaces in groups.items():
             if surfaces:
