@@ -1012,7 +1012,9 @@ along x1 (F₂ = 0 up to his neglected ν-term): the slip directions are far fro
 −4e-5 of μ times the normal force (the radial tractions are symmetric; 94 of 147 closed nodes stick, the rim
 slips) and F₁ = −0.0035 (the tetrahedra's fixed diagonal direction), larger than the first tiny step's Q (0.002
 μP aimed), which came out NEGATIVE. The frictional mortar pair's slip at the held symmetry-plane nodes is the
-suspect, not isolated yet (a full model, no symmetry plane, would tell; not run: 2× the unknowns). A bonded
+suspect, not isolated yet (a full model, no symmetry plane,
+would tell: at h₀ = a/8 gmsh made a zero-volume tetrahedron at the block core's edge, not pursued before this
+run's deadline). A bonded
 model (μ = 100) stalled GMRES (breakdown) in the press. So the case-6 rows remain those of the R = 4 hemisphere
 below. The c/a bound at Q/μP ≈ 0.37 stays unmet there (−7.4 % at h = a/5.7, −6.5 % at a/2.9, within the ±h/2
 resolution both times) and the compliance and unloading are not in the table.
