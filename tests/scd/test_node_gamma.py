@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from conftest import assembled, gather_by_coordinates, make_problem
 from frame_scd import paper_direction
 
-from fenics_coulomb.scd.newton import node_gamma
+from fenics_coulomb.scd.node_gamma import node_gamma
 from fenics_coulomb.scd.resolvent import SET_L, SET_M1, SET_M3M, SET_M3P
 
 
