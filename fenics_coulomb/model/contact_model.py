@@ -164,8 +164,9 @@ class ContactModel:
         self.held = held_blocks(V, dirichlet)
         #: The local DOF blocks with all three components held (never contact nodes).
         self._clamped = np.flatnonzero(self.held.all(axis=1)).astype(np.int32)
-        self.load: PETSc.Vec | None = None
-        self.A: PETSc.Mat | None = None
+        # l̃ and A: assembled by the coupling's build just below (None until then: destroy() after a failed build)
+        self.load: PETSc.Vec = None
+        self.A: PETSc.Mat = None
         #: The contact map, the friction (per contact node, or one number), the Dirichlet rows' diagonal s.
         self.contact: ContactMap
         self.friction: float | npt.NDArray[np.float64]
