@@ -29,7 +29,7 @@ at least 3/4 of its largest depth inside — which the body must never contain: 
 moved or turned through it within one step, is refused like a sphere whose centre is
 (:meth:`~fenics_coulomb.model.contact_model.ContactModel.check_motion`). An open surface, or a closed one whose
 solid is the outside (a cavity), has none; one whose solid side holds the whole body is refused
-(:func:`~fenics_coulomb.model.obstacles.check_solid_side`).
+(:func:`~fenics_coulomb.model.obstacle_checks.check_solid_side`).
 
 File identity: the triangles are cached by the file's absolute path, modification time and size
 (:data:`Source`, recorded on creation and kept by every moved or rotated copy), never by its name: a file rewritten
