@@ -98,7 +98,7 @@ class ContactModel:
         bcs: Sequence[dolfinx.fem.DirichletBC],
         contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None,
         friction: Friction,
-        obstacles: Sequence[Obstacle] | None = None,
+        obstacles: Sequence[Obstacle] | Obstacle | None = None,
         prefix: str = COMMAND_PREFIX,
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
@@ -350,7 +350,7 @@ class ContactModel:
         self,
         obstacles: Sequence[Obstacle],
         previous_displacement: npt.NDArray[np.float64] | None = None,
-        previous_obstacle_displacements: npt.ArrayLike | None = None,
+        previous_obstacle_displacements: npt.ArrayLike | Sequence[Obstacle] | None = None,
     ) -> None:
         """Place the obstacles at their displacements and set the shift d and l = l̃ + A d (collective).
 
