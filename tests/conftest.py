@@ -140,3 +140,44 @@ def assert_physics(model, relative_displacement: np.ndarray, tol: float = 1e-8,
     for key in keys:
         assert checks[key] < tol, (key, checks[key])
     return checks
+
+
+# -- shards: `make test-serial` runs the serial pass as SHARDS processes side by side ----------------------------
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--shard", default=None, metavar="I/N",
+                     help="run only shard I of N (1-based) of the collected tests: the same split in every process "
+                          "given the same arguments; the tests of a module that shares a module- or session-scoped "
+                          "fixture stay together")
+
+
+def _shard_group(item: pytest.Item) -> str:
+    """The unit a shard takes whole: the module when the test uses a fixture shared beyond one test, else the
+    test itself."""
+    info = getattr(item, "_fixtureinfo", None)
+    defs = info.name2fixturedefs.values() if info is not None else []
+    shared = any(d and d[-1].scope in ("module", "package", "session") for d in defs)
+    return str(item.path) if shared else item.nodeid
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    shard = config.getoption("--shard")
+    if not shard:
+        return
+    try:
+        index, count = (int(part) for part in shard.split("/"))
+    except ValueError:
+        raise pytest.UsageError(f"--shard {shard}: give I/N, e.g. 1/2") from None
+    if not 1 <= index <= count:
+        raise pytest.UsageError(f"--shard {shard}: need 1 <= I <= N")
+    groups: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        groups.setdefault(_shard_group(item), []).append(item)
+    sizes, chosen = [0] * count, []
+    for group in groups.values():  # greedy in collection order: each group to the shard with the fewest tests
+        target = sizes.index(min(sizes))
+        sizes[target] += len(group)
+        if target == index - 1:
+            chosen.extend(group)
+    kept = {id(item) for item in chosen}
+    config.hook.pytest_deselected(items=[item for item in items if id(item) not in kept])
+    items[:] = [item for item in items if id(item) in kept]
