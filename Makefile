@@ -19,7 +19,7 @@ lint:
 	  echo "make lint: mypy found the type errors above (rules: pyproject.toml [tool.mypy])"; exit 1; }
 
 # The serial pass as SHARDS pytest processes side by side, one per core (tests/conftest.py --shard: every process
-# splits the collected tests the same way; a module sharing a module-scoped fixture stays in one shard). Each
+# splits the collected tests the same way, whole modules, each run in its own order as unsharded). Each
 # shard's output is printed when it ends; any failing shard fails the pass. SHARDS=1 is one process. Tests marked
 # compares_ranks (a run on all ranks against one rank alone: on one rank they compare it with itself, or start
 # their own mpirun) run in the 2-rank pass only.

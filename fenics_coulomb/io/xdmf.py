@@ -120,7 +120,7 @@ class XDMFTimeSeries:
         self.h5_path = self.path.with_suffix(".h5")
         self.name = name
         self.mesh = mesh
-        self.comm: MPI.Comm = mesh.comm
+        self.comm: MPI.Intracomm = mesh.comm
         cell = mesh.topology.cell_name()
         if cell not in XDMF_CELLS:
             raise ValueError(f"XDMFTimeSeries supports {', '.join(XDMF_CELLS)} meshes, not {cell}")
@@ -159,7 +159,7 @@ class XDMFTimeSeries:
     @property
     def times(self) -> list[float]:
         """The times written so far."""
-        return [float(g.find("Time").get("Value")) for g in self._grids]  # type: ignore[union-attr]
+        return [float(_grid_time(g)) for g in self._grids]
 
     def _vertex_values(self, f: dolfinx.fem.Function) -> npt.NDArray[np.float64]:
         """Values of a P1 Function at this rank's owned vertices (rows in the writer's vertex order)."""
@@ -390,11 +390,20 @@ def _last_grid(path: Path, time: float | None = None) -> ET.Element:
     raise ValueError(f"no grid of time {time:g}")
 
 
+def _grid_time(grid: ET.Element) -> str:
+    """The time of a grid this writer wrote (its Time element's Value)."""
+    stamp = grid.find("Time")
+    if stamp is None or "Value" not in stamp.attrib:
+        raise ValueError("a grid without its time")
+    return stamp.attrib["Value"]
+
+
 def _h5_item(path: Path, item: ET.Element | None, what: str) -> tuple[Path, str]:
     """The HDF5 file and dataset of an XDMF DataItem."""
-    if item is None or not (item.text or "").strip() or ":" not in item.text:
+    text = item.text if item is not None else None
+    if not text or not text.strip() or ":" not in text:
         raise ValueError(f"no HDF5 data item for {what}")
-    file, dataset = item.text.strip().rsplit(":", 1)
+    file, dataset = text.strip().rsplit(":", 1)
     return path.parent / file, dataset
 
 

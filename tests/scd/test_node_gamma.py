@@ -1,4 +1,4 @@
-"""Per-node γᵢ (fenics_coulomb.scd.newton, "Per-node γ"): the method with Γ = diag(γᵢ) is the paper's method with
+"""Per-node γᵢ (fenics_coulomb.scd.node_gamma): the method with Γ = diag(γᵢ) is the paper's method with
 the scalar γ' = 1 on the diagonally scaled problem (D⁻¹AD⁻¹, D⁻¹l, D = Γ^{1/2}); it converges to the same
 solution; the default keeps the paper's scalar γ on the Section 7 cuboid and caps it on graded meshes."""
 
