@@ -49,7 +49,7 @@ from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.settings import SolverSettings
 from fenics_coulomb.sliding_solve import SlidingSolve
-from fenics_coulomb.start import auto_start, interpolate_displacement
+from fenics_coulomb.start_rule import auto_start, interpolate_displacement
 
 __all__ = ["ContactProblem"]
 
@@ -364,7 +364,7 @@ class ContactProblem(SlidingSolve):
 
     def start_rule(self) -> str:
         """The start of ``settings.start`` for the loads and obstacles as placed: "zero" or "undeformed" as given,
-        or for "auto" the one the undeformed body's residual points to (:func:`~fenics_coulomb.start.auto_start`,
+        or for "auto" the one the undeformed body's residual points to (:func:`~fenics_coulomb.start_rule.auto_start`,
         where the rule is derived; collective: one approximation step at ũ = 0, no product with A, no linear
         solve)."""
         rule = self.settings.start

@@ -82,7 +82,7 @@ from fenics_coulomb.io.fields import CONTACT_STATES, FIELD_UNITS, contact_functi
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import set_owned_values
-from fenics_coulomb.start import interpolate_displacement
+from fenics_coulomb.start_rule import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN
 
@@ -328,7 +328,7 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float |
     The old mesh is rebuilt in parallel from row blocks of the file; the meshes need not match (nested
     iteration across levels): the old field is rebuilt as a P1 function on the old mesh and interpolated
     point-wise; nodes up to ``padding`` outside the old mesh (the bottoms of two levels follow d at different
-    resolutions; default: :func:`~fenics_coulomb.start.interpolate_displacement`'s) take the value of the
+    resolutions; default: :func:`~fenics_coulomb.start_rule.interpolate_displacement`'s) take the value of the
     closest cell.
 
     Returns:
