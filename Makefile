@@ -18,8 +18,22 @@ lint:
 	@$(RUN) mypy fenics_coulomb || { \
 	  echo "make lint: mypy found the type errors above (rules: pyproject.toml [tool.mypy])"; exit 1; }
 
+# The serial pass as SHARDS pytest processes side by side, one per core (tests/conftest.py --shard: every process
+# splits the collected tests the same way, whole modules, each run in its own order as unsharded). Each
+# shard's output is printed when it ends; any failing shard fails the pass. SHARDS=1 is one process. Tests marked
+# compares_ranks (a run on all ranks against one rank alone: on one rank they compare it with itself, or start
+# their own mpirun) run in the 2-rank pass only.
+SHARDS ?= 2
+
 test-serial:
-	$(RUN) python3 -m pytest -q --color=no tests $(PYTEST_ARGS)
+	@logs=$$(mktemp -d); pids=""; \
+	for i in $$(seq 1 $(SHARDS)); do \
+	  $(RUN) python3 -m pytest -q --color=no -p no:cacheprovider --shard $$i/$(SHARDS) -m "not compares_ranks" tests $(PYTEST_ARGS) \
+	    > $$logs/$$i.log 2>&1 & pids="$$pids $$!"; \
+	done; \
+	status=0; i=0; for pid in $$pids; do \
+	  i=$$((i + 1)); wait $$pid || status=1; echo "== serial shard $$i/$(SHARDS)"; cat $$logs/$$i.log; \
+	done; rm -rf $$logs; exit $$status
 
 # One MPI job per test package: a failure names its package, and no collective state outlives a package
 # (docs/testing.md: the stall a long 2-rank process once met, its cause and its regression test).

@@ -24,7 +24,7 @@ from mpi4py import MPI
 import numpy as np
 from common import build, norm, solve, write_table
 
-from fenics_coulomb.problem import interpolate_displacement
+from fenics_coulomb.start_rule import interpolate_displacement
 from fenics_coulomb.settings import SolverSettings
 
 TIGHT = SolverSettings(rtol=1e-14, tol=1e-3, max_it=200)

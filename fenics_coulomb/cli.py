@@ -16,7 +16,7 @@ import signal
 import sys
 import textwrap
 import traceback
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -40,6 +40,9 @@ from fenics_coulomb.scenes.nested import NESTED_AUTO_MIN_LEV, NESTED_COARSE_RTOL
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.settings import PRECONDITIONERS
 
+if TYPE_CHECKING:
+    from _typeshed import SupportsWrite
+
 __all__ = ["EXIT_DIVERGED", "EXIT_INPUT", "EXIT_INTERRUPTED", "EXIT_OUTPUT", "EXIT_STATUSES", "ArgumentParser",
            "build_parser", "configure_logging", "main", "run_command"]
 
@@ -55,7 +58,7 @@ class ArgumentParser(argparse.ArgumentParser):
     the message is not repeated once per rank.
     """
 
-    def _print_message(self, message: str, file=None) -> None:
+    def _print_message(self, message: str, file: SupportsWrite[str] | None = None) -> None:
         if MPI.COMM_WORLD.rank == 0:
             super()._print_message(message, file)
 

@@ -10,6 +10,7 @@ import os
 import signal
 import sys
 import time
+from typing import Any
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -55,7 +56,7 @@ def _finish_together(comm: MPI.Comm) -> None:
     comm.Barrier()
 
 
-def _end_on_signals(comm: MPI.Comm) -> dict[int, object]:
+def _end_on_signals(comm: MPI.Comm) -> dict[int, Any]:
     """End the run at once on SIGINT, SIGTERM and SIGHUP: one line on stderr, the partial result set removed, and
     MPI_Abort with 128 + the signal (every rank ends; the earlier results stay untouched). Aborting from the
     handler, not by unwinding the stack: the signal may arrive inside a PETSc call (the matrix-free operator's

@@ -25,12 +25,10 @@ it only while the solver reads them and removed again.
 from __future__ import annotations
 
 import logging
-import math
 import time
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
@@ -42,110 +40,23 @@ import ufl
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
-from fenics_coulomb.model.dof_values import owned_values, set_owned_values
+from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairs import ContactPair, Pairing
-from fenics_coulomb.model.sliding import (SMALL_SLIDE_WARNING, GeometryIteration,
-                                          largest_slide)
+from fenics_coulomb.problem_arguments import as_settings, check_petsc_options, show
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
-from fenics_coulomb.scd.resolvent import OPEN
 from fenics_coulomb.scd.records import SolveResult
-from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
+from fenics_coulomb.settings import SolverSettings
+from fenics_coulomb.sliding_solve import SlidingSolve
+from fenics_coulomb.start_rule import auto_start, interpolate_displacement
 
-__all__ = ["INTERPOLATION_PADDING", "interpolate_displacement", "ContactProblem"]
+__all__ = ["ContactProblem"]
 
 logger = logging.getLogger(__name__)
 
 
-#: Nodes of the target mesh this fraction of the source mesh's largest cell outside it still take a value
-#: (:func:`interpolate_displacement`).
-INTERPOLATION_PADDING = 0.1
-
-
-def interpolate_displacement(
-    u_from: dolfinx.fem.Function, V: dolfinx.fem.FunctionSpace, padding: float | None = None
-) -> npt.NDArray[np.float64]:
-    """Interpolate a (possibly non-matching) vector field onto V; return V's owned DOF values (collective).
-
-    Nodes up to ``padding`` outside the other mesh (default INTERPOLATION_PADDING times its largest cell extent)
-    take the value of the closest cell, extended: a curved boundary (the cuboid's wavy bottom) puts the finer
-    mesh's boundary nodes up to O(h²) outside the coarser mesh, where a padding of round-off size found no cell
-    and left them 0.
-
-    Raises:
-        InputError: when ``u_from`` is not a vector Function of 3 components (the same on every rank).
-    """
-    if not isinstance(u_from, dolfinx.fem.Function) or u_from.function_space.dofmap.index_map_bs != 3:
-        raise InputError(f"displacement = {_show(u_from)}: give a dolfinx.fem.Function of a 3-component "
-                         "vector space (on any mesh)")
-    u = dolfinx.fem.Function(V)
-    tdim = V.mesh.topology.dim
-    cells = np.arange(V.mesh.topology.index_map(tdim).size_local, dtype=np.int32)
-    if u_from.function_space.mesh is V.mesh:
-        u.interpolate(u_from)
-    else:
-        if padding is None:
-            source = u_from.function_space.mesh
-            x = source.geometry.x[source.geometry.dofmap].reshape(-1, source.geometry.dofmap.shape[1], 3)
-            extent = float(np.max(x.max(axis=1) - x.min(axis=1), initial=0.0))
-            padding = INTERPOLATION_PADDING * source.comm.allreduce(extent, op=MPI.MAX)
-        data = dolfinx.fem.create_interpolation_data(V, u_from.function_space, cells, padding=padding)
-        u.interpolate_nonmatching(u_from, cells, data)
-    u.x.scatter_forward()
-    return owned_values(u)
-
-
-def _settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSettings:
-    """Validated settings from a SolverSettings, a dict of its fields or None (the defaults)."""
-    if settings is not None and not isinstance(settings, SolverSettings | dict):
-        raise InputError(f"settings = {_show(settings)}: give a SolverSettings, a dict of its fields or None")
-    if isinstance(settings, dict):
-        unknown = set(settings) - set(SolverSettings.__dataclass_fields__)
-        if unknown:
-            raise InputError(f"unknown solver setting(s) {sorted(unknown)}")
-        settings = SolverSettings(**settings)
-    return settings or SolverSettings()  # validated where it was constructed
-
-
-def _show(value: Any) -> str:
-    """A value as the user gave it, on one line (at most 80 characters)."""
-    text = repr(value).replace("\n", " ")
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
-def _check_petsc_options(options: Any, prefix: str) -> None:
-    """InputError for ``petsc_options`` that are not a mapping of option names (without '-' and prefix) to values,
-    or that PETSc refuses (an unknown KSP or PC type, …): tried on a small KSP on this rank alone, before anything
-    collective (:func:`fenics_coulomb.scd.options.check_petsc_options`), then removed from the database again."""
-    if options is None:
-        return
-    if not isinstance(options, Mapping):
-        raise InputError(f"petsc_options = {_show(options)}: give a dict of PETSc option names (without '-' and "
-                         "prefix) to values, e.g. {'ksp_rtol': 1e-6}")
-    for key, value in options.items():
-        if not isinstance(key, str) or not key or key.startswith("-"):
-            raise InputError(f"petsc_options: key {key!r} must be an option name without '-' and prefix, "
-                             "e.g. 'ksp_monitor'")
-        if value is not None and not isinstance(value, str | int | float | bool | np.integer | np.floating):
-            raise InputError(f"petsc_options: {key} = {_show(value)}: give a string, a number, a bool or None")
-    from fenics_coulomb.scd.options import check_petsc_options
-
-    trial = f"{prefix}apicheck_"
-    database = PETSc.Options()
-    names = [f"{trial}{key}" for key in options]
-    try:
-        for name, value in zip(names, options.values(), strict=True):
-            database[name] = "" if value is None else value
-        check_petsc_options(trial)
-    except InputError as err:
-        raise InputError(f"petsc_options: {str(err).replace('-' + trial, '')}") from None
-    finally:
-        for name in names:
-            database.delValue(name)
-
-
-class ContactProblem:
+class ContactProblem(SlidingSolve):
     """Static contact of a linear-elastic body with a rigid obstacle under Coulomb friction.
 
     Solved by the SCD semismooth* Newton method of the reference paper. Use as a context manager or call
@@ -201,13 +112,13 @@ class ContactProblem:
             raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
         if isinstance(bcs, dolfinx.fem.DirichletBC | str | bytes) or not isinstance(bcs, Sequence):
             raise InputError(f"bcs = {type(bcs).__name__}: give a list of dolfinx.fem.DirichletBC (or [])")
-        self.settings = _settings(settings)
-        _check_petsc_options(petsc_options, petsc_options_prefix)
+        self.settings = as_settings(settings)
+        check_petsc_options(petsc_options, petsc_options_prefix)
         if contact is None and not contact_pairs:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         if contact is not None and isinstance(contact, tuple | list) and len(contact) == 2 and (
                 isinstance(contact[1], str | bytes) or not isinstance(contact[1], Sequence | np.ndarray)):
-            raise InputError(f"contact: markers = {_show(contact[1])}: give a list of facet tag values, e.g. [1]")
+            raise InputError(f"contact: markers = {show(contact[1])}: give a list of facet tag values, e.g. [1]")
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
                                    form_compiler_options, jit_options, contact_pairs, sliding)
@@ -284,12 +195,12 @@ class ContactProblem:
         """
         model = self.model
         if not isinstance(result, SolveResult):
-            raise InputError(f"report: result = {_show(result)}: give the SolveResult of this problem's solve()")
+            raise InputError(f"report: result = {show(result)}: give the SolveResult of this problem's solve()")
         if id(result) not in self._results:
             raise InputError("report: the result is not one of this problem's solve() (a result of another problem "
                              "describes other nodes)")
         if reactions is not None and not isinstance(reactions, Mapping):
-            raise InputError(f"report: reactions = {_show(reactions)}: give a dict name -> DirichletBC of bcs (or "
+            raise InputError(f"report: reactions = {show(reactions)}: give a dict name -> DirichletBC of bcs (or "
                              "node blocks)")
         return make_report(model, result, self._obstacles, reactions)
 
@@ -301,8 +212,8 @@ class ContactProblem:
     def set_solver(self, settings: SolverSettings | dict[str, Any] | None = None,
                    petsc_options: dict[str, Any] | None = None) -> None:
         """Replace the solver (settings and PETSc options) on the same assembled model (collective)."""
-        settings = _settings(settings)
-        _check_petsc_options(petsc_options, self.petsc_options_prefix)
+        settings = as_settings(settings)
+        check_petsc_options(petsc_options, self.petsc_options_prefix)
         self.solver.destroy()
         self._solver = None
         self.settings = settings
@@ -357,8 +268,8 @@ class ContactProblem:
         else:
             raise InputError(f"move: obstacle {obstacle!r} is neither a name nor an index below "
                              f"{len(self._obstacles)}")
-        obstacle = self._obstacles[index]
-        moved = obstacle.moved(_vector(displacement, "displacement", f"move: {obstacle.label}"))
+        target = self._obstacles[index]
+        moved = target.moved(_vector(displacement, "displacement", f"move: {target.label}"))
         self._obstacles[index] = moved if isinstance(rotation, str) and rotation == "keep" else moved.rotated(rotation)
 
     def reset(self, u: dolfinx.fem.Function | None = None, *, step: int = 0,
@@ -381,7 +292,7 @@ class ContactProblem:
             try:
                 delta = np.asarray(obstacle_displacements, dtype=np.float64)
             except (TypeError, ValueError):
-                raise InputError(f"reset: obstacle_displacements = {_show(obstacle_displacements)}: need finite "
+                raise InputError(f"reset: obstacle_displacements = {show(obstacle_displacements)}: need finite "
                                  f"values of shape ({len(self._obstacles)}, 3)") from None
             if delta.size == 0 and not self._obstacles:
                 delta = delta.reshape(0, 3)
@@ -453,41 +364,14 @@ class ContactProblem:
 
     def start_rule(self) -> str:
         """The start of ``settings.start`` for the loads and obstacles as placed: "zero" or "undeformed" as given,
-        or for "auto" the one the undeformed body's residual points to (collective; one approximation step at
-        ũ = 0, no product with A, no linear solve).
-
-        ŷ(ũ = 0) (:meth:`SCDNewtonSolver.undeformed <fenics_coulomb.scd.newton.SCDNewtonSolver.undeformed>`) has a
-        part in the contact nodes' rows, ‖ŷ_c‖ — obstacles overlapping the body at rest, or loads on the contact
-        nodes themselves — and one in the free rows, ‖ŷ_f‖ = (‖ŷ‖² − ‖ŷ_c‖²)^½ — loads and prescribed
-        displacements not yet carried by the body. The start is "zero" (every contact node on its obstacle) when
-        the free part is the larger, "undeformed" otherwise (and when ŷ(ũ = 0) = 0, where ũ = 0 is the solution):
-
-        * Driven by its loads, the whole body moves toward its obstacles; from ũ = 0, where every contact node is
-          open, the first Newton direction is the free elastic response, which runs through the obstacles, and
-          the line search creeps (the paper's cuboid at ν = 0.499, lev 5: ‖ŷ‖ stays within 10 % of ‖ŷ(0)‖ for the
-          first 6 Newton steps, 19 in all against 14 from the paper's start). The paper's start is the discretization's
-          own image of that motion: measured ‖ŷ_c‖/‖ŷ‖ ≈ 0.02 at ũ = 0 on the cuboid (ν = 0.3 and 0.499, every
-          gap and load case), 0.07 on a roller pressed onto a plane, 0 for two bodies pressed together.
-        * Driven by its obstacles (an indenter displaced into the body, no load), ŷ(ũ = 0) lies in the contact
-          rows (‖ŷ_c‖/‖ŷ‖ = 1 on every sphere, cylinder and plate case of docs/robustness) and the body at rest is
-          right away from the indentation; the paper's start moves every contact node onto the indenter, up to
-          the largest gap away (7–15 Newton steps from ũ = 0 against 12–28 from the paper's on the single solves
-          of docs/robustness).
-
-        The smaller of the two starts' residuals ‖ŷ⁽⁰⁾‖ does not tell them apart: the paper's start has the larger
-        one on every case measured (the cuboid 7–2300×, whose Newton iteration it nevertheless shortens),
-        because its misfit A d is one the first Newton step removes.
-        """
+        or for "auto" the one the undeformed body's residual points to (:func:`~fenics_coulomb.start_rule.auto_start`,
+        where the rule is derived; collective: one approximation step at ũ = 0, no product with A, no linear
+        solve)."""
         rule = self.settings.start
         if rule != "auto":
             return rule
-        solver = self.solver
-        zero = solver.undeformed()
-        contact = solver.contact_norm(zero.e)
-        free = math.sqrt(max(zero.residual**2 - contact**2, 0.0))
-        choice = "zero" if free > contact else "undeformed"
-        self._log(f"start (auto): {choice} (|y(u = 0)| = {zero.residual:.3e}: contact rows {contact:.3e}, free rows "
-                  f"{free:.3e})")
+        choice, message = auto_start(self.solver)
+        self._log(message)
         return choice
 
     def solve(self, u0: dolfinx.fem.Function | None = None) -> tuple[dolfinx.fem.Function, SolveResult]:
@@ -521,19 +405,6 @@ class ContactProblem:
             self._measure_slide(result)
         return self._finish(result, commit=result.converged), result
 
-    def _measure_slide(self, result: SolveResult) -> None:
-        """Small sliding says when it breaks: the largest slide of a contact node against its partner in units of
-        the partner's size (:func:`~fenics_coulomb.model.sliding.largest_slide`), kept in the result and a
-        warning above :data:`~fenics_coulomb.model.sliding.SMALL_SLIDE_WARNING` (collective)."""
-        model = self.model
-        z = np.asarray(result.displacement, dtype=np.float64)
-        ratio, where = largest_slide(model, model.physical(z), z)
-        result.largest_slide = {"slide_per_size": ratio, "node": where}
-        if ratio > SMALL_SLIDE_WARNING and model.comm.rank == 0:
-            logger.warning("small sliding: the contact node at (%s) has slid %.3g times its partner's size against "
-                           "its partner; the reference configuration's contact geometry no longer describes it: use "
-                           "sliding = \"finite\"", ", ".join(f"{c:.6g}" for c in where), ratio)
-
     def _solve_placed(self, start: npt.NDArray[np.float64], reduction: float | None = None) -> SolveResult:
         """One SCD solve of the model as placed, from ``start``, to ``reduction`` (default rtol; the predictor and
         the no-contact shortcut first when set; collective). A SolverError keeps its last iterate as :attr:`u`."""
@@ -554,87 +425,6 @@ class ContactProblem:
                 err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
                 self._finish(err.result)
             raise
-
-    def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Pairing | None = None) -> None:
-        """Evaluate the contact geometry in X + u; hand the solver the model's new Ã when it changed (collective)."""
-        if u is not None and pairing is not None:
-            self._remember_pairing(u, pairing)
-        if self.model.configure(u, pairing):
-            self.solver.rebind()
-            self.p = self.model.p
-
-    def _remember_pairing(self, u: npt.NDArray[np.float64], pairing: Pairing) -> None:
-        """Keep the pairing of X + u (without obstacles only: they move between steps and take part in the
-        pairing's merge)."""
-        self._known = None if self.model.obstacles else (u, pairing)
-
-    def _known_pairing(self, u: npt.NDArray[np.float64] | None
-                       ) -> tuple[npt.NDArray[np.float64] | None, Pairing | None]:
-        """The configuration to evaluate for the previous step's u and its pairing when known (collective): the
-        last configuration whose pairing was computed (a geometry update's, or a settled check's) when it is u to
-        round-off — within 1e-12 of |u|∞, the geometry iteration's own test of a solve that returned its
-        configuration —, else u with None."""
-        known = self._known
-        if known is None or u is None or known[0].shape != u.shape:
-            close = False
-        else:
-            comm = self.model.comm
-            scale = comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
-            close = comm.allreduce(float(np.max(np.abs(u - known[0]), initial=0.0)), op=MPI.MAX) <= 1e-12 * scale
-        if not self.model.comm.allreduce(bool(close), op=MPI.LAND):
-            return u, None
-        assert known is not None
-        return known[0], known[1]
-
-    def _solve_finite(self, u0: dolfinx.fem.Function | None) -> tuple[dolfinx.fem.Function, SolveResult]:
-        """Finite sliding: iterate the geometry (:class:`~fenics_coulomb.model.sliding.GeometryIteration`): solve
-        with G(u⁽ᵐ⁾) linearized about u⁽ᵐ⁾, from u⁽ᵐ⁾, until G(u⁽ᵐ⁺¹⁾) has the same contact nodes and stencil supports
-        and its linearization moves no node's gap or slip by more than the solve's accuracy (collective)."""
-        model = self.model
-        configuration = self._previous  # u⁽⁰⁾: the previous step's physical u (None: the reference X)
-        if configuration is not None or model.configuration is not None:
-            self._configure(*self._known_pairing(configuration))
-        self._place()
-        iteration = GeometryIteration(model, self.settings.reduction, ERROR_PER_RTOL, self._previous)
-        reduction = iteration.reduction
-        result = self._solve_placed(self.initial_displacement(u0), reduction)
-        newton, krylov = result.iterations, result.krylov_iterations
-        while True:
-            z = np.array(result.displacement, dtype=np.float64)
-            u = model.physical(z)
-            step = iteration.after(u, z, reduction, result.iterations, result.states != OPEN)
-            if step.change is not None:
-                logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
-                             step.change.new_signature[:8], step.action)
-            if step.action == "settled":
-                if step.change is not None and step.change.pairing is not None:
-                    self._remember_pairing(u, step.change.pairing)  # the next step configures X + u first
-                break
-            if step.action == "fail":
-                result.geometry_updates = iteration.updates
-                result.converged, result.reason = False, "geometry"
-                result.checks = physics_residuals(model, z, balance=False)
-                self._finish(result)
-                raise SolverError(step.message, "geometry", result)
-            if step.action == "update":
-                assert step.change is not None
-                self._configure(u, step.change.pairing)
-                self._place()
-                start = model.relative(u)
-                start[model.dirichlet_rows] = model.dirichlet_values
-                self._log(f"finite sliding: geometry update {iteration.updates} ({step.message})")
-            else:  # the same geometry, on to rtol
-                start = z
-                self._log(f"finite sliding: {step.message}")
-            reduction = iteration.reduction
-            earlier = result.timings
-            result = self._solve_placed(start, reduction)
-            newton, krylov = newton + result.iterations, krylov + result.krylov_iterations
-            result.timings["total"] = result.timings.get("total", 0.0) + earlier.get("total", 0.0)  # every geometry
-        result.geometry_updates = iteration.updates
-        result.iterations, result.krylov_iterations = newton, krylov  # over every geometry of the solve
-        self._verify(result)
-        return self._finish(result, commit=result.converged), result
 
     def _verify(self, result: SolveResult) -> None:
         """Let the physics checks decide a converged solve (collective): the residuals are kept in the result,

@@ -126,7 +126,7 @@ class SolverSettings:
             nearly level-independent (docs/table2: 14–18 iterations for lev 4–7 against 20–82), while 0.001
             is too small (some cases stall).
         gamma_node_scale: κ of the per-node γᵢ = min(γ, κ·λ_max(Aᵢᵢ)) of the contact nodes (Aᵢᵢ the node's 3×3
-            diagonal block of A; :mod:`fenics_coulomb.scd.newton`, "Per-node γ"): on a graded or distorted mesh γ
+            diagonal block of A; :mod:`fenics_coulomb.scd.node_gamma`): on a graded or distorted mesh γ
             from λ_max(A) far exceeds the stiffness at the contact and GMRES stagnates; None (API) keeps γ on every
             node. A fixed ``gamma`` is used on every node as given.
         gmres_restart: GMRES restart length.

@@ -142,12 +142,46 @@ def assert_physics(model, relative_displacement: np.ndarray, tol: float = 1e-8,
     return checks
 
 
+# -- shards: `make test-serial` runs the serial pass as SHARDS processes side by side ----------------------------
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption("--shard", default=None, metavar="I/N",
+                     help="run only shard I of N (1-based) of the collected tests: whole test modules, the same "
+                          "split in every process given the same arguments")
+
+
+#: Each module's measured share of the serial pass (seconds of a loaded run, 2026-11-26: the top 80 test phases of
+#: ``pytest --durations`` summed per module, 0.74 s for each other test); a module not listed counts 0.74 s a test.
+#: Stale weights only unbalance the shards, they never change what runs.
+SHARD_WEIGHTS = Path(__file__).with_name("shard_weights.json")
+SHARD_DEFAULT = 0.74
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """On one rank, deselect the tests marked ``parallel`` (they compare several ranks with one; the 2-rank job
-    of make test-mpi runs them) — deselected, not skipped: nothing is reported as passed that did not run."""
-    if MPI.COMM_WORLD.size > 1:
+    """Keep the modules of shard I of N: every module whole and in its own order (module-level state — a shared
+    random generator, cached meshes, module-scoped fixtures — evolves as in an unsharded run), the modules given
+    out heaviest first (:data:`SHARD_WEIGHTS`), each to the shard with the least weight so far."""
+    shard = config.getoption("--shard")
+    if not shard:
         return
-    kept = [item for item in items if item.get_closest_marker("parallel") is None]
-    if len(kept) != len(items):
-        config.hook.pytest_deselected(items=[item for item in items if item.get_closest_marker("parallel")])
-        items[:] = kept
+    try:
+        index, count = (int(part) for part in shard.split("/"))
+    except ValueError:
+        raise pytest.UsageError(f"--shard {shard}: give I/N, e.g. 1/2") from None
+    if not 1 <= index <= count:
+        raise pytest.UsageError(f"--shard {shard}: need 1 <= I <= N")
+    import json
+
+    measured = json.loads(SHARD_WEIGHTS.read_text()) if SHARD_WEIGHTS.is_file() else {}
+    modules: dict[str, list[pytest.Item]] = {}
+    for item in items:
+        modules.setdefault(item.path.relative_to(config.rootpath).as_posix(), []).append(item)
+    weight = {name: float(measured.get(name, SHARD_DEFAULT * len(tests))) for name, tests in modules.items()}
+    loads, kept = [0.0] * count, set()
+    for name in sorted(modules, key=lambda m: (-weight[m], m)):
+        target = loads.index(min(loads))
+        loads[target] += weight[name]
+        if target == index - 1:
+            kept.add(name)
+    inside = [item.path.relative_to(config.rootpath).as_posix() in kept for item in items]
+    config.hook.pytest_deselected(items=[item for item, keep in zip(items, inside) if not keep])
+    items[:] = [item for item, keep in zip(items, inside) if keep]

@@ -81,7 +81,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     areas = contact_areas(model)
     force = _nodal_forces(result, cmap.size)
     traction = np.divide(force, areas[:, None], out=np.zeros_like(force), where=areas[:, None] > 0)
-    fields = (
+    fields: tuple[dolfinx.fem.Function, ...] = (
         u,
         point_field(S, "contact_state", scalar_dofs, result.states, fill=float(NOT_CONTACT)),
         point_field(S, "contact_pressure", scalar_dofs, nodal_pressure(result.normal_force, areas)),

@@ -125,7 +125,7 @@ def _cylinder(obstacle: Obstacle, lo: Array, hi: Array) -> tuple[Array, Triangle
 
 
 def _surface(obstacle: Obstacle, lo: Array, hi: Array) -> tuple[Array, Triangles, Array, Array]:
-    from fenics_coulomb.model.surface import read_triangles
+    from fenics_coulomb.model.triangulation import read_triangles
 
     X, V = read_triangles(obstacle.file, obstacle.source)  # type: ignore[attr-defined]
     points = np.empty((int(V.max()) + 1, 3))

@@ -82,7 +82,7 @@ from fenics_coulomb.io.fields import CONTACT_STATES, FIELD_UNITS, contact_functi
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import set_owned_values
-from fenics_coulomb.problem import interpolate_displacement
+from fenics_coulomb.start_rule import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN
 
@@ -120,7 +120,7 @@ class XDMFTimeSeries:
         self.h5_path = self.path.with_suffix(".h5")
         self.name = name
         self.mesh = mesh
-        self.comm: MPI.Comm = mesh.comm
+        self.comm: MPI.Intracomm = mesh.comm
         cell = mesh.topology.cell_name()
         if cell not in XDMF_CELLS:
             raise ValueError(f"XDMFTimeSeries supports {', '.join(XDMF_CELLS)} meshes, not {cell}")
@@ -159,7 +159,7 @@ class XDMFTimeSeries:
     @property
     def times(self) -> list[float]:
         """The times written so far."""
-        return [float(g.find("Time").get("Value")) for g in self._grids]  # type: ignore[union-attr]
+        return [float(_grid_time(g)) for g in self._grids]
 
     def _vertex_values(self, f: dolfinx.fem.Function) -> npt.NDArray[np.float64]:
         """Values of a P1 Function at this rank's owned vertices (rows in the writer's vertex order)."""
@@ -328,7 +328,7 @@ def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float |
     The old mesh is rebuilt in parallel from row blocks of the file; the meshes need not match (nested
     iteration across levels): the old field is rebuilt as a P1 function on the old mesh and interpolated
     point-wise; nodes up to ``padding`` outside the old mesh (the bottoms of two levels follow d at different
-    resolutions; default: :func:`~fenics_coulomb.problem.interpolate_displacement`'s) take the value of the
+    resolutions; default: :func:`~fenics_coulomb.start_rule.interpolate_displacement`'s) take the value of the
     closest cell.
 
     Returns:
@@ -390,11 +390,20 @@ def _last_grid(path: Path, time: float | None = None) -> ET.Element:
     raise ValueError(f"no grid of time {time:g}")
 
 
+def _grid_time(grid: ET.Element) -> str:
+    """The time of a grid this writer wrote (its Time element's Value)."""
+    stamp = grid.find("Time")
+    if stamp is None or "Value" not in stamp.attrib:
+        raise ValueError("a grid without its time")
+    return stamp.attrib["Value"]
+
+
 def _h5_item(path: Path, item: ET.Element | None, what: str) -> tuple[Path, str]:
     """The HDF5 file and dataset of an XDMF DataItem."""
-    if item is None or not (item.text or "").strip() or ":" not in item.text:
+    text = item.text if item is not None else None
+    if not text or not text.strip() or ":" not in text:
         raise ValueError(f"no HDF5 data item for {what}")
-    file, dataset = item.text.strip().rsplit(":", 1)
+    file, dataset = text.strip().rsplit(":", 1)
     return path.parent / file, dataset
 
 

@@ -98,7 +98,7 @@ class ContactModel:
         bcs: Sequence[dolfinx.fem.DirichletBC],
         contact: tuple[dolfinx.mesh.MeshTags, Sequence[int]] | None,
         friction: Friction,
-        obstacles: Sequence[Obstacle] | None = None,
+        obstacles: Sequence[Obstacle] | Obstacle | None = None,
         prefix: str = COMMAND_PREFIX,
         form_compiler_options: dict | None = None,
         jit_options: dict | None = None,
@@ -164,8 +164,9 @@ class ContactModel:
         self.held = held_blocks(V, dirichlet)
         #: The local DOF blocks with all three components held (never contact nodes).
         self._clamped = np.flatnonzero(self.held.all(axis=1)).astype(np.int32)
-        self.load: PETSc.Vec | None = None
-        self.A: PETSc.Mat | None = None
+        # l̃ and A: assembled by the coupling's build just below (None until then: destroy() after a failed build)
+        self.load: PETSc.Vec = None
+        self.A: PETSc.Mat = None
         #: The contact map, the friction (per contact node, or one number), the Dirichlet rows' diagonal s.
         self.contact: ContactMap
         self.friction: float | npt.NDArray[np.float64]
@@ -349,7 +350,7 @@ class ContactModel:
         self,
         obstacles: Sequence[Obstacle],
         previous_displacement: npt.NDArray[np.float64] | None = None,
-        previous_obstacle_displacements: npt.ArrayLike | None = None,
+        previous_obstacle_displacements: npt.ArrayLike | Sequence[Obstacle] | None = None,
     ) -> None:
         """Place the obstacles at their displacements and set the shift d and l = l̃ + A d (collective).
 

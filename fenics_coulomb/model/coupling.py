@@ -37,7 +37,8 @@ import numpy.typing as npt
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.nullspace import rigid_body_modes
-from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle, check_not_overlapping
+from fenics_coulomb.model.obstacle_checks import check_not_overlapping
+from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle
 from fenics_coulomb.model.reproducible import assemble_matrix
 
 if TYPE_CHECKING:

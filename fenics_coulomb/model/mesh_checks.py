@@ -135,7 +135,7 @@ class BodyLocator:
     def first_inside(self, points: Array) -> int:
         """The index of the first of ``points`` (the same on every rank) inside the body, or −1 (collective)."""
         points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
-        inside = np.zeros(points.shape[0], dtype=np.int32)
+        inside: npt.NDArray[np.int32] = np.zeros(points.shape[0], dtype=np.int32)
         if points.size:
             candidates = dolfinx.geometry.compute_collisions_points(self.tree, points)
             cells = dolfinx.geometry.compute_colliding_cells(self.mesh, candidates, points)

@@ -17,7 +17,8 @@ import numpy.typing as npt
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.mesh_checks import BodyLocator
-from fenics_coulomb.model.obstacles import Obstacle, check_solid_side, closest_obstacle, core_path, rotation_text
+from fenics_coulomb.model.obstacle_checks import check_solid_side, core_path, rotation_text
+from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 
 __all__ = ["ObstaclePlacement", "previous_placements"]
 
@@ -102,10 +103,11 @@ class ObstaclePlacement:
         """InputError on every rank (collective) for obstacles whose placement the contact nodes cannot see:
 
         * at the first placement, an obstacle at its scene position with the whole body inside it (a plane or an
-          open surface whose solid side is the body's side; :func:`~fenics_coulomb.model.obstacles.check_solid_side`);
+          open surface whose solid side is the body's side;
+          :func:`~fenics_coulomb.model.obstacle_checks.check_solid_side`);
         * an obstacle whose core (a sphere's centre, a cylinder's axis, the deepest part of a closed surface) lies
           inside the body at its placement, or passes through the body on its rigid motion — translation and
-          rotation (:func:`~fenics_coulomb.model.obstacles.core_path`) — from the previous placement
+          rotation (:func:`~fenics_coulomb.model.obstacle_checks.core_path`) — from the previous placement
           (``previous_displacements``: the previous obstacles, their δ, or None for the scene position): a buried
           obstacle, or one moved or turned across the body within one step, which the contact nodes, all on one
           side, would not see.
@@ -142,7 +144,7 @@ class ObstaclePlacement:
                 continue
             core = {"sphere": "centre", "cylinder": "axis"}.get(obstacle.kind, "deepest part")
             where = "(" + ", ".join(f"{c:.6g}" for c in points[hit]) + ")"
-            then, now = previous.displacement, obstacle.displacement  # type: ignore[attr-defined]
+            then, now = previous.displacement, obstacle.displacement
             moved = then != now or \
                 getattr(previous, "rotation", None) != getattr(obstacle, "rotation", None)
             if moved and t[hit] < 1.0:
@@ -181,7 +183,7 @@ class ObstaclePlacement:
                     g0, _, frames[mine] = obstacle.evaluate(X[mine])
                     gap[mine] = np.where((g0 < 0.0) & (g0 > -1e-12 * self.size), 0.0, g0)
         cmap.obstacle_index[rigid], cmap.gap[rigid], cmap.frames[rigid] = index, gap, frames
-        delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)  # type: ignore[attr-defined]
+        delta = np.array([o.displacement for o in obstacles], dtype=np.float64).reshape(-1, 3)
         obstacle_displacement[rigid] = delta[index]
         offset[rigid] = delta[index]
         if previous_obstacles is not None:  # a rotation: each node's material point of its obstacle

@@ -20,35 +20,23 @@ vertex order) point out of the solid, toward the body; ``"inward"`` — they poi
 orientation must be consistent: every edge shared by two triangles is traversed in opposite directions
 (checked; an edge shared by more than two triangles is rejected too).
 
-Vertices: the file's vertices are merged when they coincide to 1e-12 of the bounding box's diagonal (STL
-repeats them per triangle); the merged numbering (lexicographic in the coordinates) fixes the tie rule, so the
-result does not depend on the file's vertex order or on the ranks.
-
 Core: a closed triangulation whose solid side is the bounded one (:func:`surface_core`) has a core — its points
 at least 3/4 of its largest depth inside — which the body must never contain: a surface buried in the body, or
 moved or turned through it within one step, is refused like a sphere whose centre is
 (:meth:`~fenics_coulomb.model.contact_model.ContactModel.check_motion`). An open surface, or a closed one whose
 solid is the outside (a cavity), has none; one whose solid side holds the whole body is refused
-(:func:`~fenics_coulomb.model.obstacles.check_solid_side`).
+(:func:`~fenics_coulomb.model.obstacle_checks.check_solid_side`).
 
-File identity: the triangles are cached by the file's absolute path, modification time and size
-(:data:`Source`, recorded on creation and kept by every moved or rotated copy), never by its name: a file rewritten
-in place, or another file of the same relative name after a change of directory, is read anew, and an obstacle
-keeps the geometry it was created with.
-
-Bad input — an unreadable or empty file, a non-finite coordinate, a degenerate triangle (area below 1e-12 of
-the squared diagonal), an inconsistent orientation — is an :class:`~fenics_coulomb.errors.InputError` naming
-the file and the triangle (1-based, in the file's order).
+Reading the file (STL or .msh, vertices merged, orientation checked, cached by the file's identity):
+:mod:`fenics_coulomb.model.triangulation`.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import struct
 from dataclasses import dataclass
-from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 import numpy.typing as npt
@@ -60,160 +48,20 @@ from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
 from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, select_candidates
 from fenics_coulomb.model.pairs.projection import Surface as _Surface
 from fenics_coulomb.model.pairs.projection import norm as _norm
+from fenics_coulomb.model.triangulation import Source, file_source, read_triangles
 
-__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "SEARCH_BLOCK", "SEARCH_ENTRIES", "Source", "Surface",
-           "SurfaceIndex", "closest_on_surface", "file_source", "inside_closed", "read_triangles", "surface_core",
-           "surface_index"]
+__all__ = ["SIDES", "CORE_GRID", "CORE_DEPTH", "CORE_POINTS", "SEARCH_BLOCK", "SEARCH_ENTRIES", "Surface",
+           "SurfaceIndex", "closest_on_surface", "inside_closed", "surface_core", "surface_index"]
 
 Array = npt.NDArray[np.float64]
 
 #: Which side of the surface is solid: the side the triangles' normals point away from (outward) or into.
 SIDES = ("outward", "inward")
-#: Coincident vertices are merged to this fraction of the bounding box's diagonal.
-MERGE_TOL = 1e-12
-#: A triangle of area below this fraction of the squared diagonal is degenerate.
-DEGENERATE_TOL = 1e-12
 #: The closest-point search tests the triangles' bounding boxes against this many points at once
 #: (:func:`closest_on_surface`).
 SEARCH_BLOCK = 256
 #: ... and at most this many (point, triangle) box tests at once (a block of points over a large surface is halved).
 SEARCH_ENTRIES = 1 << 20
-
-
-def _read_stl(path: Path) -> Array:
-    data = path.read_bytes()
-    if len(data) >= 84:
-        count = struct.unpack_from("<I", data, 80)[0]
-        if len(data) == 84 + 50 * count:  # binary: 80-byte header, count, 50 bytes per triangle
-            record = np.dtype([("normal", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
-            return np.frombuffer(data, dtype=record, count=count, offset=84)["v"].astype(np.float64)
-    try:
-        text = data.decode("ascii")
-    except UnicodeDecodeError:
-        raise InputError(f"surface {path}: neither a binary STL (size 84 + 50 × triangles) nor ASCII STL") from None
-    if not text.lstrip().lower().startswith("solid"):
-        raise InputError(f"surface {path}: an ASCII STL starts with 'solid'")
-    vertices = []
-    for number, line in enumerate(text.splitlines(), 1):
-        words = line.split()
-        if words and words[0].lower() == "vertex":
-            try:
-                vertices.append([float(w) for w in words[1:4]])
-            except ValueError:
-                raise InputError(f"surface {path}: line {number}: a vertex needs three numbers") from None
-            if len(words) != 4:
-                raise InputError(f"surface {path}: line {number}: a vertex needs three numbers")
-    if len(vertices) % 3:
-        raise InputError(f"surface {path}: {len(vertices)} vertices are not whole triangles")
-    return np.asarray(vertices, dtype=np.float64).reshape(-1, 3, 3)
-
-
-def _read_msh(path: Path) -> Array:
-    """The 3-node triangles of a gmsh file, read in a model of its own: a gmsh session the caller opened is left
-    as it was (its current model and terminal option; finalized only when this function initialized gmsh)."""
-    import gmsh
-
-    own = not gmsh.isInitialized()
-    if own:
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
-    terminal = gmsh.option.getNumber("General.Terminal")
-    previous = gmsh.model.getCurrent() if not own else ""
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add(f"fenics_coulomb surface {path}")
-        try:
-            gmsh.merge(str(path))
-        except Exception as err:  # gmsh raises a bare Exception with its log's last line
-            raise InputError(f"surface {path}: gmsh cannot read it ({err})") from None
-        tags, coords, _ = gmsh.model.mesh.getNodes()
-        _, nodes = gmsh.model.mesh.getElementsByType(2)  # 3-node triangles
-        index = np.empty(int(tags.max(initial=0)) + 1, dtype=np.int64)
-        index[tags.astype(np.int64)] = np.arange(tags.size)
-        x = coords.reshape(-1, 3)
-        return x[index[nodes.astype(np.int64)]].reshape(-1, 3, 3)
-    finally:
-        if own:
-            gmsh.finalize()
-        else:
-            gmsh.model.remove()
-            if previous:
-                gmsh.model.setCurrent(previous)
-            gmsh.option.setNumber("General.Terminal", terminal)
-
-
-#: A surface file as read: (absolute path, modification time in ns, size in bytes). The triangles are cached by it,
-#: so a file rewritten in place, or another file of the same relative name after a change of directory, is read
-#: anew, and an obstacle keeps the geometry it was created with.
-Source = tuple[str, int, int]
-
-
-def file_source(file: str) -> Source:
-    """The :data:`Source` of a surface file now (InputError when there is no such file)."""
-    path = Path(file)
-    if not path.is_file():
-        raise InputError(f"surface {file}: no such file")
-    stat = path.stat()
-    return str(path.resolve()), int(stat.st_mtime_ns), int(stat.st_size)
-
-
-def read_triangles(file: str, source: Source | None = None) -> tuple[Array, npt.NDArray[np.int64]]:
-    """The checked triangles of a surface file: (vertex coordinates (k, 3, 3), merged vertex numbers (k, 3)).
-
-    Args:
-        file: The file's name as given (in messages).
-        source: The file as read earlier (:func:`file_source`); None for the file as it is now.
-
-    Raises:
-        InputError: Unreadable, empty, non-finite, degenerate or inconsistently oriented (see the module doc), or
-            changed on disk since ``source`` and no longer cached.
-    """
-    return _read_triangles(file, file_source(file) if source is None else source)
-
-
-@functools.lru_cache(maxsize=16)
-def _read_triangles(file: str, source: Source) -> tuple[Array, npt.NDArray[np.int64]]:
-    if file_source(source[0]) != source:
-        raise InputError(f"surface {file}: the file changed on disk after the obstacle was created from it")
-    path = Path(source[0])
-    suffix = Path(file).suffix.lower()
-    if suffix == ".stl":
-        X = _read_stl(path)
-    elif suffix == ".msh":
-        X = _read_msh(path)
-    else:
-        raise InputError(f"surface {file}: give an .stl (ASCII or binary) or a gmsh .msh file")
-    if X.shape[0] == 0:
-        raise InputError(f"surface {file}: no triangles")
-    bad = np.flatnonzero(~np.isfinite(X).all(axis=(1, 2)))
-    if bad.size:
-        raise InputError(f"surface {file}: triangle {bad[0] + 1} has a non-finite coordinate {X[bad[0]].tolist()}")
-    points = X.reshape(-1, 3)
-    diagonal = float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
-    area = 0.5 * _norm(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]))
-    bad = np.flatnonzero(area <= DEGENERATE_TOL * diagonal**2)
-    if bad.size:
-        raise InputError(f"surface {file}: triangle {bad[0] + 1} is degenerate (area {area[bad[0]]:.3g})")
-    key = np.round((points - points.min(axis=0)) / (MERGE_TOL * diagonal))
-    _, number = np.unique(key, axis=0, return_inverse=True)
-    V = number.reshape(-1, 3).astype(np.int64)
-    if np.any((V[:, 0] == V[:, 1]) | (V[:, 1] == V[:, 2]) | (V[:, 0] == V[:, 2])):
-        k = int(np.flatnonzero((V[:, 0] == V[:, 1]) | (V[:, 1] == V[:, 2]) | (V[:, 0] == V[:, 2]))[0])
-        raise InputError(f"surface {file}: triangle {k + 1} is degenerate (two vertices coincide)")
-    # orientation: each directed edge at most once; each undirected edge in at most two triangles
-    directed = np.concatenate([V[:, [0, 1]], V[:, [1, 2]], V[:, [2, 0]]])
-    owner = np.tile(np.arange(V.shape[0]), 3)
-    _, first, counts = np.unique(directed, axis=0, return_index=True, return_counts=True)
-    if np.any(counts > 1):
-        e = directed[first[np.flatnonzero(counts > 1)[0]]]
-        both = np.sort(owner[np.flatnonzero((directed == e).all(axis=1))]) + 1
-        raise InputError(f"surface {file}: triangles {both[0]} and {both[1]} are oriented inconsistently (they "
-                         "traverse their common edge in the same direction)")
-    undirected = np.sort(directed, axis=1)
-    _, first, counts = np.unique(undirected, axis=0, return_index=True, return_counts=True)
-    if np.any(counts > 2):
-        raise InputError(f"surface {file}: triangle {owner[first[np.flatnonzero(counts > 2)[0]]] + 1} shares an "
-                         "edge with two or more others (not a surface)")
-    return X, V
 
 
 @dataclass(frozen=True)
@@ -322,7 +170,7 @@ def surface_index(file: str, source: Source, side: str) -> SurfaceIndex:
     order = np.lexsort(np.sort(V, axis=1).T[::-1])
     rank = np.empty(V.shape[0], dtype=np.intp)
     rank[order] = np.arange(V.shape[0])
-    normals = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+    normals = np.asarray(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), dtype=np.float64)
     normals /= _norm(normals)[:, None]
     return SurfaceIndex(_Surface(X, V, sign), size, rank, centres, X.min(axis=1), X.max(axis=1), normals,
                         np.einsum("ij,ij->i", normals, X[:, 0]), cKDTree(centres))
@@ -367,7 +215,7 @@ def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.ND
     return point[keep], facet[keep]
 
 
-def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, Array]:
+def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, npt.NDArray[Any]]:
     """Closest points, weights, facets, normals and cone membership of the points x (m, 3) on a surface at rest:
     the two-body master projection with its tie and normal-cone rules
     (:mod:`fenics_coulomb.model.pairs.projection`), the same numbers as its search over every facet.

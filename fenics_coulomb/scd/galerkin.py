@@ -76,7 +76,7 @@ class GalerkinCoarsening:
         self.Ec.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATION_ERR, True)
         self.Ec.assemble()
         self.rowset = PETSc.IS().createGeneral(np.asarray(rows.rows, dtype=PETSc.IntType), comm=comm)
-        self.current = np.zeros(len(rows.indices))
+        self.current: npt.NDArray[np.float64] = np.zeros(len(rows.indices))
         self._identity = np.eye(3)[None]
         self._pc = 0  # the handle of the PC whose hierarchy holds self.current
         self._levels: list[int] = []
@@ -139,6 +139,7 @@ class GalerkinCoarsening:
         P = pc.getMGInterpolation(L - 1)
         self._EcP = self.Ec.matMult(P, result=self._EcP)
         product = self._products.get(L - 1)
+        assert self._Pc is not None  # set with the hierarchy (_attach)
         product = self._Pc.matMult(self._EcP, result=product)
         self._products[L - 1] = product
         operators[L - 2].axpy(1.0, product, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)

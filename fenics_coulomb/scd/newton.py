@@ -14,51 +14,21 @@ One iteration k, from the iterate u = u⁽ᵏ⁾ with residual r = A u − l:
 
 The linear solves' tolerance is fixed or an Eisenstat–Walker forcing term (:mod:`fenics_coulomb.scd.forcing`).
 
-Per-node γ
-----------
-The paper takes one γ ≈ λ_max(A) (we scale it by ``gamma_scale`` = 0.01, docs/table2). On a graded or distorted
-mesh λ_max(A) comes from elements far from the contact (or from one sliver), far above the stiffness of the small
-elements at the contact: the stick rows γ I of the Newton matrix then dwarf the rows of A that GAMG (built on A)
-approximates, and GMRES stagnates (the Hertz block of benchmarks/hertz.py, 19 542 unknowns: γ = 53.6
-against λ_max(Aᵢᵢ) = 14–28 at the contact: 2000 GMRES iterations per step; with γ ≤ 0.5·λ_max(Aᵢᵢ): 20 Newton /
-112 Krylov). So every contact node i gets its own
-
-    γᵢ = min(γ, κ·λ_max(Aᵢᵢ)),   κ = ``gamma_node_scale`` (0.5),  Aᵢᵢ the node's 3×3 diagonal block of A,
-
-(:func:`node_gamma`) and γ stays on the other DOFs. On the Section 7 cuboid γ/λ_max(Aᵢᵢ) <= 0.123 at every contact
-node (lev 1-7, d1-d3), so γᵢ = γ there and the paper's formulas run bit for bit.
-
-Why this is still the paper's method. Let Γ = diag(γ_j) over all DOFs (γᵢ on the three of contact node i, γ on
-the rest) and D = Γ^{1/2}. In u' = D u the GE 0 ∈ A u − l + Q(u) reads 0 ∈ A' u' − l' + Q'(u') with
-A' = D⁻¹AD⁻¹ (SPD), l' = D⁻¹l and Q'(u') = D⁻¹Q(D⁻¹u'). On contact node i, Q'ᵢ(v') = γᵢ^{−1/2} Rᵢ Q̃(Rᵢᵀv'/γᵢ^{1/2})
-= Rᵢ Q̃(Rᵢᵀv'), because Q̃ is invariant under positive scalings of its argument and of its values
-(N_{R+}(c w₃) = N_{R+}(w₃), ∂‖c w₁₂‖ = ∂‖w₁₂‖, and c·Q̃(w) = Q̃(w): ϑ ranges over a cone and the tangential
-part is linear in ϑ) — Q' is a contact map of the same kind, and everything the paper proves holds for the
-scaled problem with the scalar γ' = 1. Its approximation step maps back to d̂ = D⁻¹(I + Q')⁻¹(u' − r') =
-(Γ + Q)⁻¹(Γ u − r) (v' = (I + Q')⁻¹(w') ⇔ D w' ∈ Γ D⁻¹v' + Q(D⁻¹v')), i.e. the closed-form resolvent with γᵢ on
-node i and e = r/γ elsewhere; ŷ = (Γ e, e). Its Newton step (5.4) is the step of :mod:`fenics_coulomb.scd.steps`
-with every node's blocks and rows taken with its own γᵢ and ŷ₁ = Γ e (checked against the paper's step on the
-scaled problem in tests/scd/test_node_gamma.py). Under exact solves the direction depends on γᵢ only through the
-approximation step and ŷ₁ (in (5.4) a sliding row's γ·b/a = t/s and a sticking row's γ cancel); the rows' γᵢ
-set the scale of the contact rows against A's, which is what the preconditioner built on A sees. ‖ŷ‖ is
-‖(Γe, e)‖ = (Σ_j (1 + γ_j²) e_j²)^{1/2}, the paper's √(1 + γ²)‖e‖ when all γᵢ = γ; the local convergence does
-not depend on the norm, the line search and the stopping rule use this one.
-
-Size: about 650 lines, a fifth of them the derivations (per-node γ, the approximation step); the rest is the one
-driver (KSP life cycle, escalation, Newton loop), whose paper kernels are modules of their own.
+Per-node γ: every contact node i gets its own γᵢ = min(γ, κ·λ_max(Aᵢᵢ)) (:mod:`fenics_coulomb.scd.node_gamma`,
+where the derivation is); γ stays on the other DOFs. The linear solves (the KSP's life cycle, the options'
+scope, pc = "auto"'s escalation, GAMG's hierarchy across geometry updates) are the base class
+:class:`~fenics_coulomb.scd.linear_solves.NewtonLinearSolves`.
 """
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import numpy as np
 import numpy.typing as npt
@@ -69,52 +39,22 @@ from fenics_coulomb.model.frames import conjugate, to_global, to_local
 from fenics_coulomb.scd.contact_rows import ContactRows
 from fenics_coulomb.scd.forcing import forcing_term, terminal_forcing
 from fenics_coulomb.scd.galerkin import GalerkinCoarsening
+from fenics_coulomb.scd.linear_solves import NewtonLinearSolves
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
+from fenics_coulomb.scd.node_gamma import node_gamma
 from fenics_coulomb.scd.power_method import power_iteration
-from fenics_coulomb.scd.preconditioner import (
-    AUTO_STALL_ITS,
-    DETERMINISTIC_PTAP,
-    DETERMINISTIC_PTAP_MIN_RANKS,
-    auto_ladder,
-    check_option_value,
-    create_ksp,
-    default_options,
-    resolve_pc,
-)
+from fenics_coulomb.scd.preconditioner import auto_ladder, check_option_value, resolve_pc
 from fenics_coulomb.scd.records import IterationRecord, SolveResult, global_state_counts
 from fenics_coulomb.scd.resolvent import classify, contact_states, resolvent
 from fenics_coulomb.scd.steps import STEPS
 from fenics_coulomb.scd.stopping import StoppingRule
 from fenics_coulomb.settings import COMMAND_PREFIX, SolverSettings
 
-__all__ = ["KSP_LIMIT_STEPS", "HIERARCHY_REFRESH", "node_gamma", "line_search_steps", "Iterate", "Direction",
-           "SCDNewtonSolver"]
+__all__ = ["line_search_steps", "Iterate", "Direction", "SCDNewtonSolver"]
 
 logger = logging.getLogger(__name__)
 
-#: A solve stops (SolverError "ksp_limit", exit 3) when the linear solves of this many consecutive Newton steps
-#: reach ksp_max_it without their tolerance: one inexact direction is used (with a warning), but directions
-#: that stay that inexact do not converge, they only cost ksp_max_it iterations per step (GAMG with
-#: --gamma-scale 1, d3/L2 lev 8: 2000 GMRES iterations in every step, 780 s for 9 steps and still running).
-KSP_LIMIT_STEPS = 3
-#: Finite sliding keeps GAMG's hierarchy across geometry updates (it was built on the Ã of an earlier geometry,
-#: which differs from the new one in the contact coupling only) until a linear solve needs more than this many
-#: times the Krylov iterations per decade of the first solve on it; then the next update sets it up on the new Ã
-#: (:meth:`SCDNewtonSolver.rebind`). slide_off, 1 rank: a set-up at every update 205 Krylov iterations in 2.0 s
-#: CPU, never again 488 in 1.14 s, factor 1.5: 226 in 1.16 s, 2: 264 in 1.01 s, 3: 285 in 1.16 s (loaded machine).
-HIERARCHY_REFRESH = 2.0
-
 Array = npt.NDArray[np.float64]
-
-
-def node_gamma(gamma: float, blocks: Array, scale: float | None) -> Array:
-    """γᵢ = min(γ, scale·λ_max(Aᵢᵢ)) of each contact node from A's 3×3 diagonal blocks Aᵢᵢ (shape (m, 3, 3));
-    γ everywhere when ``scale`` is None (see "Per-node γ" in the module docstring)."""
-    m = blocks.shape[0]
-    if scale is None or m == 0:
-        return np.full(m, gamma)
-    local = np.linalg.eigvalsh(0.5 * (blocks + np.swapaxes(blocks, 1, 2)))[:, -1]
-    return np.minimum(gamma, scale * local)
 
 
 def line_search_steps(count: int) -> Iterator[float]:
@@ -147,7 +87,7 @@ class Direction:
     linear_residual: float
 
 
-class SCDNewtonSolver:
+class SCDNewtonSolver(NewtonLinearSolves):
     """SCD semismooth* Newton solver for a :class:`ContactModel`; owns the Newton matrix and its KSP.
 
     The Newton matrix and its KSP (GMRES, right preconditioned, stopped on the unpreconditioned relative
@@ -243,39 +183,8 @@ class SCDNewtonSolver:
         self.operator.rebind(self.A, self.rows, self.cdofs)
         self.M = self.operator.M
         self._blocks = None
-        if self._galerkin is not None or self.pc != "gamg":
-            # the Galerkin coarse products and the preconditioners of M start from a KSP of their own
-            self.ksp.destroy()
-            if self._nullspace is not None:
-                self._nullspace.destroy()
-            self._create_ksp()
-            self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
-        elif self._refresh_hierarchy():
-            self._hierarchy_rates = []
-            if self._nullspace is not None:
-                self._nullspace.destroy()
-            self._nullspace = self.model.near_nullspace()
-            self.A.setNearNullSpace(self._nullspace)
-            self.ksp.getPC().setReusePreconditioner(False)
-            self.ksp.setOperators(self.M, self.A)  # GAMG is set up on the new Ã at the next linear solve
-            if self.comm.rank == 0:
-                logger.debug("finite sliding: GAMG's hierarchy set up again on the new stiffness")
-        else:  # the hierarchy of an earlier Ã (kept alive by the KSP, or the same Mat with new values)
-            self.ksp.getPC().setReusePreconditioner(True)
+        self._rebind_ksp()
         self.timings["setup"] = self.timings.get("setup", 0.0) + time.perf_counter() - t0
-
-    def _refresh_hierarchy(self) -> bool:
-        """Whether GAMG's hierarchy is to be built again on the current Ã at a geometry update: when no linear
-        solve has used the one built last (its set-up costs nothing yet), or when a linear solve since needed more
-        than HIERARCHY_REFRESH times the Krylov iterations per decade of reduction of the first solve after the
-        set-up (the hierarchy of an earlier geometry no longer preconditions the new one well)."""
-        rates = self._hierarchy_rates
-        return not rates or max(rates) > HIERARCHY_REFRESH * max(rates[0], 1.0)
-
-    def _record_rate(self, its: int, rtol: float) -> None:
-        """Keep the Krylov iterations per decade of reduction of a linear solve (:meth:`_refresh_hierarchy`)."""
-        decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
-        self._hierarchy_rates.append(its / decades)
 
     def set_node_gamma(self, values: Array) -> None:
         """Set the contact nodes' γᵢ (owned, shape (m,), each > 0; collective). With every γᵢ = γ the solver runs
@@ -283,8 +192,8 @@ class SCDNewtonSolver:
         values = np.array(values, dtype=np.float64).reshape(-1)
         if values.shape != (self.cdofs.shape[0],) or not np.all(np.isfinite(values) & (values > 0.0)):
             raise ValueError(f"node_gamma: {values.shape[0]} values, need {self.cdofs.shape[0]} finite ones > 0")
-        #: γᵢ of each owned contact node (see "Per-node γ" in the module docstring), shape (m,).
-        self.node_gamma = values
+        #: γᵢ of each owned contact node (:mod:`fenics_coulomb.scd.node_gamma`), shape (m,).
+        self.node_gamma: Array = values
         self._weights: Array | None = None
         if not self.comm.allreduce(bool(np.all(values == self.gamma)), op=MPI.LAND):
             self._weights = np.full(self.A.getLocalSize()[0], 1.0 + self.gamma**2)
@@ -295,87 +204,6 @@ class SCDNewtonSolver:
         """Frames R = (t₁, t₂, n) of the contact nodes (columns), shape (m, 3, 3), as currently placed."""
         return self.model.contact.frames
 
-    def _create_ksp(self) -> None:
-        """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""
-        settings = self.settings
-        self._hierarchy_rates = []
-        self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name,
-                                                                  settings.poisson_ratio).items()
-                                 if k not in self._user_options}
-        self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
-                                               settings.tol, settings.gmres_restart, settings.ksp_max_it,
-                                               self.model.near_nullspace)
-        with self.petsc_options():
-            self.ksp.setFromOptions()
-        if self._galerkin is not None:
-            self._galerkin.destroy()
-            self._galerkin = None
-        if settings.galerkin_coarse and settings.variant == "4a" and self.pc == "gamg" \
-                and self.ksp.getPC().getType() == "gamg":
-            self._galerkin = GalerkinCoarsening(self.A, self.rows)
-
-    def _escalate(self) -> bool:
-        """After a stagnated linear solve under pc = "auto", hand the rest of the solve to the next preconditioner of
-        the ladder (:func:`~fenics_coulomb.scd.preconditioner.auto_ladder`); True if it did (collective).
-
-        The new KSP gets the same Newton matrix (an explicit copy of A with the current contact rows when the new
-        preconditioner reads its entries and the old operator was matrix-free). The switch is logged, kept in
-        :attr:`pc_history` and reported in the result; the user's ksp_max_it applies to the last stage.
-        """
-        reason = int(self.ksp.getConvergedReason())
-        if not self._ladder or reason > 0:
-            return False
-        previous, self.pc = self.pc, self._ladder.pop(0)
-        names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
-        spent = int(self.ksp.getIterationNumber())
-        self.pc_history.append({"newton_step": self._steps + 1, "from": previous, "to": self.pc,
-                                "krylov_iterations": spent, "reason": names.get(reason, str(reason))})
-        if self.comm.rank == 0:
-            logger.warning("pc auto: %s-GMRES stagnated in Newton step %d (%d iterations without tol=%g, %s); %s takes "
-                           "over for the rest of the solve", previous, self._steps + 1, spent,
-                           self.ksp.getTolerances()[0], names.get(reason, reason), self.pc)
-        self.ksp.destroy()
-        if self._nullspace is not None:
-            self._nullspace.destroy()
-        if self.operator.matrix_free and self.pc not in MATRIX_FREE_PCS:
-            self.operator.destroy()
-            self.operator = NewtonOperator(self.A, self.rows, self.cdofs, False, self.prefix)
-            self.M = self.operator.M
-            if self._blocks is None:
-                self.operator.set_stiffness()
-            else:
-                self.operator.update(*self._blocks)
-        self._create_ksp()
-        self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
-        return True
-
-    @contextlib.contextmanager
-    def petsc_options(self) -> Iterator[None]:
-        """Put the solver's options into PETSc's database under its prefix for the duration (options the
-        database already holds win over the solver's defaults), then restore the database. With GAMG on
-        three or more ranks also the unprefixed :data:`~fenics_coulomb.scd.preconditioner.DETERMINISTIC_PTAP`
-        (PETSc creates the Galerkin products without a prefix), unless the user gave it."""
-        opts = PETSc.Options()
-        added: dict[str, object] = {}
-        for key, value in (*self._default_options.items(), *self._user_options.items()):
-            name = f"{self.prefix}{key}"
-            if key in self._user_options or not opts.hasName(name):
-                added[name] = opts.getString(name) if opts.hasName(name) else None
-                opts[name] = value
-        key, value = DETERMINISTIC_PTAP  # unprefixed by necessity, scoped to the solver's own calls
-        if self.pc in ("gamg", "gamg-newton") and self.comm.size >= DETERMINISTIC_PTAP_MIN_RANKS \
-                and not opts.hasName(key):
-            added[key] = None
-            opts[key] = value
-        try:
-            yield
-        finally:
-            for name, previous in added.items():  # restore what the database held before
-                if previous is None:
-                    opts.delValue(name)
-                else:
-                    opts[name] = previous
-
     # -- the approximation step -------------------------------------------------------------------
     def approximation_step(self, u: Array, r: Array) -> Iterate:
         """The approximation step (6.17) at u with residual r: d̂ = (γI + Q)⁻¹(γ u − r) and ‖ŷ‖.
@@ -384,7 +212,7 @@ class SCDNewtonSolver:
         eⁱ = uⁱ − Rᵢ vⁱ (Cartesian), see :mod:`fenics_coulomb.model.obstacles`.
         """
         gamma = self.node_gamma
-        e = r / self.gamma
+        e = np.asarray(r / self.gamma, dtype=np.float64)
         uc = u[self.cdofs]
         w = to_local(self.frames, gamma[:, None] * uc - r[self.cdofs])
         held = self._held
@@ -474,86 +302,6 @@ class SCDNewtonSolver:
         self._check_linear_solve(its, du)
         self._steps += 1
         return Direction(du, its, eta, linear_residual)
-
-    def _coarsen(self, left: Array, right: Array) -> None:
-        """Set GAMG up on A (the first time) and make its coarse operators the Galerkin products of the Newton
-        matrix with the Cartesian contact-row blocks (left, right) (:mod:`fenics_coulomb.scd.galerkin`)."""
-        t0 = time.perf_counter()
-        with self.petsc_options():
-            self.ksp.setUp()
-            self._galerkin.update(self.ksp.getPC(), left, right)
-        self.timings["galerkin"] = self.timings.get("galerkin", 0.0) + time.perf_counter() - t0
-
-    def _set_tolerance(self, rtol: float) -> None:
-        """Set the KSP's relative tolerance; under pc = "auto" with a preconditioner left to escalate to also its
-        iteration cap, AUTO_STALL_ITS per decade of reduction (at most the user's ksp_max_it)."""
-        if self._ladder:
-            decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
-            self.ksp.setTolerances(rtol=rtol, max_it=min(self._max_it, math.ceil(AUTO_STALL_ITS * decades)))
-        else:
-            self.ksp.setTolerances(rtol=rtol, max_it=self._max_it)
-
-    def _solve_newton_system(self, eta: float) -> int:
-        """One GMRES solve of the Newton system (right-hand side b, solution x) to tolerance eta; its iterations."""
-        self._set_tolerance(eta)
-        self.x.set(0.0)
-        self._petsc_call(self.step.linear_solve, self.ksp, self.b, self.x)
-        return int(self.ksp.getIterationNumber())
-
-    def _petsc_call(self, call: Callable[..., object], *args: object) -> None:
-        """Run a KSP call with the solver's options. An exception raised by a Python callback inside it — the
-        matrix-free operator's mult, where a SIGINT or SIGTERM (:class:`~fenics_coulomb.errors.Interrupted`) arriving
-        during a linear solve is raised — reaches PETSc only as an error code, and petsc4py keeps it as the cause
-        of the PETSc.Error: it is raised again as itself (the interrupt must end the run, not count as a failed
-        solve that the other ranks would wait on). Any other PETSc error is a failed linear solve (e.g. a
-        -coulomb_ksp_type that cannot do what is asked of it)."""
-        try:
-            with self.petsc_options():
-                call(*args)
-        except PETSc.Error as err:
-            if err.__cause__ is not None:
-                raise err.__cause__ from None
-            detail = str(err).strip().splitlines()
-            raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
-
-    def _check_linear_solve(self, its: int, du: Array) -> None:
-        """Raise SolverError for a failed or non-finite linear solve, or for the KSP_LIMIT_STEPS-th consecutive one
-        that hit its iteration limit; warn for a single one (its inexact direction is used)."""
-        reason = int(self.ksp.getConvergedReason())
-        finite = self.comm.allreduce(bool(np.all(np.isfinite(du))), op=MPI.LAND)
-        if (reason < 0 and reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT) or not finite:
-            names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
-            hint = ""
-            if reason == PETSc.KSP.ConvergedReason.DIVERGED_BREAKDOWN and self.pc == "ilu":
-                hint = ("; ILU-preconditioned GMRES stagnated, as it does for nearly incompressible materials "
-                        "(nu -> 0.5): use --pc gamg or --pc lu")
-            raise SolverError(
-                f"the linear solver failed in Newton step {self._steps + 1}: {names.get(reason, reason)} after "
-                f"{its} iterations{'' if finite else ', non-finite direction'}{hint}",
-                "ksp_breakdown" if finite else "non_finite",
-            )
-        if reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT:
-            self._limited = 0
-            return
-        self._limited += 1
-        rtol = self.ksp.getTolerances()[0]
-        if self._limited >= KSP_LIMIT_STEPS:
-            lo, hi = self._node_gamma_range()
-            raise SolverError(
-                f"the linear solver (pc {self.pc}) reached its iteration limit ({its} iterations without tol={rtol:g}) "
-                f"in {self._limited} consecutive Newton steps (up to step {self._steps + 1}): directions that inexact "
-                f"do not converge; try {self._remedies()}, or a smaller --gamma-node-scale (now "
-                f"{self.settings.gamma_node_scale}: gamma {self.gamma:.3g}, at the contact {lo:.3g}-{hi:.3g})",
-                "ksp_limit",
-            )
-        if self.comm.rank == 0:
-            logger.warning("KSP reached %d iterations without tol=%g; using the inexact direction", its, rtol)
-
-    def _remedies(self) -> str:
-        """The preconditioners to suggest after ``self.pc`` failed (the stages of pc = auto's ladder it skipped)."""
-        if self.settings.pc != "auto":
-            return "--pc auto (it hands a stagnating solve to GAMG, BoomerAMG and LU in turn)"
-        return "--pc hypre or --pc lu (pc auto has no stage left)"
 
     # -- the line search --------------------------------------------------------------------------
     def line_search(self, it: Iterate, direction: Direction, k: int) -> tuple[float, Iterate]:
@@ -732,14 +480,6 @@ class SCDNewtonSolver:
         record = IterationRecord(1, it.residual, 1.0, its, 0, 0, 0, self.settings.reduction, linear_residual)
         return self.result(it, [res0, it.residual], [record], converged,
                            "converged" if converged else f"ksp_reason_{reason}", t0, linear=True)
-
-    def _solve_linear_system(self) -> int:
-        """Solve A x = l̃ (the Newton matrix is A) to the reduction; its iterations."""
-        self._set_tolerance(self.settings.reduction)
-        self.x.set(0.0)
-        self._petsc_call(self.ksp.solve, self.model.load, self.x)
-        self.ksp.setTolerances(rtol=self.tol)
-        return int(self.ksp.getIterationNumber())
 
     def is_separated(self, result: SolveResult) -> bool:
         """True on all ranks if no contact node of ``result`` touches or penetrates the obstacle."""

@@ -17,7 +17,7 @@ inexact GMRES solves independent of the units of E and the loads.
 
 Per-node γ: every formula above is node-wise, so a contact node i may carry its own γᵢ (the driver's
 ``node_gamma``; off the contact nodes γ acts only through ŷ₁ = γ e = r, which the right-hand sides use as r).
-Why the method stays the paper's: see :mod:`fenics_coulomb.scd.newton`, "Per-node γ".
+Why the method stays the paper's: see :mod:`fenics_coulomb.scd.node_gamma`.
 """
 
 from __future__ import annotations

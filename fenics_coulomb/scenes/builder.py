@@ -21,6 +21,7 @@ from petsc4py import PETSc
 import dolfinx
 import dolfinx.fem
 import numpy as np
+import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import check_all
@@ -156,7 +157,7 @@ def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene,
     """
     bcs: list[dolfinx.fem.DirichletBC] = []
     groups: dict[str, np.ndarray] = {}
-    taken = np.zeros(0, dtype=np.int32)
+    taken: npt.NDArray[np.int32] = np.zeros(0, dtype=np.int32)
     if body.dirichlet:
         dofs = boundary_nodes(V, body, body.dirichlet, "clamped")
         bcs.append(dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V))

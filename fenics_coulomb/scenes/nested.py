@@ -2,7 +2,7 @@
 
 Given the same contact problem on a sequence of meshes, coarse to fine, the first is solved from the paper's
 start u⁽⁰⁾ = 0 and every finer one from the previous level's solution interpolated onto its mesh
-(:func:`~fenics_coulomb.problem.interpolate_displacement`, the same interpolation as ``--start``). The
+(:func:`~fenics_coulomb.start_rule.interpolate_displacement`, the same interpolation as ``--start``). The
 coarse levels only provide a start, so they are usually solved to a looser reduction (their own settings);
 the finest level's settings decide the accuracy of the result. The stopping target does not depend on the start
 (:mod:`fenics_coulomb.scd.stopping`), so every level is asked for what a direct solve would be: the better start
@@ -108,7 +108,7 @@ def interpolate_cuboid(u_coarse: dolfinx.fem.Function, lev_coarse: int, V: dolfi
 
     Returns:
         The interpolated Function, or None when the coarse mesh is not the box grid of ``lev_coarse`` (then use
-        :func:`~fenics_coulomb.problem.interpolate_displacement`); the same on every rank.
+        :func:`~fenics_coulomb.start_rule.interpolate_displacement`); the same on every rank.
     """
     comm = V.mesh.comm
     n = np.array(cells_per_direction(lev_coarse))

@@ -149,7 +149,7 @@ def partition_cells(comm: MPI.Comm, midpoints: npt.NDArray[np.floating], nparts:
         return recursive_bisection(mid, nparts)
     all_mid = np.empty((int(counts.sum()), gdim)) if comm.rank == 0 else None
     comm.Gatherv(mid, [all_mid, counts * gdim] if comm.rank == 0 else None, root=0)
-    all_parts = recursive_bisection(all_mid, nparts) if comm.rank == 0 else None
+    all_parts = recursive_bisection(all_mid, nparts) if all_mid is not None else None  # rank 0's
     parts = np.empty(mid.shape[0], dtype=np.int32)
     comm.Scatterv([all_parts, counts] if comm.rank == 0 else None, parts, root=0)
     return parts

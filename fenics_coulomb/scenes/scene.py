@@ -295,10 +295,11 @@ class Scene:
                              "(rigid motions)")
         for name, value in self.prescribed.items():
             check_kind(f"prescribed displacement on {name!r}", value, "prescription")
-        for name, value in self.roller.items():
-            if (not isinstance(value, list) or not value or len(set(map(repr, value))) != len(value)
-                    or any(isinstance(c, bool) or c not in (0, 1, 2) for c in value)):
-                raise InputError(f"roller on {name!r} = {value!r}: a list of distinct components 0, 1, 2")
+        for name, components in self.roller.items():
+            if (not isinstance(components, list) or not components
+                    or len(set(map(repr, components))) != len(components)
+                    or any(isinstance(c, bool) or c not in (0, 1, 2) for c in components)):
+                raise InputError(f"roller on {name!r} = {components!r}: a list of distinct components 0, 1, 2")
         self.material.validate()
         self._validate_bodies(names, where)
         self.friction.validate()
@@ -306,18 +307,18 @@ class Scene:
         self.load.validate()
         if self.tractions is not None and not isinstance(self.tractions, dict):
             raise InputError(f"tractions = {self.tractions!r}: must be a table of names = [3 numbers]")
-        for name, value in (self.tractions or {}).items():
-            if not isinstance(value, list) or len(value) != 3:
-                raise InputError(f"traction on {name!r} = {value!r}: must be 3 numbers or expressions in x1, x2, "
+        for name, traction in (self.tractions or {}).items():
+            if not isinstance(traction, list) or len(traction) != 3:
+                raise InputError(f"traction on {name!r} = {traction!r}: must be 3 numbers or expressions in x1, x2, "
                                  "x3 (GPa)")
-            if any(isinstance(c, str) for c in value):
-                for c in value:
+            if any(isinstance(c, str) for c in traction):
+                for c in traction:
                     if isinstance(c, str):
                         parse_point_expression(c, f"traction expression on {name!r}")
                     else:
                         _number(f"traction on {name!r}", c)
             else:
-                _vector(f"traction on {name!r}", value)
+                _vector(f"traction on {name!r}", traction)
         # expressions are bounded by their evaluation (non-finite values are refused where interpolated)
         largest = max([abs(float(c)) for v in (self.tractions or {}).values() for c in v if not isinstance(c, str)]
                       + [1.0]) * abs(float(self.load.scale))
@@ -368,7 +369,7 @@ class Scene:
         """Check the ``[[path.step]]`` tables: kinds, boundary and obstacle names, values, substeps."""
         if not isinstance(self.path, list) or not all(isinstance(s, PathStep) for s in self.path):
             raise InputError(f"path = {self.path!r}: must be a list of [[path.step]] tables")
-        named = [o.name for o in self.obstacles if getattr(o, "name", None)]
+        named = [str(o.name) for o in self.obstacles if getattr(o, "name", None)]
         kinds = KINDS["path.step"]
         solves = 0
         for i, step in enumerate(self.path, 1):
@@ -433,7 +434,7 @@ class Scene:
                 return scaled
             return s * float(c)
 
-        return tuple(component(c) for c in value)  # type: ignore[return-value]
+        return tuple(component(c) for c in value)
 
     def traction_table(self) -> dict[str, tuple[Any, Any, Any]]:
         """Tractions (GPa) per boundary name: constant components scaled, expression components as compiled

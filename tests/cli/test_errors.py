@@ -272,7 +272,7 @@ def test_linear_solves_stuck_at_their_limit_exit_3(mpi_tmp_path, capsys, max_it)
     --gamma-scale 1 spent 2000 iterations in every step)."""
     from petsc4py import PETSc
 
-    from fenics_coulomb.scd.newton import KSP_LIMIT_STEPS
+    from fenics_coulomb.scd.linear_solves import KSP_LIMIT_STEPS
 
     out = mpi_tmp_path / "out"
     status = main(["--lev", "2", "--out", str(out), "--no-plots", "--pc", "ilu", "-coulomb_ksp_max_it", str(max_it)])

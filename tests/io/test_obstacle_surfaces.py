@@ -84,7 +84,7 @@ def test_surfaces_lie_on_their_obstacles(name):
         extent = (points - points.mean(axis=0)) @ frame.T
         assert np.all(np.abs(inside) < np.abs(extent).max(axis=0))
     if name == "stl ball":  # the file's triangles as given
-        from fenics_coulomb.model.surface import read_triangles
+        from fenics_coulomb.model.triangulation import read_triangles
 
         X, V = read_triangles(obstacle.file, obstacle.source)
         assert np.array_equal(triangles, V) and np.allclose(rest[V], X, rtol=0, atol=0)

@@ -16,6 +16,7 @@ from mpi4py import MPI
 import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
+import pytest
 import ufl
 
 import fenics_coulomb
@@ -90,6 +91,7 @@ def test_press_a_sphere_and_read_the_forces(mpi_tmp_path):
         assert {"solution.xdmf", "solution.h5", "convergence.csv", "summary.json"} <= set(summary["files"])
 
 
+@pytest.mark.compares_ranks
 def test_the_report_does_not_depend_on_the_rank_count():
     """Rank 0 solves alone and compares its report with the one of all ranks (identical to round-off)."""
     comm = MPI.COMM_WORLD

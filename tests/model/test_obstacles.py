@@ -12,12 +12,12 @@ from frame_scd import block_diagonal, frame_direction, paper_direction
 
 from fenics_coulomb.scd.derivatives import s_blocks, sstar_blocks
 from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import (
     DEFAULT_PLANE,
     Cylinder,
     Plane,
     Sphere,
-    check_not_overlapping,
     closest_obstacle,
     obstacle_from_dict,
     obstacles_from_list,
@@ -405,7 +405,7 @@ def test_local_shift_is_the_slip_of_a_moved_obstacle():
 
 # -- the motion check's samples ------------------------------------------------------------------------------
 def test_motion_placements_start_and_end_at_the_two_placements():
-    from fenics_coulomb.model.obstacles import motion_placements
+    from fenics_coulomb.model.obstacle_checks import motion_placements
 
     before = Sphere(center=(1.0, 0.5, 1.5), radius=0.3, displacement=(0.1, 0.0, 0.0))
     cases = [  # one axis and centre (blended angle), none before, and two different axes (relative rotation)
@@ -428,7 +428,7 @@ def test_motion_placements_start_and_end_at_the_two_placements():
 def test_core_path_finds_a_long_move_and_a_half_turn_through_the_box():
     """A sphere's centre moved 2000 across the unit box, or turned half a turn about a point inside it: a sample
     lands in the box (the old sampling stepped over it), and a far move costs no more samples than a short one."""
-    from fenics_coulomb.model.obstacles import core_path
+    from fenics_coulomb.model.obstacle_checks import core_path
 
     lo, hi, spacing = np.zeros(3), np.ones(3), 0.05
     ball = Sphere(center=(0.5, 0.5, 1000.0), radius=0.1)

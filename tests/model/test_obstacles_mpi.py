@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Sphere, check_not_overlapping
+from fenics_coulomb.model.obstacle_checks import check_not_overlapping
+from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Sphere
 
 
 def test_overlap_message_names_the_deepest_node_on_every_rank():

@@ -455,6 +455,7 @@ def test_pair_validation(kwargs, match):
 
 
 # -- 1 rank = 2 ranks -----------------------------------------------------------------------------------
+@pytest.mark.compares_ranks
 @pytest.mark.parametrize("method", ["node-to-surface", "mortar"])
 @pytest.mark.parametrize("partitioner", ["bodies", None, "ghosted"])
 @pytest.mark.parametrize("cell", CELLS)

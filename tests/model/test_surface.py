@@ -45,6 +45,8 @@ def brute_distance(p: np.ndarray, triangles: np.ndarray) -> float:
     return best
 
 
+# rank-local geometry (no communicator): on 2 ranks each rank repeats the same brute force
+@pytest.mark.serial
 def test_gaps_and_normals_against_a_brute_force_projection(tmp_path):
     T = icosphere(RADIUS, tuple(CENTER), level=1)  # 80 triangles: the brute force stays cheap
     surface = Surface(file=str(write_stl(tmp_path / "ball.stl", T)))  # tmp_path is this rank's own

@@ -14,7 +14,8 @@ import pytest
 
 from fenics_coulomb.model import surface as surface_module
 from fenics_coulomb.model.pairs.projection import project as _pair_nodes
-from fenics_coulomb.model.surface import _box_candidates, closest_on_surface, file_source, surface_index
+from fenics_coulomb.model.surface import _box_candidates, closest_on_surface, surface_index
+from fenics_coulomb.model.triangulation import file_source
 
 ROOT = Path(__file__).resolve().parents[2]
 from meshes.surfaces import icosphere, rectangle, write_stl  # noqa: E402

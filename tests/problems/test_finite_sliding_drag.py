@@ -77,6 +77,7 @@ def test_without_the_load_outside_the_footprint_the_pressure_is_not_uniform():
     assert r["pressure_spread"] > 1e-2 and abs(r["P"] / r["P_exact"] - 1) > 1e-2
 
 
+@pytest.mark.compares_ranks
 def test_the_drag_is_the_same_on_one_and_two_ranks(mortar_drag):
     """The slid state's forces do not depend on the partition (rank 0 alone against the communicator's run)."""
     comm = MPI.COMM_WORLD

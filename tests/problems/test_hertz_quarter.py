@@ -92,7 +92,7 @@ def test_contact_radius_pressure_and_force(solved):
     assert r["held"] > 0 and r["closed"] > 100
 
 
-@pytest.mark.parallel
+@pytest.mark.compares_ranks
 def test_one_rank_agrees(solved):
     """On several ranks: the same case solved on rank 0 alone (MPI.COMM_SELF) gives the same numbers to 1e-8 (the
     mesh is made on rank 0 either way; the contact boundary is the core's top only, so the solver's round-off

@@ -46,7 +46,7 @@ def test_hertz_two_bodies(hertz):
     assert abs(r["err_pressure_off"]) <= 0.02
 
 
-@pytest.mark.parallel
+@pytest.mark.compares_ranks
 def test_one_rank_agrees(hertz):
     """The same case on rank 0 alone (MPI.COMM_SELF) agrees to 1e-8."""
     comm = MPI.COMM_WORLD

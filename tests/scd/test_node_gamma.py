@@ -1,4 +1,4 @@
-"""Per-node γᵢ (fenics_coulomb.scd.newton, "Per-node γ"): the method with Γ = diag(γᵢ) is the paper's method with
+"""Per-node γᵢ (fenics_coulomb.scd.node_gamma): the method with Γ = diag(γᵢ) is the paper's method with
 the scalar γ' = 1 on the diagonally scaled problem (D⁻¹AD⁻¹, D⁻¹l, D = Γ^{1/2}); it converges to the same
 solution; the default keeps the paper's scalar γ on the Section 7 cuboid and caps it on graded meshes."""
 
@@ -12,7 +12,7 @@ import scipy.sparse as sp
 from conftest import assembled, gather_by_coordinates, make_problem
 from frame_scd import paper_direction
 
-from fenics_coulomb.scd.newton import node_gamma
+from fenics_coulomb.scd.node_gamma import node_gamma
 from fenics_coulomb.scd.resolvent import SET_L, SET_M1, SET_M3M, SET_M3P
 
 

@@ -96,6 +96,7 @@ def test_exact_newton_iterates_coincide(problem_factory):
     assert rates[-1] < 1e-2 and rates[-1] < rates[0]
 
 
+@pytest.mark.compares_ranks
 def test_serial_equals_parallel(problem_factory):
     """The solution on COMM_WORLD equals the one computed on one rank (1e-8 relative).
 

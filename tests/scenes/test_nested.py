@@ -21,7 +21,7 @@ from fenics_coulomb.scenes.nested import (
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.scenes.nested import interpolate_cuboid
-from fenics_coulomb.problem import interpolate_displacement
+from fenics_coulomb.start_rule import interpolate_displacement
 from fenics_coulomb.scenes.cuboid import box_coordinates, create_cuboid
 
 

@@ -225,6 +225,7 @@ def test_resumed_path_equals_the_uninterrupted_one():
     assert diff < 1e-8, diff
 
 
+@pytest.mark.compares_ranks
 def test_path_on_this_communicator_equals_one_rank():
     """1 rank = 2 ranks: the loading–reversal path with a moving plane on COMM_WORLD and on COMM_SELF (each
     rank alone) agree at every node (1e-8)."""

@@ -30,7 +30,8 @@ from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.coupling import Boundary, Coupling, StencilChange
 from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames
-from fenics_coulomb.model.obstacles import Obstacle, check_not_overlapping, closest_obstacle
+from fenics_coulomb.model.obstacle_checks import check_not_overlapping
+from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces

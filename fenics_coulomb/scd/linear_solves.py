@@ -1,0 +1,316 @@
+"""The linear solves of the SCD Newton driver: the KSP of the Newton matrix over the solver's life.
+
+:class:`NewtonLinearSolves` is the part of :class:`~fenics_coulomb.scd.newton.SCDNewtonSolver` that owns the KSP
+(GMRES, right preconditioned, stopped on the unpreconditioned relative residual) and its preconditioner:
+
+* creation for the resolved preconditioner under the solver's options prefix (:mod:`fenics_coulomb.scd.preconditioner`),
+  with GAMG's near-nullspace and, when asked, the Galerkin coarse operators (:mod:`fenics_coulomb.scd.galerkin`);
+* the scope of the options: the solver's defaults and the user's ``petsc_options`` put into PETSc's database only
+  for the solver's own calls (:meth:`NewtonLinearSolves.petsc_options`);
+* one linear solve of the Newton system or of A x = l̃ to a relative tolerance, pc = "auto"'s cap per decade of
+  reduction and its escalation ladder after a stagnated solve;
+* the checks of a finished solve: a failed or non-finite one, and ``KSP_LIMIT_STEPS`` consecutive ones that
+  reach ksp_max_it;
+* finite sliding's geometry updates: the KSP made anew for the preconditioners that read the Newton matrix, GAMG's
+  hierarchy on A kept until ``HIERARCHY_REFRESH`` says it no longer preconditions the new Ã.
+
+The driver (start, Newton loop, line search, result) is :mod:`fenics_coulomb.scd.newton`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import time
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.errors import SolverError
+from fenics_coulomb.scd.galerkin import GalerkinCoarsening
+from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
+from fenics_coulomb.scd.preconditioner import (
+    AUTO_STALL_ITS,
+    DETERMINISTIC_PTAP,
+    DETERMINISTIC_PTAP_MIN_RANKS,
+    create_ksp,
+    default_options,
+)
+
+if TYPE_CHECKING:
+    from fenics_coulomb.model.contact_model import ContactModel
+    from fenics_coulomb.scd.contact_rows import ContactRows
+    from fenics_coulomb.scd.steps import NewtonStep
+    from fenics_coulomb.settings import SolverSettings
+
+__all__ = ["KSP_LIMIT_STEPS", "HIERARCHY_REFRESH", "NewtonLinearSolves"]
+
+logger = logging.getLogger(__name__)
+
+#: A solve stops (SolverError "ksp_limit", exit 3) when the linear solves of this many consecutive Newton steps
+#: reach ksp_max_it without their tolerance: one inexact direction is used (with a warning), but directions
+#: that stay that inexact do not converge, they only cost ksp_max_it iterations per step (GAMG with
+#: --gamma-scale 1, d3/L2 lev 8: 2000 GMRES iterations in every step, 780 s for 9 steps and still running).
+KSP_LIMIT_STEPS = 3
+#: Finite sliding keeps GAMG's hierarchy across geometry updates (it was built on the Ã of an earlier geometry, which
+#: differs from the new one in the contact coupling only) until a linear solve needs more than this many times the
+#: Krylov iterations per decade of the first solve on it; then the next update sets it up on the new Ã
+#: (:meth:`~fenics_coulomb.scd.newton.SCDNewtonSolver.rebind`). slide_off, 1 rank: a set-up at every update 205 Krylov
+#: iterations in 2.0 s CPU, never again 488 in 1.14 s, factor 1.5: 226 in 1.16 s, 2: 264 in 1.01 s, 3: 285 in 1.16 s
+#: (loaded machine).
+HIERARCHY_REFRESH = 2.0
+
+Array = npt.NDArray[np.float64]
+
+
+class NewtonLinearSolves:
+    """The KSP of the Newton matrix and every linear solve of :class:`~fenics_coulomb.scd.newton.SCDNewtonSolver`
+    (its base class; the attributes below are the solver's, set in its constructor)."""
+
+    comm: MPI.Comm
+    model: ContactModel
+    settings: SolverSettings
+    prefix: str
+    step: NewtonStep
+    A: PETSc.Mat
+    M: PETSc.Mat
+    operator: NewtonOperator
+    rows: ContactRows
+    cdofs: npt.NDArray[np.int32]
+    gamma: float
+    ksp: PETSc.KSP
+    timings: dict[str, float]
+    x: PETSc.Vec
+    b: PETSc.Vec
+    #: The preconditioner in use ("auto" resolved by the global number of unknowns).
+    pc: str
+    #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
+    tol: float
+    #: Every change of preconditioner in this solver's life: Newton step, from, to, Krylov iterations spent.
+    pc_history: list[dict[str, object]]
+    _user_options: dict[str, object]
+    _default_options: dict[str, object]
+    _nullspace: PETSc.NullSpace | None
+    _galerkin: GalerkinCoarsening | None
+    _hierarchy_rates: list[float]
+    _ladder: list[str]
+    _blocks: tuple[Array, Array] | None
+    _max_it: int
+    _steps: int
+    _limited: int
+
+    def _node_gamma_range(self) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def _rebind_ksp(self) -> None:
+        """The KSP after a geometry update (:meth:`~fenics_coulomb.scd.newton.SCDNewtonSolver.rebind`): made anew
+        for the Galerkin coarse products and the preconditioners of M; GAMG on A set up again on the new Ã when
+        :meth:`_refresh_hierarchy` says so, else its hierarchy reused."""
+        if self._galerkin is not None or self.pc != "gamg":
+            # the Galerkin coarse products and the preconditioners of M start from a KSP of their own
+            self.ksp.destroy()
+            if self._nullspace is not None:
+                self._nullspace.destroy()
+            self._create_ksp()
+            self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
+        elif self._refresh_hierarchy():
+            self._hierarchy_rates = []
+            if self._nullspace is not None:
+                self._nullspace.destroy()
+            self._nullspace = self.model.near_nullspace()
+            self.A.setNearNullSpace(self._nullspace)
+            self.ksp.getPC().setReusePreconditioner(False)
+            self.ksp.setOperators(self.M, self.A)  # GAMG is set up on the new Ã at the next linear solve
+            if self.comm.rank == 0:
+                logger.debug("finite sliding: GAMG's hierarchy set up again on the new stiffness")
+        else:  # the hierarchy of an earlier Ã (kept alive by the KSP, or the same Mat with new values)
+            self.ksp.getPC().setReusePreconditioner(True)
+
+    def _refresh_hierarchy(self) -> bool:
+        """Whether GAMG's hierarchy is to be built again on the current Ã at a geometry update: when no linear
+        solve has used the one built last (its set-up costs nothing yet), or when a linear solve since needed more
+        than HIERARCHY_REFRESH times the Krylov iterations per decade of reduction of the first solve after the
+        set-up (the hierarchy of an earlier geometry no longer preconditions the new one well)."""
+        rates = self._hierarchy_rates
+        return not rates or max(rates) > HIERARCHY_REFRESH * max(rates[0], 1.0)
+
+    def _record_rate(self, its: int, rtol: float) -> None:
+        """Keep the Krylov iterations per decade of reduction of a linear solve (:meth:`_refresh_hierarchy`)."""
+        decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
+        self._hierarchy_rates.append(its / decades)
+
+    def _create_ksp(self) -> None:
+        """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""
+        settings = self.settings
+        self._hierarchy_rates = []
+        self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name,
+                                                                  settings.poisson_ratio).items()
+                                 if k not in self._user_options}
+        self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
+                                               settings.tol, settings.gmres_restart, settings.ksp_max_it,
+                                               self.model.near_nullspace)
+        with self.petsc_options():
+            self.ksp.setFromOptions()
+        if self._galerkin is not None:
+            self._galerkin.destroy()
+            self._galerkin = None
+        if settings.galerkin_coarse and settings.variant == "4a" and self.pc == "gamg" \
+                and self.ksp.getPC().getType() == "gamg":
+            self._galerkin = GalerkinCoarsening(self.A, self.rows)
+
+    def _escalate(self) -> bool:
+        """After a stagnated linear solve under pc = "auto", hand the rest of the solve to the next preconditioner of
+        the ladder (:func:`~fenics_coulomb.scd.preconditioner.auto_ladder`); True if it did (collective).
+
+        The new KSP gets the same Newton matrix (an explicit copy of A with the current contact rows when the new
+        preconditioner reads its entries and the old operator was matrix-free). The switch is logged, kept in
+        :attr:`pc_history` and reported in the result; the user's ksp_max_it applies to the last stage.
+        """
+        reason = int(self.ksp.getConvergedReason())
+        if not self._ladder or reason > 0:
+            return False
+        previous, self.pc = self.pc, self._ladder.pop(0)
+        names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
+        spent = int(self.ksp.getIterationNumber())
+        self.pc_history.append({"newton_step": self._steps + 1, "from": previous, "to": self.pc,
+                                "krylov_iterations": spent, "reason": names.get(reason, str(reason))})
+        if self.comm.rank == 0:
+            logger.warning("pc auto: %s-GMRES stagnated in Newton step %d (%d iterations without tol=%g, %s); %s takes "
+                           "over for the rest of the solve", previous, self._steps + 1, spent,
+                           self.ksp.getTolerances()[0], names.get(reason, reason), self.pc)
+        self.ksp.destroy()
+        if self._nullspace is not None:
+            self._nullspace.destroy()
+        if self.operator.matrix_free and self.pc not in MATRIX_FREE_PCS:
+            self.operator.destroy()
+            self.operator = NewtonOperator(self.A, self.rows, self.cdofs, False, self.prefix)
+            self.M = self.operator.M
+            if self._blocks is None:
+                self.operator.set_stiffness()
+            else:
+                self.operator.update(*self._blocks)
+        self._create_ksp()
+        self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
+        return True
+
+    @contextlib.contextmanager
+    def petsc_options(self) -> Iterator[None]:
+        """Put the solver's options into PETSc's database under its prefix for the duration (options the
+        database already holds win over the solver's defaults), then restore the database. With GAMG on
+        three or more ranks also the unprefixed :data:`~fenics_coulomb.scd.preconditioner.DETERMINISTIC_PTAP`
+        (PETSc creates the Galerkin products without a prefix), unless the user gave it."""
+        opts = PETSc.Options()
+        added: dict[str, object] = {}
+        for key, value in (*self._default_options.items(), *self._user_options.items()):
+            name = f"{self.prefix}{key}"
+            if key in self._user_options or not opts.hasName(name):
+                added[name] = opts.getString(name) if opts.hasName(name) else None
+                opts[name] = value
+        key, value = DETERMINISTIC_PTAP  # unprefixed by necessity, scoped to the solver's own calls
+        if self.pc in ("gamg", "gamg-newton") and self.comm.size >= DETERMINISTIC_PTAP_MIN_RANKS \
+                and not opts.hasName(key):
+            added[key] = None
+            opts[key] = value
+        try:
+            yield
+        finally:
+            for name, previous in added.items():  # restore what the database held before
+                if previous is None:
+                    opts.delValue(name)
+                else:
+                    opts[name] = previous
+
+    def _coarsen(self, left: Array, right: Array) -> None:
+        """Set GAMG up on A (the first time) and make its coarse operators the Galerkin products of the Newton
+        matrix with the Cartesian contact-row blocks (left, right) (:mod:`fenics_coulomb.scd.galerkin`)."""
+        t0 = time.perf_counter()
+        with self.petsc_options():
+            self.ksp.setUp()
+            assert self._galerkin is not None
+            self._galerkin.update(self.ksp.getPC(), left, right)
+        self.timings["galerkin"] = self.timings.get("galerkin", 0.0) + time.perf_counter() - t0
+
+    def _set_tolerance(self, rtol: float) -> None:
+        """Set the KSP's relative tolerance; under pc = "auto" with a preconditioner left to escalate to also its
+        iteration cap, AUTO_STALL_ITS per decade of reduction (at most the user's ksp_max_it)."""
+        if self._ladder:
+            decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
+            self.ksp.setTolerances(rtol=rtol, max_it=min(self._max_it, math.ceil(AUTO_STALL_ITS * decades)))
+        else:
+            self.ksp.setTolerances(rtol=rtol, max_it=self._max_it)
+
+    def _solve_newton_system(self, eta: float) -> int:
+        """One GMRES solve of the Newton system (right-hand side b, solution x) to tolerance eta; its iterations."""
+        self._set_tolerance(eta)
+        self.x.set(0.0)
+        self._petsc_call(self.step.linear_solve, self.ksp, self.b, self.x)
+        return int(self.ksp.getIterationNumber())
+
+    def _petsc_call(self, call: Callable[..., object], *args: object) -> None:
+        """Run a KSP call with the solver's options. An exception raised by a Python callback inside it — the
+        matrix-free operator's mult, where a SIGINT or SIGTERM (:class:`~fenics_coulomb.errors.Interrupted`) arriving
+        during a linear solve is raised — reaches PETSc only as an error code, and petsc4py keeps it as the cause
+        of the PETSc.Error: it is raised again as itself (the interrupt must end the run, not count as a failed
+        solve that the other ranks would wait on). Any other PETSc error is a failed linear solve (e.g. a
+        -coulomb_ksp_type that cannot do what is asked of it)."""
+        try:
+            with self.petsc_options():
+                call(*args)
+        except PETSc.Error as err:
+            if err.__cause__ is not None:
+                raise err.__cause__ from None
+            detail = str(err).strip().splitlines()
+            raise SolverError(f"the linear solver failed: {detail[-1] if detail else err}", "ksp_breakdown") from None
+
+    def _check_linear_solve(self, its: int, du: Array) -> None:
+        """Raise SolverError for a failed or non-finite linear solve, or for the KSP_LIMIT_STEPS-th consecutive one
+        that hit its iteration limit; warn for a single one (its inexact direction is used)."""
+        reason = int(self.ksp.getConvergedReason())
+        finite = self.comm.allreduce(bool(np.all(np.isfinite(du))), op=MPI.LAND)
+        if (reason < 0 and reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT) or not finite:
+            names = {v: k for k, v in vars(PETSc.KSP.ConvergedReason).items() if isinstance(v, int)}
+            hint = ""
+            if reason == PETSc.KSP.ConvergedReason.DIVERGED_BREAKDOWN and self.pc == "ilu":
+                hint = ("; ILU-preconditioned GMRES stagnated, as it does for nearly incompressible materials "
+                        "(nu -> 0.5): use --pc gamg or --pc lu")
+            raise SolverError(
+                f"the linear solver failed in Newton step {self._steps + 1}: {names.get(reason, reason)} after "
+                f"{its} iterations{'' if finite else ', non-finite direction'}{hint}",
+                "ksp_breakdown" if finite else "non_finite",
+            )
+        if reason != PETSc.KSP.ConvergedReason.DIVERGED_MAX_IT:
+            self._limited = 0
+            return
+        self._limited += 1
+        rtol = self.ksp.getTolerances()[0]
+        if self._limited >= KSP_LIMIT_STEPS:
+            lo, hi = self._node_gamma_range()
+            raise SolverError(
+                f"the linear solver (pc {self.pc}) reached its iteration limit ({its} iterations without tol={rtol:g}) "
+                f"in {self._limited} consecutive Newton steps (up to step {self._steps + 1}): directions that inexact "
+                f"do not converge; try {self._remedies()}, or a smaller --gamma-node-scale (now "
+                f"{self.settings.gamma_node_scale}: gamma {self.gamma:.3g}, at the contact {lo:.3g}-{hi:.3g})",
+                "ksp_limit",
+            )
+        if self.comm.rank == 0:
+            logger.warning("KSP reached %d iterations without tol=%g; using the inexact direction", its, rtol)
+
+    def _remedies(self) -> str:
+        """The preconditioners to suggest after ``self.pc`` failed (the stages of pc = auto's ladder it skipped)."""
+        if self.settings.pc != "auto":
+            return "--pc auto (it hands a stagnating solve to GAMG, BoomerAMG and LU in turn)"
+        return "--pc hypre or --pc lu (pc auto has no stage left)"
+
+    def _solve_linear_system(self) -> int:
+        """Solve A x = l̃ (the Newton matrix is A) to the reduction; its iterations."""
+        self._set_tolerance(self.settings.reduction)
+        self.x.set(0.0)
+        self._petsc_call(self.ksp.solve, self.model.load, self.x)
+        self.ksp.setTolerances(rtol=self.tol)
+        return int(self.ksp.getIterationNumber())
