@@ -40,7 +40,7 @@ import argparse
 from pathlib import Path
 
 import gmsh
-from meshes.gmsh_session import gmsh_session, write_volume_mesh
+from meshes.gmsh_session import add_physical_surfaces, gmsh_session, radial_size_field, write_volume_mesh
 
 __all__ = ["TAGS", "build"]
 
@@ -96,15 +96,8 @@ def build(path: Path | str, a: float, h0: float, width: float = 1000.0, depth: f
             name = (top if abs(z) < tol else "bottom" if abs(z + D) < tol else "sym_x" if abs(x) < tol
                     else "sym_y" if abs(y) < tol else "sides")
             groups[name].append(surface)
-        for name, surfaces in groups.items():
-            if surfaces:
-                gmsh.model.addPhysicalGroup(2, surfaces, TAGS[name], name=name)
-        field = gmsh.model.mesh.field.add("MathEval")
-        gmsh.model.mesh.field.setString(
-            field, "F", f"Min({largest * W}, {h0} + {growth}*Max(0, Sqrt(x*x + y*y + z*z) - {fine * a}))")
-        gmsh.model.mesh.field.setAsBackgroundMesh(field)
-        for option in ("MeshSizeFromPoints", "MeshSizeFromCurvature", "MeshSizeExtendFromBoundary"):
-            gmsh.option.setNumber(f"Mesh.{option}", 0)
+        add_physical_surfaces(groups, TAGS)
+        radial_size_field(h0, growth, fine * a, largest * W)
         write_volume_mesh(path, optimize=True)
 
 

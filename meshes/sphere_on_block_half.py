@@ -49,7 +49,7 @@ import math
 from pathlib import Path
 
 import gmsh
-from meshes.gmsh_session import gmsh_session, write_volume_mesh
+from meshes.gmsh_session import add_physical_surfaces, gmsh_session, radial_size_field, write_volume_mesh
 
 __all__ = ["BODIES", "TAGS", "build"]
 
@@ -137,15 +137,8 @@ def build(path: Path | str, a: float, h0: float, radius: float, width: float = 2
                 else:
                     name = "flat" if abs(z - H) < tol else "cap" if max(abs(x), y, z) < L else "free"
                 groups[name].append(surface)
-        for name, surfaces in groups.items():
-            if surfaces:
-                gmsh.model.addPhysicalGroup(2, surfaces, TAGS[name], name=name)
-        field = gmsh.model.mesh.field.add("MathEval")
-        gmsh.model.mesh.field.setString(
-            field, "F", f"Min({largest * W}, {h0} + {growth}*Max(0, Sqrt(x*x + y*y + z*z) - {fine * a}))")
-        gmsh.model.mesh.field.setAsBackgroundMesh(field)
-        for option in ("MeshSizeFromPoints", "MeshSizeFromCurvature", "MeshSizeExtendFromBoundary"):
-            gmsh.option.setNumber(f"Mesh.{option}", 0)
+        add_physical_surfaces(groups, TAGS)
+        radial_size_field(h0, growth, fine * a, largest * W)
         write_volume_mesh(path, optimize=True)
 
 
