@@ -420,6 +420,13 @@ def patch(comm: MPI.Comm, method: str, level: int = 0) -> dict[str, Any]:
 # the table
 
 
+def _trend(previous: dict[str, float], key: str, value: float) -> str:
+    """"; from E" with the previous level's error E of ``key`` (none at the first level); remembers ``value``."""
+    text = f"; from {previous[key]:+.2%}" if key in previous else ""
+    previous[key] = value
+    return text
+
+
 def _serial(comm: MPI.Comm, function: Callable[..., dict[str, Any]], *args: Any) -> dict[str, Any] | None:
     """``function(MPI.COMM_SELF, *args)`` on rank 0 (the other ranks wait): the one-rank solve."""
     out = function(MPI.COMM_SELF, *args) if comm.rank == 0 else None
@@ -630,9 +637,7 @@ def hertz_rows(comm: MPI.Comm, levels: tuple[int, ...], curves: dict[str, list[A
                   "ranks": comm.size, "wall": r["wall"], "agree": agree}
 
         def trend(key: str, r: dict[str, Any] = r) -> str:
-            text = f"; from {previous[key]:+.2%}" if key in previous else ""
-            previous[key] = r[key]
-            return text
+            return _trend(previous, key, r[key])
 
         rows += [
             {**common, "quantity": "contact radius a (for the measured P)", "reference": f"{r['radius_ref']:.5f}",
@@ -734,9 +739,7 @@ def collect_two_body(comm: MPI.Comm, levels: tuple[int, ...] = HERTZ2_TABLE_LEVE
                 f"{r['closed']} closed slave nodes")
 
         def trend(key: str, r: dict[str, Any] = r) -> str:
-            text = f"; from {previous[key]:+.2%}" if key in previous else ""
-            previous[key] = r[key]
-            return text
+            return _trend(previous, key, r[key])
 
         rows += [
             {**common, "quantity": "contact radius a (for the measured P)", "reference": f"{r['radius_ref']:.5f}",

@@ -45,7 +45,7 @@ from scipy.spatial import cKDTree
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
-from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, select_candidates
+from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, empty_closest, select_candidates
 from fenics_coulomb.model.pairs.projection import Surface as _Surface
 from fenics_coulomb.model.pairs.projection import norm as _norm
 from fenics_coulomb.model.triangulation import Source, file_source, read_triangles
@@ -228,8 +228,7 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, npt.NDArray[A
     """
     surface = index.surface
     m, nv = x.shape[0], surface.X.shape[1]
-    out = {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
-           "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
+    out = empty_closest(m, nv)
     nf = surface.X.shape[0]
     if m == 0 or nf == 0:
         return out

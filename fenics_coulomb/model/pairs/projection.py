@@ -66,6 +66,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import chain
+from typing import Any
 
 from mpi4py import MPI
 
@@ -77,7 +78,8 @@ import numpy.typing as npt
 from scipy.spatial import cKDTree
 
 __all__ = ["TIE_TOL", "CONE_TOL", "Surface", "norm", "dot", "where", "outward_normals", "local_facets", "facet_data",
-           "gather_surface", "project", "select_candidates", "node_size", "facet_sizes", "facet_ranks"]
+           "gather_surface", "project", "select_candidates", "node_size", "facet_sizes", "facet_ranks",
+           "empty_closest"]
 
 Array = npt.NDArray[np.float64]
 
@@ -101,6 +103,13 @@ def _segment(p: Array, a: Array, b: Array) -> tuple[Array, Array]:
     ab = b - a
     t = np.clip(dot(p - a, ab) / np.maximum(dot(ab, ab), np.finfo(float).tiny), 0.0, 1.0)
     return a + t[:, None] * ab, t
+
+
+def empty_closest(m: int, nv: int) -> dict[str, npt.NDArray[Any]]:
+    """The closest-point record of ``m`` points on a surface of ``nv``-vertex facets, before the search: closest
+    point, facet weights, facet, normal (zeros) and whether a facet was found (False)."""
+    return {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
+            "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
 
 
 def _closest_triangle(p: Array, X: Array) -> tuple[Array, Array, Array]:
@@ -326,8 +335,7 @@ def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp])
     grouped by radius (powers of 2) with a KD-tree per group, so the small facets of a graded surface are not
     searched with the radius of its largest facet."""
     m, nv = x.shape[0], surface.X.shape[1]
-    out = {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
-           "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
+    out = empty_closest(m, nv)
     nf = surface.X.shape[0]
     if m == 0 or nf == 0:
         return out
