@@ -47,6 +47,7 @@ from fenics_coulomb.problem_arguments import as_settings, check_petsc_options, s
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
+from fenics_coulomb.scd.resolvent import OPEN
 from fenics_coulomb.settings import SolverSettings
 from fenics_coulomb.sliding_solve import SlidingSolve
 from fenics_coulomb.start_rule import auto_start, interpolate_displacement
@@ -421,10 +422,14 @@ class ContactProblem(SlidingSolve):
         try:
             return solver.solve(start, reduction)
         except SolverError as err:
-            if err.result is not None:
-                err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
-                self._finish(err.result)
-            raise
+            if err.result is None:
+                raise
+            err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
+            self._finish(err.result)
+            why = model.coupling.lost_support(model, np.asarray(err.result.states) != OPEN)
+            if why is None:
+                raise
+            raise SolverError(f"{err}; {why}", err.reason, err.result) from err
 
     def _verify(self, result: SolveResult) -> None:
         """Let the physics checks decide a converged solve (collective): the residuals are kept in the result,

@@ -22,7 +22,7 @@ from conftest import gather_by_coordinates, global_norm
 
 from fenics_coulomb import ContactProblem, Plane
 from fenics_coulomb.model.checks import physics_residuals, unconstrained_residual
-from fenics_coulomb.errors import InputError
+from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.dof_values import owned_values
@@ -406,6 +406,31 @@ def test_a_body_held_along_the_contact_normal_by_contact_alone(friction):
         assert forces["balance"] < 1e-8
     with pytest.raises(InputError, match="body 1 .* rigid motions"):
         ContactProblem(a, L, [clamp, held[0]], contact_pairs=[pair], petsc_options_prefix="held_by_contact_")
+
+
+def test_a_body_held_by_contact_alone_that_lifts_off_is_named():
+    """The upper block of the test above pulled UP by its top traction: nothing holds its motion along x3 once
+    it lifts off, and the solve fails (max_it) with a message naming the body, its centroid and the pair —
+    on every rank, with the pair's closed nodes in the last iterate. Pressed down, the same problem converges
+    (the previous test)."""
+    msh, ft = two_blocks(MPI.COMM_WORLD, gap=0.0)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    a = elasticity(V)
+    clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)
+    top = ft.find(UPPER_TOP)
+    held = [dolfinx.fem.dirichletbc(0.0, dolfinx.fem.locate_dofs_topological(V.sub(k), 2, top), V.sub(k))
+            for k in (0, 1)]
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=ft)
+    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, 0.05])), ufl.TestFunction(V)) * ds(UPPER_TOP)
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3, name="blocks")
+    with ContactProblem(a, L, [clamp, *held], contact_pairs=[pair], settings={**TIGHT, "max_it": 8},
+                        petsc_options_prefix="lifted_off_") as problem:
+        with pytest.raises(SolverError) as failure:
+            problem.solve()
+    message = str(failure.value)
+    assert failure.value.reason == "max_iterations"
+    assert "body 1 (centroid (" in message and "is held by contact alone (contact pair 'blocks' 1)" in message
+    assert "if the loads lift it off, nothing holds its rigid motion" in message
 
 
 def _grams(midpoints, normals):

@@ -105,7 +105,9 @@ class PairCoupling(Coupling):
         #: Never slave contact nodes: clamped, or held at a non-zero value.
         self._excluded = model.not_contact()
         self.body_of_block, self.num_bodies = connected_bodies(V)
-        check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows, self.pairs)
+        #: The bodies whose supports leave rigid motions free that contact alone holds.
+        self.held_by_contact = check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows,
+                                                   self.pairs)
         self.A_free = assemble_matrix(model.a)
         self.A_free.setOptionsPrefix(f"{model.prefix}A_free_")
         if contact is not None:
@@ -364,6 +366,24 @@ class PairCoupling(Coupling):
         x.destroy()
         y.destroy()
         return free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+
+    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_]) -> str | None:
+        if not self.held_by_contact or self.pairing is None:
+            return None
+        mine = np.asarray(closed, dtype=bool)[self._paired]
+        counts = np.bincount(self.pairing.pair_index[mine], minlength=len(self.pairs)).astype(np.int64)
+        counts = np.ascontiguousarray(counts[:len(self.pairs)])
+        model.comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
+        labels = [f"{pair.label} {i + 1}" for i, pair in enumerate(self.pairs)]
+        parts = []
+        for held in self.held_by_contact:
+            n = int(counts[list(held.pairs)].sum())
+            parts.append(held.describe(labels) + (
+                ": no contact node of it is closed in the last iterate — the loads lift it off, and nothing holds its "
+                "rigid motion (support it, or load it onto its partner)" if n == 0 else
+                f": {n} contact node(s) of it closed in the last iterate — if the loads lift it off, nothing holds "
+                "its rigid motion (support it, or load it onto its partner)"))
+        return "; ".join(parts)
 
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
         """The number of free slave nodes whose gap is below −tol × the mesh size, on all ranks (collective)."""

@@ -47,6 +47,7 @@ node j the reaction f_j = −Σ_s φ_sj f_s.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -66,8 +67,8 @@ from fenics_coulomb.errors import check_all
 if TYPE_CHECKING:
     from fenics_coulomb.model.pairs.pair import ContactPair
 
-__all__ = ["HELD_FRACTION", "connected_bodies", "check_rigid_support", "held_fraction", "coupling_matrix",
-           "body_rigid_modes"]
+__all__ = ["HELD_FRACTION", "HeldByContact", "connected_bodies", "check_rigid_support", "held_fraction",
+           "coupling_matrix", "body_rigid_modes"]
 
 logger = logging.getLogger(__name__)
 
@@ -177,10 +178,33 @@ def held_fraction(free: Array, normal_gram: Array, motion_gram: Array) -> float:
     return float(np.linalg.eigvalsh(Li @ A @ Li.T)[0])
 
 
+@dataclass(frozen=True)
+class HeldByContact:
+    """A body whose supports leave rigid motions free that contact alone holds (:func:`check_rigid_support`).
+
+    Attributes:
+        body: The body's index (:func:`connected_bodies`).
+        centroid: Its centroid in the reference configuration.
+        pairs: The indices of the contact pairs whose contact holds it.
+    """
+
+    body: int
+    centroid: tuple[float, float, float] | tuple[float, ...]
+    pairs: tuple[int, ...]
+
+    def describe(self, labels: Sequence[str]) -> str:
+        """The body and its holding pairs in words (``labels``: every pair's label)."""
+        where = ", ".join(f"{c:.4g}" for c in self.centroid)
+        pairs = ", ".join(labels[i] for i in self.pairs)
+        return f"body {self.body} (centroid ({where})) is held by contact alone ({pairs})"
+
+
 def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
-                        dirichlet: npt.NDArray[np.int32], pairs: Sequence[ContactPair] = ()) -> None:
+                        dirichlet: npt.NDArray[np.int32], pairs: Sequence[ContactPair] = ()
+                        ) -> list[HeldByContact]:
     """InputError on every rank unless every body's rigid motions are held: by its Dirichlet DOFs, or those its
-    Dirichlet DOFs leave free by contact with a body that its own supports hold.
+    Dirichlet DOFs leave free by contact with a body that its own supports hold. Returns the bodies held by
+    contact alone (the same list on every rank).
 
     The rigid modes r of body b restricted to its prescribed (owned, unrolled) DOFs give the Gram matrix
     G = Σ r_Dᵀ r_D (summed over ranks; coordinates relative to the body's centroid, scaled by its size); its
@@ -222,27 +246,37 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     supported = ~free.any(axis=1)
     normal_gram = np.zeros((num_bodies, 6, 6))  # G_c per body: Σ (n·r)ᵀ(n·r) over its held contact facets
     motion_gram = np.zeros((num_bodies, 6, 6))  # Σ rᵀr over the same facets: the motions' whole size there
-    for pair in pairs:
+    held_by: list[list[int]] = [[] for _ in range(num_bodies)]  # the pairs whose contact holds each body
+    for index, pair in enumerate(pairs):
         sides = [_surface_normals(V, body, pair.facet_tags, tags) for tags in (pair.slave_tags, pair.master_tags)]
+        holds: list[list[int]] = [[], []]
         on = [np.unique(np.concatenate(comm.allgather(np.unique(side[0])))) for side in sides]
         for this, other in ((0, 1), (1, 0)):
             if not np.all(supported[on[other]]):
                 continue
+            holds[this].append(index)
             fb, midpoint, normal = sides[this]
             modes = _modes_at((midpoint - centroid[fb]) / extent[fb, None])
             seen = np.einsum("fi,fia->fa", normal, modes)
             np.add.at(normal_gram, fb, np.einsum("fa,fb->fab", seen, seen))
             np.add.at(motion_gram, fb, np.einsum("fia,fib->fab", modes, modes))
+        for this in (0, 1):
+            if holds[this]:
+                for k in on[this]:
+                    held_by[int(k)].append(index)
     comm.Allreduce(MPI.IN_PLACE, normal_gram, op=MPI.SUM)
     comm.Allreduce(MPI.IN_PLACE, motion_gram, op=MPI.SUM)
     bad = []
+    by_contact = []
     for k in range(num_bodies):
         if supported[k]:
             continue
         fraction = held_fraction(eigenvectors[k][:, free[k]], normal_gram[k], motion_gram[k])
         if fraction < HELD_FRACTION:
             bad.append(k)
-        elif comm.rank == 0:
+            continue
+        by_contact.append(HeldByContact(k, tuple(float(c) for c in centroid[k]), tuple(sorted(set(held_by[k])))))
+        if comm.rank == 0:
             logger.info("body %d: %d rigid motion(s) left free by its supports are held by contact alone (normal "
                         "fraction %.3g)", k, int(free[k].sum()), fraction)
     where = ""
@@ -251,6 +285,7 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     check_all(comm, not bad, f"body {bad[0] if bad else 0}{where} of the {num_bodies} bodies has no boundary "
               "conditions that remove its rigid motions: prescribe or clamp enough of its boundary (contact holds "
               "a body only along the normals of a pair with a body its own supports hold)")
+    return by_contact
 
 
 def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
