@@ -45,6 +45,14 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   ray inside a facet or on M's outer boundary, so a node beside M's outer edge is free). The node is a
   contact node of the pair if dist(d, C) <= 1e-8 h or dist(−d, C) <= 1e-8 h (or |d| <= 1e-10 h) and
   |g| <= ``search_distance`` (default 0.1 × the diagonal of the master surface's bounding box).
+* Aligned borders: a node whose closest point lies on M's outer border (one facet) but whose foot on that
+  facet's plane lies within BORDER_TOL = 1e-4 h of it (|d − (d·n_f) n_f| <= BORDER_TOL·h) is over the facet:
+  paired with n = n_f. Where the slave's and the master's borders are aligned (both bodies held on one face: the
+  faces of a plane-strain slice, a symmetry plane), the deformation tilts the master facet out of the border's
+  plane by a small angle τ, and a node pressed to a depth |g| then lies |g|·τ beside the border: the tilted
+  shaft facets of the shrink fit in finite sliding put 2–10 nodes per update there (|g| up to 4e-3, τ ≈ 1e-3), each
+  such node then free and penetrating by 1e-3 the next, and the geometry never settled. The tolerance is mortar's
+  ALIGNED_TOL (:mod:`fenics_coulomb.model.pairs.segmentation`, "Coverage at aligned borders").
 * SIGN CHOICE: "d lies in the normal cone" is read as "±d lies in it", so that a slave node inside the
   master body (d points into it: −d is in C) is paired with g < 0 (n = −d/|d| at an edge/vertex, n_f inside
   a facet; g = d·n = −|d|). When both hold (only possible for a cone containing a line), +d is used.
@@ -77,8 +85,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-__all__ = ["TIE_TOL", "CONE_TOL", "Surface", "norm", "dot", "where", "outward_normals", "local_facets", "facet_data",
-           "gather_surface", "project", "select_candidates", "node_size", "facet_sizes", "facet_ranks",
+__all__ = ["TIE_TOL", "CONE_TOL", "BORDER_TOL", "Surface", "norm", "dot", "where", "outward_normals", "local_facets",
+           "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes", "facet_ranks",
            "empty_closest"]
 
 Array = npt.NDArray[np.float64]
@@ -87,6 +95,9 @@ Array = npt.NDArray[np.float64]
 #: (in reference coordinates); the normal cone.
 TIE_TOL = 1e-10
 CONE_TOL = 1e-8
+#: A node whose closest point lies on M's outer border is over the facet when its foot on the facet's plane lies
+#: within this × the facet size of the border (aligned borders: mortar's ALIGNED_TOL, the module docstring).
+BORDER_TOL = 1e-4
 
 
 # -- facet geometry ---------------------------------------------------------------------------------------
@@ -420,6 +431,13 @@ def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array,
         unit = d[sel] / dn[sel, None]
         n[sel] = np.where(plus[:, None], unit, np.where(minus[:, None], -unit, n[sel]))
         paired[sel] = plus | minus
+        # at M's outer border (one facet): over the facet when its foot on the facet's plane lies within
+        # BORDER_TOL·h of the border (aligned borders, module docstring)
+        nf = normals[rows[sel], chosen[sel]]
+        border = ~paired[sel] & (tied[sel].sum(axis=1) == 1) & (norm(d[sel] - dot(d[sel], nf)[:, None] * nf)
+                                                                 <= BORDER_TOL * h[sel])
+        n[sel[border]] = nf[border]
+        paired[sel[border]] = True
     # x_s on the surface: the normalized sum of the tied facets' normals
     sel = np.flatnonzero(tiny)
     if sel.size:
