@@ -31,3 +31,17 @@ def test_shrink_fit_finite_equals_small(monkeypatch):
     assert finite["pressure"] == pytest.approx(small["pressure"], rel=2e-3)
     assert finite["hoop"] == pytest.approx(small["hoop"], rel=2e-3)
     assert finite["err_pressure"] < 0.0 and finite["err_hoop"] < 0.0  # still below Lamé: the facetting
+
+
+def test_node_to_surface_shrink_fit_settles(monkeypatch):
+    """Node-to-surface, level 0: finite sliding settles with all 42 bore nodes in contact and the pressure of small
+    sliding to 2e-4 (measured 7e-5). It exited 3 after 10 updates before the aligned-border rule, the support floor
+    at the geometry's round-off and the cone's mean direction for vague normals (docs/sliding, "third round")."""
+    results = {}
+    for sliding in ("small", "finite"):
+        monkeypatch.setattr(verification, "SHRINK_SLIDING", sliding)
+        results[sliding] = verification.shrink_fit(MPI.COMM_WORLD, "node-to-surface", 0)
+    small, finite = results["small"], results["finite"]
+    assert finite["converged"] and finite["contact_nodes"] == finite["held"] == small["contact_nodes"] == 42
+    assert finite["pressure"] == pytest.approx(small["pressure"], rel=2e-4)
+    assert finite["hoop"] == pytest.approx(small["hoop"], rel=2e-4)
