@@ -1098,14 +1098,14 @@ orthogonal to the held direction, and no slave node is dropped.
 | h₀ = a/20, growth 0.15 (level 3) | 150 096 | −0.48 % | +0.71 % | −0.14 % | +6.9 % (the corner node) |
 
 a is read between nodes (±h₀/2 = ±6 %, ±4 %, ±3 % of a: within that on every level). p₀ falls with h₀ (+2.78,
-+1.49, +1.02, +0.71 %: about h₀^1.4); the 1 % bound is met at level 3 (150 096 unknowns, 545 s on 2 ranks at
-load 9), as is a's. The nodal pressures at the symmetry planes are biased high: the corner node at the origin
++1.49, +1.02, +0.71 %: about h₀^1.4); the 1 % bound is met at level 3 (150 096 unknowns, 545–853 s on 2 ranks at
+load 9–10), as is a's. The nodal pressures at the symmetry planes are biased high: the corner node at the origin
 (both components held) by +14, +12, +7 % (levels 0, 1, 3), the nodes on x2 = 0 by about +5 %, those on x1 = 0 by
 +1 % (level 0; the asymmetry between the two planes is the tetrahedra's fixed diagonal direction), against +1.2
 % in the interior — a mortar effect of the symmetry model (the rigid sphere of §2, no mortar, peaks at the first
 node off the axis with +1–2 %), which enters p₀'s mean over r < a/2 (at level 3 the mean off the planes is −0.14
-%, with them +0.71 %). The peak-pressure bound of §2 (3 %) is therefore not claimed here. 1 vs 2 ranks: 6.1e-8
-at level 1 with the residual reduction 1e-10 (the table's runs); the models now reduce to 1e-12, and
+%, with them +0.71 %). The peak-pressure bound of §2 (3 %) is therefore not claimed here. 1 vs 2 ranks: 9.3e-10
+at level 1 with the models' residual reduction 1e-12 (the table's runs; 6.1e-8 at 1e-10 before), and
 tests/problems/test_two_body_cores.py checks the agreement to 1e-8 at level 0. The structured cores remove the
 unstructured slave's scatter of the former case 9 (±5–10 % around the profile, the fitted p₀ +5.0 % at h = a/4.5
 and +4.1 % at a/9, not falling with h).
