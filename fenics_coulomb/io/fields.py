@@ -61,8 +61,7 @@ def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx
     bodies: 1, 2, … per connected component, numbered by its smallest mesh-file node index) and master_reaction
     for contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
     V = model.V
-    msh = V.mesh
-    S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
+    S = model.scalar_space
     cmap = model.contact
     to_scalar = block_to_scalar_dofs(V, S)
     scalar_dofs = to_scalar[cmap.blocks]

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import weakref
+
 from petsc4py import PETSc
 
 import dolfinx
@@ -38,15 +40,27 @@ def contact_areas(model: ContactModel) -> npt.NDArray[np.float64]:
     return model.coupling.contact_areas(_lumped_areas(model))
 
 
+#: ∫ φᵢ ds over each model's contact boundary per owned DOF block (the mesh, its facet tags and the markers never
+#: change in a model's life; plain arrays, no PETSc object).
+_LUMPED: weakref.WeakKeyDictionary[ContactModel, npt.NDArray[np.float64]] = weakref.WeakKeyDictionary()
+
+
 def _lumped_areas(model: ContactModel) -> npt.NDArray[np.float64]:
-    """∫ φᵢ ds over the contact boundary at each owned contact node (collective)."""
-    msh = model.V.mesh
-    S = dolfinx.fem.functionspace(msh, ("Lagrange", 1))
-    v = ufl.TestFunction(S)
-    ds = ufl.Measure("ds", domain=msh, subdomain_data=model.facet_tags)
-    form = dolfinx.fem.form(sum((v * ds(tag) for tag in model.markers[1:]), v * ds(model.markers[0])))
-    b = dolfinx.fem.petsc.assemble_vector(form)
-    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    values = b.getArray(readonly=True).copy()
-    b.destroy()
-    return values[block_to_scalar_dofs(model.V, S)[model.contact.blocks]]
+    """∫ φᵢ ds over the contact boundary at each owned contact node (assembled once per model; collective the
+    first time)."""
+    if model not in _LUMPED:
+        msh = model.V.mesh
+        S = model.scalar_space
+        v = ufl.TestFunction(S)
+        ds = ufl.Measure("ds", domain=msh, subdomain_data=model.facet_tags)
+        form = dolfinx.fem.form(sum((v * ds(tag) for tag in model.markers[1:]), v * ds(model.markers[0])))
+        b = dolfinx.fem.petsc.assemble_vector(form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        values = b.getArray(readonly=True).copy()
+        b.destroy()
+        per_block = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts)
+        to_scalar = block_to_scalar_dofs(model.V, S)
+        owned = to_scalar < values.size
+        per_block[owned] = values[to_scalar[owned]]
+        _LUMPED[model] = per_block
+    return _LUMPED[model][model.contact.blocks]
