@@ -15,6 +15,7 @@ import logging
 import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mpi4py import MPI
 
@@ -33,6 +34,10 @@ from fenics_coulomb.scenes.nested import (NESTED_LEVEL_STEP, nested_levels, reso
                                           start_from_coarse)
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_for_accuracy
+
+if TYPE_CHECKING:
+    from fenics_coulomb.scd.records import SolveResult
+    from fenics_coulomb.scenes.path import PathSolve, StepRecord
 
 __all__ = ["BYTES_PER_UNKNOWN", "BYTES_PER_RANK", "scene_from_args", "prepare_output", "run",
            "check_path_arguments", "run_load_path", "friction_text", "force_lines", "contact_lines", "check_memory",
@@ -247,20 +252,22 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
             with out.writing() as tmp:
                 results = PathResultSet(tmp, problem, initial=start_step is None)
 
-                def write_grid(solve, record, result) -> None:  # noqa: ANN001
+                def write_grid(solve: PathSolve, record: StepRecord, result: SolveResult) -> None:
                     step = (f"step {solve.step}" if solve.substeps == 1
                             else f"step {solve.step} ({solve.substep}/{solve.substeps})")
                     results.write_solve(solve.time, step, result)
 
-                records, result, failure = run_path(problem, built.loads, todo, labels,
+                assert built.loads is not None  # a path scene's build has its load coefficients
+                records, last, failure = run_path(problem, built.loads, todo, labels,
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
                 out.failed = bool(failure)
                 path = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
                         "start_step": start_step, "start": scene.start if start_step is not None else None,
                         "ramp_steps": getattr(args, "steps", None)}
+                assert last is not None  # at least one solve ran
                 data = results.finish(
-                    [r.as_dict() for r in records], result, label=scene.label, plots=not args.no_plots,
+                    [r.as_dict() for r in records], last, label=scene.label, plots=not args.no_plots,
                     extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
                            "converged": not failure, "reason": failure or "converged", "path": path},
                     timings={"model": t_model, "mesh": built.mesh_time, "assembly": problem.model_time}, wall_start=t0)

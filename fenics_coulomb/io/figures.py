@@ -71,7 +71,7 @@ def gather_contact(
     """Gather contact-node coordinates and states on rank 0 (None elsewhere)."""
     xs = comm.gather(coordinates, root=0)
     ss = comm.gather(states, root=0)
-    if comm.rank != 0:
+    if comm.rank != 0 or xs is None or ss is None:
         return None
     return np.concatenate(xs), np.concatenate(ss)
 
@@ -191,7 +191,7 @@ def contact_view(normal: npt.ArrayLike | None) -> tuple[npt.NDArray[np.float64],
     at −n), tilted by about 30° so that the body's depth shows. Without contact: from below and in front."""
     n = np.asarray(normal, dtype=np.float64) if normal is not None else np.array([0.0, 0.0, 1.0])
     length = float(np.linalg.norm(n))
-    n = n / length if np.isfinite(length) and length > 0 else np.array([0.0, 0.0, 1.0])
+    n = np.asarray(n / length if np.isfinite(length) and length > 0 else np.array([0.0, 0.0, 1.0]), dtype=np.float64)
     tilt = np.array([0.55, -1.0, 0.0])
     tilt = tilt - (tilt @ n) * n
     if np.linalg.norm(tilt) < 1e-6:

@@ -380,16 +380,20 @@ class ContactModel:
             raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")
         self.obstacles = obstacles
         previous_obstacles = previous_placements(obstacles, previous_obstacle_displacements)
-        if previous_obstacle_displacements is not None and len(previous_obstacle_displacements) and \
-                isinstance(previous_obstacle_displacements[0], Obstacle):
-            previous_obstacle_displacements = [o.displacement for o in previous_obstacle_displacements]
+        previous_deltas: npt.ArrayLike | None
+        if isinstance(previous_obstacle_displacements, Sequence) and len(previous_obstacle_displacements) and \
+                all(isinstance(o, Obstacle) for o in previous_obstacle_displacements):
+            previous_deltas = [o.displacement for o in previous_obstacle_displacements
+                               if isinstance(o, Obstacle)]
+        else:
+            previous_deltas = previous_obstacle_displacements  # type: ignore[assignment]
         cmap = self.contact
         rigid = np.flatnonzero(~self.coupling.paired_mask(cmap.size))
-        offset = np.zeros((cmap.size, 3))
+        offset: npt.NDArray[np.float64] = np.zeros((cmap.size, 3))
         #: Cartesian displacement δ of each contact node's obstacle, shape (m, 3).
         self.obstacle_displacement = np.zeros((cmap.size, 3))
         self.placement.place(cmap, rigid, obstacles, self.configuration, previous_displacement, previous_obstacles,
-                             previous_obstacle_displacements, offset, self.obstacle_displacement)
+                             previous_deltas, offset, self.obstacle_displacement)
         if cmap.held is not None:  # held components tangential to the contact (collective)
             cmap.frames[rigid] = hold(cmap.frames[rigid], cmap.held[rigid], cmap.coordinates[rigid], self.comm)
         self.coupling.place(self)  # the coupling's own nodes' gaps (contact pairs)

@@ -191,7 +191,7 @@ def _signature(comm: MPI.Comm, nodes: npt.NDArray[np.int64], rows: npt.NDArray[n
 def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
     everyone = np.concatenate(comm.allgather(np.asarray(x, dtype=np.float64).reshape(-1, 3)[:3]))
     order = np.lexsort(everyone.T[::-1]) if everyone.size else np.zeros(0, np.intp)
-    return [tuple(float(c) for c in everyone[i]) for i in order[:3]]
+    return [(float(everyone[i, 0]), float(everyone[i, 1]), float(everyone[i, 2])) for i in order[:3]]
 
 
 def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float,
@@ -222,7 +222,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     delta = np.zeros(cmap.size)
     moved = np.zeros(cmap.size, dtype=bool)
     x_now = cmap.coordinates + U[cmap.blocks]
-    index = np.zeros(0, np.intp)
+    index: npt.NDArray[np.signedinteger] = np.zeros(0, np.intp)
     if rigid.size:
         uc = U[cmap.blocks[rigid]]
         index, g, n, _ = model.closest(model.obstacles, x_now[rigid])

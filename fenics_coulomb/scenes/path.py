@@ -446,28 +446,29 @@ def run_path(
             problem.move(j, delta, rotation=rotation)
         failure = ""
         try:
-            _, result = problem.solve(u0 if i == 0 else None)
+            step_result: SolveResult
+            _, step_result = problem.solve(u0 if i == 0 else None)
         except SolverError as err:
             if err.result is None:
                 raise
-            result = err.result
+            step_result = err.result
             failure = str(err)
-        if not failure and not result.converged:
-            failure = result.reason
+        if not failure and not step_result.converged:
+            failure = step_result.reason
         wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-        counts = result.counts
-        report = make_report(model, result, model.obstacles, groups)  # the forces: one definition
+        counts = step_result.counts
+        report = make_report(model, step_result, model.obstacles, groups)  # the forces: one definition
         record = StepRecord(
             index=solve.index, time=solve.time, step=solve.step, substep=solve.substep, substeps=solve.substeps,
-            load_factor=solve.load_factor, converged=not failure, reason=failure or result.reason,
-            newton_iterations=int(result.iterations), krylov_iterations=int(result.krylov_iterations),
+            load_factor=solve.load_factor, converged=not failure, reason=failure or step_result.reason,
+            newton_iterations=int(step_result.iterations), krylov_iterations=int(step_result.krylov_iterations),
             counts=dict(counts), contact_force=[float(c) for c in report.total_force],
             applied_load=[float(c) for c in report.applied_load],
             reactions={name: [float(c) for c in v] for name, v in report.reactions.items()},
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
             obstacle_rotations={name: _plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
-            wall_time_s=wall, residual_history=[float(r) for r in result.residual_history],
-            geometry_updates=int(result.geometry_updates), groups=contact_groups(model, result))
+            wall_time_s=wall, residual_history=[float(r) for r in step_result.residual_history],
+            geometry_updates=int(step_result.geometry_updates), groups=contact_groups(model, step_result))
         records.append(record)
         if solve.substeps == 1:
             where = f"step {solve.step}/{last_step} (load factor {solve.load_factor:.4g})"
@@ -484,7 +485,8 @@ def run_path(
                     record.newton_iterations, record.krylov_iterations, updates, counts["open"], counts["stick"],
                     counts["slip"], ", ".join(f"{c:.6g}" for c in record.contact_force), wall, eta)
         if on_solve is not None:
-            on_solve(solve, record, result)
+            on_solve(solve, record, step_result)
+        result = step_result
         if failure:
             return records, result, failure
     return records, result, ""

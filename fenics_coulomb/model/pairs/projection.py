@@ -198,6 +198,8 @@ def _closest_quad(p: Array, X: Array) -> tuple[Array, Array, Array]:
     xi_c, eta_c = np.clip(xi, 0.0, 1.0), np.clip(eta, 0.0, 1.0)
     candidates = [(_quad_map(X, xi_c, eta_c)[0], _quad_weights(xi_c, eta_c), inside)]
     ones, zeros = np.ones(k), np.zeros(k)
+    a: Array
+    b: Array
     for i, j, fixed in ((0, 1, "eta0"), (2, 3, "eta1"), (0, 2, "xi0"), (1, 3, "xi1")):
         q, t = _segment(p, X[:, i], X[:, j])
         if fixed.startswith("eta"):
@@ -236,11 +238,11 @@ def _on_boundary(w: Array) -> Array:
 def outward_normals(X: Array, w: Array, sign: Array) -> Array:
     """Outward unit normals of facets X (k, nv, 3) at the reference points of the weights w (k, nv)."""
     if X.shape[1] == 3:
-        N = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+        N: Array = np.asarray(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), dtype=np.float64)
     else:
         xi, eta = _reference(w)
         _, xx, xe = _quad_map(X, xi, eta)
-        N = np.cross(xx, xe)
+        N = np.asarray(np.cross(xx, xe), dtype=np.float64)
     return sign[:, None] * N / norm(N)[:, None]
 
 
@@ -314,7 +316,7 @@ def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
     when d is a non-negative combination) — are evaluated for every combination at once (the same arithmetic per
     combination as one at a time, so the same bits)."""
     k, q = mask.shape
-    best = np.full(k, np.inf)
+    best: Array = np.full(k, np.inf)
     if k == 0 or q == 0:
         return best
     c = np.maximum(dot(d[:, None], N), 0.0)
@@ -333,9 +335,9 @@ def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
         res = norm(dd - ca[..., None] * a - cb[..., None] * b)
         best = np.minimum(best, np.min(np.where(ok, res, np.inf), axis=1, initial=np.inf))
     if q >= 3:
-        i, j, m = (t.ravel() for t in np.meshgrid(*(np.arange(q),) * 3, indexing="ij"))
-        triple = (i < j) & (j < m)
-        i, j, m = i[triple], j[triple], m[triple]
+        grid = [t.ravel() for t in np.meshgrid(*(np.arange(q),) * 3, indexing="ij")]
+        triple = (grid[0] < grid[1]) & (grid[1] < grid[2])
+        i, j, m = grid[0][triple], grid[1][triple], grid[2][triple]
         M = np.stack([N[:, i], N[:, j], N[:, m]], axis=3)  # (k, T, 3, 3), columns the three normals
         det = np.linalg.det(M)
         ok = mask[:, i] & mask[:, j] & mask[:, m] & (np.abs(det) > 1e-12)

@@ -124,6 +124,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import chain
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -174,11 +175,11 @@ _VERTICES = {3: np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]),
              4: np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])}
 
 
-def _dot(a: Array, b: Array) -> Array:
+def _dot(a: npt.NDArray[Any], b: npt.NDArray[Any]) -> Array:
     return np.einsum("...i,...i->...", a, b)
 
 
-def _norm(a: Array) -> Array:
+def _norm(a: npt.NDArray[Any]) -> Array:
     return np.sqrt(_dot(a, a))
 
 
@@ -236,8 +237,8 @@ def dual_coefficients(X: Array) -> tuple[Array, Array]:
         xi, eta = GAUSS7[:, 1], GAUSS7[:, 2]
         w = 0.5 * GAUSS7_W
     else:
-        g, gw = np.polynomial.legendre.leggauss(4)
-        g, gw = 0.5 * (g + 1), 0.5 * gw
+        nodes, node_weights = np.polynomial.legendre.leggauss(4)
+        g, gw = 0.5 * (nodes + 1), 0.5 * node_weights
         xi, eta = np.repeat(g, 4), np.tile(g, 4)
         w = np.repeat(gw, 4) * np.tile(gw, 4)
     N = shape_functions(nv, xi, eta)  # (q, nv)
@@ -486,7 +487,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
 
     idx = node_index(B)
     ok = idx >= 0
-    full = np.bincount(idx[ok], weights=De[ok], minlength=m)
+    full: Array = np.bincount(idx[ok], weights=De[ok], minlength=m).astype(np.float64, copy=False)
     normal = frame_normals[np.searchsorted(vertices, nodes)]
     # geometric coverage: each slave facet's clip areas (in the global pair order) over its projected area; a
     # node's coverage is the smallest of its facets'
@@ -514,9 +515,10 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     f = np.concatenate(parts["m"])
     idx = node_index(B[e])  # (k, nv)
     ok = idx >= 0
-    D = np.bincount(idx[ok], weights=np.concatenate(parts["D"])[ok], minlength=m)
-    covered = np.bincount(idx[ok], weights=np.concatenate(parts["cov"])[ok], minlength=m)
-    gt = np.bincount(idx[ok], weights=np.concatenate(parts["g"])[ok], minlength=m)
+    D: Array = np.bincount(idx[ok], weights=np.concatenate(parts["D"])[ok], minlength=m).astype(np.float64, copy=False)
+    covered: Array = np.bincount(idx[ok], weights=np.concatenate(parts["cov"])[ok],
+                                 minlength=m).astype(np.float64, copy=False)
+    gt: Array = np.bincount(idx[ok], weights=np.concatenate(parts["g"])[ok], minlength=m).astype(np.float64, copy=False)
     Mv = np.concatenate(parts["M"])  # (k, nv, nvm)
     rows = np.broadcast_to(idx[:, :, None], Mv.shape)
     cols = np.broadcast_to(mB[f][:, None, :], Mv.shape)
@@ -530,8 +532,8 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     keep = np.abs(phi) > DROP_TOL
     r, l, phi, sums = r[keep], l[keep], phi[keep], sums[keep]
     width = max(int(np.bincount(r, minlength=m).max(initial=0)), 1)
-    start = np.searchsorted(r, np.arange(m))
-    slot = np.arange(r.size) - start[r]
+    first = np.searchsorted(r, np.arange(m))
+    slot = np.arange(r.size) - first[r]
     blocks = np.full((m, width), -1, np.int64)
     stencil, Mjl = np.zeros((m, width)), np.zeros((m, width))
     blocks[r, slot], stencil[r, slot], Mjl[r, slot] = l, phi, sums

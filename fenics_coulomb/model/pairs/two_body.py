@@ -229,7 +229,7 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     np.add.at(sums, owned_body, np.column_stack([x, np.ones(n)]))
     comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
     centroid = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
-    extent = np.zeros(num_bodies)
+    extent: npt.NDArray[np.float64] = np.zeros(num_bodies)
     np.maximum.at(extent, owned_body, np.linalg.norm(x - centroid[owned_body], axis=1))
     comm.Allreduce(MPI.IN_PLACE, extent, op=MPI.MAX)
     extent = np.maximum(extent, np.finfo(float).tiny)
