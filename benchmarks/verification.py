@@ -66,10 +66,9 @@ ROOT = Path(__file__).resolve().parents[1]
 from benchmarks.two_body_patch import exact_pressure  # noqa: E402
 from benchmarks.two_body_patch import run as patch_run  # noqa: E402
 
+from benchmarks.verification_mindlin import MINDLIN_CORE_LEVELS, MINDLIN_LOADS, mindlin_core  # noqa: E402
 from benchmarks.verification_two_body import (  # noqa: E402
     CORE_DELTA,
-    MINDLIN_LEVELS,
-    cattaneo_mindlin,
     hertz_core,
 )
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
@@ -684,32 +683,88 @@ def _clamp_share(r: dict[str, Any]) -> float:
     return 1.5 * axis_displacement(r["force"], W, radius=r["radius_sphere"]) / r["depth"]
 
 
-def _mindlin_rows(comm: MPI.Comm, levels: tuple[int, ...]) -> list[dict[str, Any]]:
-    """Cattaneo–Mindlin's rows: per level and tangential step the stick radius c/a against (1 − Q/FP)^{1/3}."""
+MINDLIN_KEYS = ("load", "c_fit", "c_sep", "slip", "side")
+
+
+def _mindlin_agreement(r: dict[str, Any], one: dict[str, Any]) -> float:
+    """Largest relative difference between the two-rank and one-rank runs of case 6: P, a, δ'(0), and per step
+    Q/μP, the fitted and separating stick radii, the slip part and the side force (each relative to its scale)."""
+    diffs = [abs(r[k] - one[k]) / abs(one[k]) for k in ("P", "a", "compliance0")]
+    for a, b in zip(r["steps"], one["steps"], strict=True):
+        for k in MINDLIN_KEYS:
+            if np.isfinite(b[k]):
+                scale = {"side": 1.0, "slip": abs(b["total_ref"])}.get(k, max(abs(b[k]), 1e-300))
+                diffs.append(abs(a[k] - b[k]) / scale)
+    return max(diffs)
+
+
+def _mindlin_rows(comm: MPI.Comm, levels: tuple[int, ...], raw: Path | None = None) -> list[dict[str, Any]]:
+    """Case 6's rows (benchmarks/verification_mindlin.py, the half model): per level and load step the stick radius
+    c/a (Cattaneo's traction fitted to the nodal tractions) against (1 − Q/μP)^{1/3} and the slip part of the
+    tangential displacement against Mindlin's; per unloading step the slip part against Mindlin–Deresiewicz's.
+    The first level also on one rank. ``raw``: a JSON file the results are written to, level by level."""
+    import json
+
     rows: list[dict[str, Any]] = []
-    source = "Johnson, Contact Mechanics (1985), §7.2 (Cattaneo 1938, Mindlin 1949): c/a = (1 − Q/μP)^{1/3}"
+    johnson = "Johnson, Contact Mechanics (1985), §7.2 (Cattaneo 1938, Mindlin 1949)"
+    previous: dict[str, float] = {}
+    results: dict[str, Any] = {}
     for i, level in enumerate(levels):
-        r = cattaneo_mindlin(comm, level)
+        r = mindlin_core(comm, level)
         agree = "—"
         if i == 0:
-            one = comm.bcast(_serial(comm, cattaneo_mindlin, level))
+            one = comm.bcast(_serial(comm, mindlin_core, level))
             assert one is not None
-            agree = f"{max(abs(a['c_over_a'] - b['c_over_a']) for a, b in zip(r['steps'], one['steps'])):.1e}"
-        h = MINDLIN_LEVELS[level][0]
-        for j, step in enumerate(r["steps"]):
+            agree = f"{_mindlin_agreement(r, one):.1e}"
+        results[str(level)] = {"two_ranks": r, "agree": agree}
+        if comm.rank == 0 and raw is not None:
+            raw.write_text(json.dumps(results, default=float, indent=1))
+        h0, growth, _ = MINDLIN_CORE_LEVELS[level]
+        common = {"case": "6. Cattaneo–Mindlin, β = 0 (mortar)",
+                  "level": f"{level}: h₀ = a/{1 / h0:.3g} (structured cores), growth {growth:g}, W = 200 a, R = 100, "
+                           "half, tetra",
+                  "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree}
+        base = (f"one material E 70 ν 0.3, μ = 0.3; P = {r['P']:.5f}, a {r['err_radius']:+.1%} of Hertz's "
+                f"(±h₀/2); everything relative to the press (its Q = {r['press_Q']:+.4f} μP, F₂ = "
+                f"{r['press_side']:+.4f} μP); δ'(0) = {r['compliance0']:.5f} from the probe Q/μP = {r['probe']:.4f} "
+                f"(half-spaces: {r['compliance0_halfspace']:.5f})")
+        for step in r["steps"]:
+            aim = step["kind"]
+            x = step["load"]
             if comm.rank == 0:
-                LOG.info(f"Cattaneo–Mindlin: level {level}, Q/μP {step['load']:.3f}, c/a {step['c_over_a']:.4f} "
-                         f"(reference {step['reference']:.4f}, {step['error']:+.2%}), {r['wall']:.1f} s")
-            rows.append({"case": "6. Cattaneo–Mindlin, β = 0 (mortar)",
-                         "quantity": f"stick radius c/a, shear step {j + 1}",
-                         "level": f"{level}: h = {h:g} = a/{1 / r['h_over_a']:.3g}, R = 4, tetra",
-                         "reference": f"{step['reference']:.4f}", "source": source,
-                         "value": f"{step['c_over_a']:.4f}", "error": step["error"], "bound": 3e-2,
-                         "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree,
-                         "note": f"Q/μP = {step['load']:.3f} (measured); one material E 70 ν 0.3, μ = 0.3; "
-                                 f"|c − c_ref| = {abs(step['c_error']):.4f} vs h/2 = {h / 2:g}; {step['stick']} of "
-                                 f"{step['closed']} closed nodes stick; P changed {step['P_change']:+.2%} (β = 0: "
-                                 f"none); the press left {r['closed'] - r['press_stick']} rim nodes slipping"})
+                LOG.info(f"Cattaneo–Mindlin: level {level}, {aim} Q/μP {x:+.3f}, c/a fit {step['c_fit_over_a']:.4f} "
+                         f"sep {step['c_over_a']:.4f} (ref {step['reference']:.4f}), slip {step['err_total']:+.2%}, "
+                         f"F2/Q {step['side']:+.2%}, {r['wall']:.1f} s")
+            state = (f"Q/μP = {x:.4f} measured; F₂/Q = {step['side']:+.2%}; stick centroid x̄₁ = "
+                     f"{step['centroid']:+.3f} a; {step['stick']} of {step['closed']} closed nodes stick; P changed "
+                     f"{step['P_change']:+.2%} (β = 0: none)")
+            if aim == "load":
+                tag = f"Q/μP ≈ {step['aim']:.1f}"
+                rows.append({**common, "quantity": f"stick radius c/a, {tag} (Cattaneo's traction fitted)",
+                             "reference": f"{step['reference']:.4f}",
+                             "source": johnson + ": c/a = (1 − Q/μP)^{1/3}", "value": f"{step['c_fit_over_a']:.4f}",
+                             "error": step["error_fit"], "bound": 3e-2,
+                             "note": f"{state}; the stick/slip nodes' separating radius gives c/a "
+                                     f"{step['c_over_a']:.4f} ({step['error']:+.2%}, ±h₀/2 = "
+                                     f"±{h0 / 2 / step['reference']:.0%} of c)"
+                                     + _trend(previous, f"c{tag}", step["error_fit"])})
+                rows.append({**common, "quantity": f"tangential compliance (slip part of δ), {tag}",
+                             "reference": f"{step['slip_ref']:.4e}",
+                             "source": johnson + ", eq. (7.42): δ = (3μP(2 − ν)/8Ga)[1 − (1 − Q/μP)^{2/3}]; "
+                                                 "s = δ − Q δ'(0)",
+                             "value": f"{step['slip']:.4e}", "error": step["err_total"], "bound": 2e-2,
+                             "note": f"error = (s − s_M)/δ_M (δ_M = {step['total_ref']:.4e}); s/s_M − 1 = "
+                                     f"{step['err_slip']:+.1%}; {state}; {base}"
+                                     + _trend(previous, f"s{tag}", step["err_total"])})
+            else:
+                tag = f"unloading to Q/μP ≈ {step['aim']:+.1f}"
+                rows.append({**common, "quantity": f"tangential compliance (slip part of δ), {tag}",
+                             "reference": f"{step['slip_ref']:.4e}",
+                             "source": "Mindlin & Deresiewicz (1953), Johnson §7.2: δ = δ* − 2δ_load((Q* − Q)/2)",
+                             "value": f"{step['slip']:.4e}", "error": step["err_total"], "bound": 2e-2,
+                             "note": f"from Q*/μP = {r['steps'][len(MINDLIN_LOADS) - 1]['load']:.4f}; error = "
+                                     f"(s − s_MD)/\\|δ_MD\\| (δ_MD = {step['total_ref']:.4e}); {state}"
+                                     + _trend(previous, f"s{tag}", step["err_total"])})
     return rows
 
 
@@ -1204,8 +1259,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", choices=("all", "two-body", "mindlin", "hertz", "hertz-two-bodies",
                                                    "incline-two-bodies"),
                         default="all",
-                        help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), mindlin: only "
-                             "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md; "
+                        help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), into "
+                             "verification_two_body.csv and two_body_rows.md; mindlin: only case 6's, into "
+                             "verification_mindlin.csv, mindlin_rows.md and mindlin_raw.json; "
                              "hertz-two-bodies: only case 9's (verification_hertz_two_bodies.csv, "
                              "hertz_two_bodies_rows.md); hertz: only "
                              "case 2's, into verification_hertz.csv, hertz_rows.md and hertz.png; incline-two-bodies: "
@@ -1226,10 +1282,14 @@ def main(argv: list[str] | None = None) -> int:
             rows = incline_two_body_rows(comm)
         elif args.cases == "hertz-two-bodies":
             rows = collect_two_body(comm, HERTZ2_TABLE_LEVELS, ())
+        elif args.cases == "mindlin":
+            if comm.rank == 0:
+                args.out.mkdir(parents=True, exist_ok=True)
+            rows = _mindlin_rows(comm, MINDLIN_TABLE_LEVELS, args.out / "mindlin_raw.json")
         else:
             rows = collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS)
         name = {"hertz": "hertz", "incline-two-bodies": "incline_two_bodies",
-                "hertz-two-bodies": "hertz_two_bodies"}.get(args.cases, "two_body")
+                "hertz-two-bodies": "hertz_two_bodies", "mindlin": "mindlin"}.get(args.cases, "two_body")
         if comm.rank == 0:
             args.out.mkdir(parents=True, exist_ok=True)
             with open(args.out / f"verification_{name}.csv", "w", newline="") as f:
