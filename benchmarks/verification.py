@@ -27,8 +27,11 @@ Cases (the derivations are in docs/verification/README.md):
   (R = 100) on an elastic block, a quarter model with structured cores under the contact in both bodies
   (meshes/sphere_on_block_half.py), dual mortar: a and p₀ against Hertz with 1/E* = Σ (1 − νᵢ²)/Eᵢ for the
   measured P.
-* **Cattaneo–Mindlin, β = 0** (benchmarks/verification_two_body.py): a hemisphere of radius 4 on a block of the
-  same material, pressed, then sheared in two steps: the stick radius against c/a = (1 − Q/μP)^{1/3}.
+* **Cattaneo–Mindlin, β = 0** (benchmarks/verification_mindlin.py's ``mindlin_core``): the sphere cap on the
+  block of one material, a half model with structured cores, pressed, probed, sheared to Q/μP ≈ 0.2, 0.5, 0.8 and
+  back to 0.3 and −0.4, everything relative to the pressed state: the stick radius (Cattaneo's traction fitted)
+  against c/a = (1 − Q/μP)^{1/3} and the slip part of the tangential displacement against Mindlin's and
+  Mindlin–Deresiewicz's.
 * **Shrink fit (Lamé)**: a ring on a shaft with a radial interference (an initial overlap of two bodies with
   curved non-matching gmsh meshes), plane strain on rollers, both methods: the interface pressure and the bore
   hoop stress against Lamé's thick cylinders.
