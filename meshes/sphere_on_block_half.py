@@ -39,7 +39,7 @@ Run inside the environment::
 
 Sizes (a = 0.5, R = 100, W = 200 a, L = 1.2 a; benchmarks/verification_two_body.py's CORE_LEVELS), in unknowns
 (3 per node): the quarter at h0 = a/8 (growth 0.2) 19 266, a/12 (0.15) 49 962, a/16 91 824, a/20 150 096; the
-half at a/8 35 043.
+half at a/6 (growth 0.25) 17 034, a/8 (0.2) 35 043.
 """
 
 from __future__ import annotations
