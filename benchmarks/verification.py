@@ -27,8 +27,11 @@ Cases (the derivations are in docs/verification/README.md):
   (R = 100) on an elastic block, a quarter model with structured cores under the contact in both bodies
   (meshes/sphere_on_block_half.py), dual mortar: a and p₀ against Hertz with 1/E* = Σ (1 − νᵢ²)/Eᵢ for the
   measured P.
-* **Cattaneo–Mindlin, β = 0** (benchmarks/verification_two_body.py): a hemisphere of radius 4 on a block of the
-  same material, pressed, then sheared in two steps: the stick radius against c/a = (1 − Q/μP)^{1/3}.
+* **Cattaneo–Mindlin, β = 0** (benchmarks/verification_mindlin.py's ``mindlin_core``): the sphere cap on the
+  block of one material, a half model with structured cores, pressed, probed, sheared to Q/μP ≈ 0.2, 0.5, 0.8 and
+  back to 0.3 and −0.4, everything relative to the pressed state: the stick radius (Cattaneo's traction fitted)
+  against c/a = (1 − Q/μP)^{1/3} and the slip part of the tangential displacement against Mindlin's and
+  Mindlin–Deresiewicz's.
 * **Shrink fit (Lamé)**: a ring on a shaft with a radial interference (an initial overlap of two bodies with
   curved non-matching gmsh meshes), plane strain on rollers, both methods: the interface pressure and the bore
   hoop stress against Lamé's thick cylinders.
@@ -66,10 +69,9 @@ ROOT = Path(__file__).resolve().parents[1]
 from benchmarks.two_body_patch import exact_pressure  # noqa: E402
 from benchmarks.two_body_patch import run as patch_run  # noqa: E402
 
+from benchmarks.verification_mindlin import MINDLIN_CORE_LEVELS, MINDLIN_LOADS, mindlin_core  # noqa: E402
 from benchmarks.verification_two_body import (  # noqa: E402
     CORE_DELTA,
-    MINDLIN_LEVELS,
-    cattaneo_mindlin,
     hertz_core,
 )
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
@@ -684,32 +686,88 @@ def _clamp_share(r: dict[str, Any]) -> float:
     return 1.5 * axis_displacement(r["force"], W, radius=r["radius_sphere"]) / r["depth"]
 
 
-def _mindlin_rows(comm: MPI.Comm, levels: tuple[int, ...]) -> list[dict[str, Any]]:
-    """Cattaneo–Mindlin's rows: per level and tangential step the stick radius c/a against (1 − Q/FP)^{1/3}."""
+MINDLIN_KEYS = ("load", "c_fit", "c_sep", "slip", "side")
+
+
+def _mindlin_agreement(r: dict[str, Any], one: dict[str, Any]) -> float:
+    """Largest relative difference between the two-rank and one-rank runs of case 6: P, a, δ'(0), and per step
+    Q/μP, the fitted and separating stick radii, the slip part and the side force (each relative to its scale)."""
+    diffs = [abs(r[k] - one[k]) / abs(one[k]) for k in ("P", "a", "compliance0")]
+    for a, b in zip(r["steps"], one["steps"], strict=True):
+        for k in MINDLIN_KEYS:
+            if np.isfinite(b[k]):
+                scale = {"side": 1.0, "slip": abs(b["total_ref"])}.get(k, max(abs(b[k]), 1e-300))
+                diffs.append(abs(a[k] - b[k]) / scale)
+    return max(diffs)
+
+
+def _mindlin_rows(comm: MPI.Comm, levels: tuple[int, ...], raw: Path | None = None) -> list[dict[str, Any]]:
+    """Case 6's rows (benchmarks/verification_mindlin.py, the half model): per level and load step the stick radius
+    c/a (Cattaneo's traction fitted to the nodal tractions) against (1 − Q/μP)^{1/3} and the slip part of the
+    tangential displacement against Mindlin's; per unloading step the slip part against Mindlin–Deresiewicz's.
+    The first level also on one rank. ``raw``: a JSON file the results are written to, level by level."""
+    import json
+
     rows: list[dict[str, Any]] = []
-    source = "Johnson, Contact Mechanics (1985), §7.2 (Cattaneo 1938, Mindlin 1949): c/a = (1 − Q/μP)^{1/3}"
+    johnson = "Johnson, Contact Mechanics (1985), §7.2 (Cattaneo 1938, Mindlin 1949)"
+    previous: dict[str, float] = {}
+    results: dict[str, Any] = {}
     for i, level in enumerate(levels):
-        r = cattaneo_mindlin(comm, level)
+        r = mindlin_core(comm, level)
         agree = "—"
         if i == 0:
-            one = comm.bcast(_serial(comm, cattaneo_mindlin, level))
+            one = comm.bcast(_serial(comm, mindlin_core, level))
             assert one is not None
-            agree = f"{max(abs(a['c_over_a'] - b['c_over_a']) for a, b in zip(r['steps'], one['steps'])):.1e}"
-        h = MINDLIN_LEVELS[level][0]
-        for j, step in enumerate(r["steps"]):
+            agree = f"{_mindlin_agreement(r, one):.1e}"
+        results[str(level)] = {"two_ranks": r, "agree": agree}
+        if comm.rank == 0 and raw is not None:
+            raw.write_text(json.dumps(results, default=float, indent=1))
+        h0, growth, _ = MINDLIN_CORE_LEVELS[level]
+        common = {"case": "6. Cattaneo–Mindlin, β = 0 (mortar)",
+                  "level": f"{level}: h₀ = a/{1 / h0:.3g} (structured cores), growth {growth:g}, W = 200 a, R = 100, "
+                           "half, tetra",
+                  "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree}
+        base = (f"one material E 70 ν 0.3, μ = 0.3; P = {r['P']:.5f}, a {r['err_radius']:+.1%} of Hertz's "
+                f"(±h₀/2); everything relative to the press (its Q = {r['press_Q']:+.4f} μP, F₂ = "
+                f"{r['press_side']:+.4f} μP); δ'(0) = {r['compliance0']:.5f} from the probe Q/μP = {r['probe']:.4f} "
+                f"(half-spaces: {r['compliance0_halfspace']:.5f})")
+        for step in r["steps"]:
+            aim = step["kind"]
+            x = step["load"]
             if comm.rank == 0:
-                LOG.info(f"Cattaneo–Mindlin: level {level}, Q/μP {step['load']:.3f}, c/a {step['c_over_a']:.4f} "
-                         f"(reference {step['reference']:.4f}, {step['error']:+.2%}), {r['wall']:.1f} s")
-            rows.append({"case": "6. Cattaneo–Mindlin, β = 0 (mortar)",
-                         "quantity": f"stick radius c/a, shear step {j + 1}",
-                         "level": f"{level}: h = {h:g} = a/{1 / r['h_over_a']:.3g}, R = 4, tetra",
-                         "reference": f"{step['reference']:.4f}", "source": source,
-                         "value": f"{step['c_over_a']:.4f}", "error": step["error"], "bound": 3e-2,
-                         "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree,
-                         "note": f"Q/μP = {step['load']:.3f} (measured); one material E 70 ν 0.3, μ = 0.3; "
-                                 f"|c − c_ref| = {abs(step['c_error']):.4f} vs h/2 = {h / 2:g}; {step['stick']} of "
-                                 f"{step['closed']} closed nodes stick; P changed {step['P_change']:+.2%} (β = 0: "
-                                 f"none); the press left {r['closed'] - r['press_stick']} rim nodes slipping"})
+                LOG.info(f"Cattaneo–Mindlin: level {level}, {aim} Q/μP {x:+.3f}, c/a fit {step['c_fit_over_a']:.4f} "
+                         f"sep {step['c_over_a']:.4f} (ref {step['reference']:.4f}), slip {step['err_total']:+.2%}, "
+                         f"F2/Q {step['side']:+.2%}, {r['wall']:.1f} s")
+            state = (f"Q/μP = {x:.4f} measured; F₂/Q = {step['side']:+.2%}; stick centroid x̄₁ = "
+                     f"{step['centroid']:+.3f} a; {step['stick']} of {step['closed']} closed nodes stick; P changed "
+                     f"{step['P_change']:+.2%} (β = 0: none)")
+            if aim == "load":
+                tag = f"Q/μP ≈ {step['aim']:.1f}"
+                rows.append({**common, "quantity": f"stick radius c/a, {tag} (Cattaneo's traction fitted)",
+                             "reference": f"{step['reference']:.4f}",
+                             "source": johnson + ": c/a = (1 − Q/μP)^{1/3}", "value": f"{step['c_fit_over_a']:.4f}",
+                             "error": step["error_fit"], "bound": 3e-2,
+                             "note": f"{state}; the stick/slip nodes' separating radius gives c/a "
+                                     f"{step['c_over_a']:.4f} ({step['error']:+.2%}, ±h₀/2 = "
+                                     f"±{h0 / 2 / step['reference']:.0%} of c)"
+                                     + _trend(previous, f"c{tag}", step["error_fit"])})
+                rows.append({**common, "quantity": f"tangential compliance (slip part of δ), {tag}",
+                             "reference": f"{step['slip_ref']:.4e}",
+                             "source": johnson + ", eq. (7.42): δ = (3μP(2 − ν)/8Ga)[1 − (1 − Q/μP)^{2/3}]; "
+                                                 "s = δ − Q δ'(0)",
+                             "value": f"{step['slip']:.4e}", "error": step["err_total"], "bound": 2e-2,
+                             "note": f"error = (s − s_M)/δ_M (δ_M = {step['total_ref']:.4e}); s/s_M − 1 = "
+                                     f"{step['err_slip']:+.1%}; {state}; {base}"
+                                     + _trend(previous, f"s{tag}", step["err_total"])})
+            else:
+                tag = f"unloading to Q/μP ≈ {step['aim']:+.1f}"
+                rows.append({**common, "quantity": f"tangential compliance (slip part of δ), {tag}",
+                             "reference": f"{step['slip_ref']:.4e}",
+                             "source": "Mindlin & Deresiewicz (1953), Johnson §7.2: δ = δ* − 2δ_load((Q* − Q)/2)",
+                             "value": f"{step['slip']:.4e}", "error": step["err_total"], "bound": 2e-2,
+                             "note": f"from Q*/μP = {r['steps'][len(MINDLIN_LOADS) - 1]['load']:.4f}; error = "
+                                     f"(s − s_MD)/\\|δ_MD\\| (δ_MD = {step['total_ref']:.4e}); {state}"
+                                     + _trend(previous, f"s{tag}", step["err_total"])})
     return rows
 
 
@@ -771,10 +829,7 @@ inflated accordingly).
 {table}
 
 The "not yet" row: the case of the verification plan not in this table yet, steady rolling (Carter), which
-needs a longer roll than docs/rolling has had. The Mindlin–Deresiewicz
-tangential compliance and the unloading of case 6 are not in the table yet: §6 derives their measurement (the
-slip part of δ against Mindlin's) and the structured-core half model built for it, whose frictional press is not
-yet right. Support reactions (a node on two
+needs a longer roll than docs/rolling has had. Support reactions (a node on two
 supports, one-component pushes, rollers, a driven master body) are checked against an assembly of K u − l of
 their own in tests/model/test_support_reactions.py and tests/model/test_reactions.py, not in this table.
 
@@ -962,68 +1017,109 @@ the statics is unchanged.
 
 ## 6. Cattaneo–Mindlin with β = 0
 
-`benchmarks/verification_two_body.py` (`cattaneo_mindlin`): an elastic hemisphere of radius R = 4 on an elastic
-block [−8, 8]² × [−8, 0], both of ONE material (E = 70, ν = 0.3: Dundurs' β = 0, so the normal and the tangential
-problems of two half-spaces uncouple, the condition of the closed form), μ = 0.3, dual mortar, finite sliding,
-gmsh tetrahedra of size h within 0.35 of the contact point, growing beyond; the block's bottom clamped. Pressed by
-moving the hemisphere's flat face δ = 0.0125 down (a ≈ 0.23, a/R ≈ 0.06), then that face moved along x in two
-increasing steps (a monotonic loading below gross sliding, aimed at Q/μP = 0.3 and 0.7 by Mindlin's compliance;
-Q is measured). Reference (Johnson §7.2, Cattaneo 1938, Mindlin 1949): the stick radius
-c/a = (1 − Q/(μP))^{{1/3}} for the measured Q, P and a. Measured: a and c the best separating radii of the
-closed/open and of the stick/slip slave nodes (each resolved to about ±h/2).
+`benchmarks/verification_mindlin.py` (`mindlin_core`) on `meshes/sphere_on_block_half.py`'s half model (x2 ≥ 0):
+a sphere cap of radius R = 100 (cut at the height 0.5 R: its flat face is pressed and moved) on a block [−W, W] ×
+[0, W] × [−W, 0], W = 200 a (a = 0.5, bottom clamped), with structured cores of edge h₀ in both bodies (L = 1.2 a;
+the block's grid 0.85 h₀, so the two grids do not coincide) and graded tetrahedra beyond; rollers u2 = 0 on the
+symmetry plane x2 = 0 in both bodies (the tangential load along x1 keeps that symmetry). Both bodies E = 70,
+ν = 0.3 (Dundurs' β = 0: the normal and the tangential problems of two half-spaces uncouple, the condition of the
+closed form), μ = 0.3, dual mortar with the block's flat top as the slave (§9: a flat slave keeps its symmetry-plane
+nodes), finite sliding, GAMG, residual reduction 1e-12. Pressed δ = a²/R, then the flat face moved along x1: a
+probe, three loads aimed at Q/μP = 0.2, 0.5, 0.8 (by Mindlin's compliance × 1.05; Q is measured), then back to
+displacements aimed at Q/μP = 0.3 and −0.4 (Mindlin–Deresiewicz from the last load). **Every force and
+displacement is measured from the pressed state** (Q = Q_step − Q_press, δ the flat face's x1 move): the press
+leaves a tangential force of its own (Q_press = −0.26 % of μP at h₀ = a/6, +1.7 % at a/4), as large as the probe's
+0.2 %, which an absolute Q turns negative.
 
-**Why R = 4.** On the hemisphere of §9 (R = 1, a/R = 0.23) the press alone left 10 of 21 closed nodes slipping (h =
-a/2.4) and c/a came out 14–28 % low at h = a/4.8: two half-spaces of one material have equal radial surface
-displacements under the Hertz pressure, a hemisphere whose contact is a quarter of its radius does not, so the rim
-slips during the press and the shear starts from a slip annulus that the theory does not have. At a/R ≈ 0.06 the
-press leaves only the outermost ring slipping (where p → 0: any discretization error in the tangential
-displacement exceeds μp there).
-
-**Trend.** The contact radius is Hertz's to 0.2 % and 1.1 % (h = a/2.9, a/5.7); P changes by −0.02 % and −0.05 %
-under the shear (β = 0: none); the stick radius lies below the closed form by −6.5 % / −15.6 % at h = a/2.9 and
-−7.5 % / −2.7 % at h = a/5.7 (Q/μP ≈ 0.37 / 0.83), i.e. |c − c_ref| = 0.013 / 0.020 and 0.014 / 0.003 against the
-resolution h/2 = 0.04 and 0.02 of a radius read between nodes: within the resolution on both levels, and the 3 %
-bound needs h/2 ≤ 0.03 c (h ≈ a/19 at Q/μP = 0.37), about 40× the contact region's elements of the finer level,
-beyond what this table can run on two shared cores. Met at Q/μP ≈ 0.83 on the finer level (−2.7 %), not
-at 0.37 (−7.4 %): shown with its trend, not a looser bound.
-**The structured-core half model (built, not yet verified: no rows).** `benchmarks/verification_two_body.py`
-(`mindlin_core`) on `meshes/sphere_on_block_half.py`'s half model (x2 ≥ 0; §9's geometry: R = 100, a = 0.5, W =
-200 a, structured cores in both bodies; one material E 70 ν 0.3, μ = 0.3; the tangential load along x1 keeps the
-symmetry x2 = 0, rollers u2 = 0 there in both bodies). The measurement it makes, derived:
-
-* Mindlin (1949), Johnson §7.2: under Cattaneo's traction q = μp₀[√(1 − r²/a²) − (c/a)√(1 − r²/c²)] each of two
-  identical half-spaces displaces its stick zone rigidly by (3μP(2 − ν)/(16Ga))[1 − (1 − Q/μP)^{{2/3}}], so the
-  distant points' relative displacement is δ = (3μP(2 − ν)/(8Ga))[1 − (1 − Q/μP)^{{2/3}}]; its slope at Q = 0 is
-  (2 − ν)/(4Ga), twice the bonded rigid disc's (2 − ν)/(8Ga): all stick. The finite bodies (their flat face and
-  clamped bottom at 100–200 a) add a linear term, so compared is the **slip part** s = δ − Q δ'(0), with δ'(0)
-  the model's own compliance measured by a first tiny step (Q/μP ≈ 0.002: the stick zone is all but the
-  outermost 0.07 % of a; Mindlin's secant there exceeds his slope by x/6 = 3e-4), against Mindlin's s_M = (3μP(2
-  − ν)/(8Ga))[1 − (1 − x)^{{2/3}} − 2x/3] (≈ x²/9 of the factor for small x: 0.5 %, 3.6 %, 12.5 % of it at x =
-  0.2, 0.5, 0.8, so the 2 % bound is put on the compliance, (s − s_M)/δ_M, the finite bodies' linear term
-  replaced by the half-spaces').
-* Unloading (Mindlin & Deresiewicz 1953): from Q* down to Q a counter-slip annulus c' ≤ r ≤ a carries the
+* **Stick radius** (Johnson §7.2, Cattaneo 1938, Mindlin 1949): c/a = (1 − Q/μP)^{{1/3}} for the measured Q and P.
+  Measured twice: (i) the radius best separating the stick from the slip slave nodes (a radius read between
+  rings of nodes: ±h₀/2 = ±8 % of c at h₀ = a/6 and Q/μP = 0.2); (ii) the least-squares fit in c of Cattaneo's
+  traction q(r) = μp₀[√(1 − r²/a²) − (c/a)√(1 − r²/c²)] (r < c; μp₀√(1 − r²/a²) = μp beyond) to the nodal
+  tractions q_j = (F₁,j − F₁,j,press)/D_j — the x1 contact force on slave node j since the press, a force, over its
+  mortar area D_j (the area `report.nodes.pressure` divides by: force per area), weighted by D_j, over the closed
+  nodes with r < a, with a and p₀ Hertz's for the measured P (`fit_stick_radius`: a grid of 2001 radii, then
+  golden section). **The row's value is the fit**, chosen before the runs because it uses every node's traction
+  rather than one threshold between rings; the separating radius is in the row's note. Its bias is the model's
+  contact pressure against Hertz's (a −1.6 % at h₀ = a/6), which the fit assumes.
+* **Tangential compliance** (Mindlin 1949, Johnson §7.2, eq. 7.42 for two bodies of one material): under Cattaneo's
+  traction each of two identical half-spaces displaces its stick zone rigidly by (3μP(2 − ν)/(16Ga))[1 − (1 −
+  Q/μP)^{{2/3}}], so the distant points' relative displacement is δ_M = (3μP(2 − ν)/(8Ga))[1 − (1 − Q/μP)^{{2/3}}];
+  its slope at Q = 0 is (2 − ν)/(4Ga), twice the bonded rigid disc's (2 − ν)/(8Ga): all stick. The finite bodies
+  (their flat face and clamped bottom at 100–200 a) add a linear term, so compared is the **slip part** s = δ −
+  Q δ'(0), with δ'(0) the model's own compliance measured by the probe (Q/μP ≈ 0.002 FROM THE PRESSED STATE: the
+  stick zone is all but the outermost 0.07 % of a; Mindlin's secant there exceeds his slope by x/6 = 3e-4),
+  against Mindlin's s_M = (3μP(2 − ν)/(8Ga))[1 − (1 − x)^{{2/3}} − 2x/3] (≈ x²/9 of the factor for small x: 0.5 %,
+  3.6 %, 12.5 % of it at x = 0.2, 0.5, 0.8), so the 2 % bound is put on the compliance, (s − s_M)/δ_M: the finite
+  bodies' linear term replaced by the half-spaces'. The model's δ'(0) is 2.7 % below the half-spaces' (2 − ν)/(4Ga)
+  at h₀ = a/6 (the clamped bottom and the held flat face are 200 a and 100 a away; shown in the notes, not bounded).
+* **Unloading** (Mindlin & Deresiewicz 1953): from Q* down to Q a counter-slip annulus c' ≤ r ≤ a carries the
   traction change −2 × Cattaneo's traction for the load (Q* − Q)/2 (the friction bound there moves from +μp to
   −μp, a change 2μp), so δ = δ* − 2δ_load((Q* − Q)/2); the linear term passes unchanged (C Q* − 2C(Q* − Q)/2 = C
-  Q), so the slip part obeys the same rule.
+  Q), so the slip part obeys the same rule; the error is (s − s_MD)/|δ_MD|.
 
-Measured on its coarsest level (h₀ = a/8, 35 043 unknowns, one rank, 368 s at load 5–11), with the block's top
-as the slave (the cap as the slave drops the slave rows on and next to x2 = 0: §9): δ/Q at Q/μP = 0.52 and 0.79
-is 0.0355 and 0.0413 against Mindlin's 0.0352 and 0.0390 (+1.0 %, +6.0 %, the finite bodies' linear term
-included), but the stick zone is not a disc (c/a 0.13 at Q/μP = 0.52, no stick node at 0.79) and the half
-carries a side force F₂ of 0.60 and 0.51 times μ its normal force under the shear, where Mindlin's traction is
-along x1 (F₂ = 0 up to his neglected ν-term): the slip directions are far from x1. After the press alone F₂ =
-−4e-5 of μ times the normal force (the radial tractions are symmetric; 94 of 147 closed nodes stick, the rim
-slips) and F₁ = −0.0035 (the tetrahedra's fixed diagonal direction), larger than the first tiny step's Q (0.002
-μP aimed), which came out NEGATIVE. The frictional mortar pair's slip at the held symmetry-plane nodes is the
-suspect, not isolated yet (a full model, no symmetry plane,
-would tell: at h₀ = a/8 gmsh made a zero-volume tetrahedron at the block core's edge, not pursued before this
-run's deadline). A bonded
-model (μ = 100) stalled GMRES (breakdown) in the press.
-With small sliding instead of finite (2 ranks, 648 s at load 5–7) the same: the side force, the stick
-counts and the negative first step agree to 1 %, so the finite sliding is not the cause.
-So the case-6 rows remain those of the R = 4 hemisphere
-below. The c/a bound at Q/μP ≈ 0.37 stays unmet there (−7.4 % at h = a/5.7, −6.5 % at a/2.9, within the ±h/2
-resolution both times) and the compliance and unloading are not in the table.
+**The half model's side force: the roller missed the cap's symmetry face.** The first runs of this half model
+(h₀ = a/8) had a side force F₂ of 0.5–0.65 μ times the half's normal force, a stick zone that was no disc (c/a 0.13
+at Q/μP = 0.52) and a negative first probe. The nodal tractions after the press alone (frictional, no shear yet)
+showed it: 0.65 μN of F₂ on the half, tractions along −x2 at μp on the rows next to the plane and 0.3–0.4 μp
+further in, everywhere (not the rim), x1 components near 0. A frictionless press told why: the cap's surface
+displacement u2 was −5.5e-4 ON the symmetry plane (the block's was 0, as held), 60 % of Mindlin's δ* — the upper
+body's structured core had no roller. Its symmetry face (gmsh surface 23) was a transfinite surface whose
+triangles had the other diagonals than the transfinite volume's tetrahedra, so none of its 380 triangles was a
+face of a cell, and DOLFINx's reader dropped them from the facet tags without a word (the physical group "sym_y"
+held them; the mesh was conforming). Fixed twice: `meshes/sphere_on_block_half.py` triangulates such a face the
+other way ("Right") and checks every core face against the tetrahedra (the quarter model of §9 had no such face:
+its mesh is byte for byte the same), and `fenics_coulomb.scenes.meshes.read_gmsh_tags` (the reader of scenes and
+of these models) now refuses a file whose physical surfaces hold elements that are not faces of its volume
+elements, naming the group (tests/scenes/test_gmsh_surfaces.py). After the fix, at h₀ = a/8: the press's F₂
+−1.5 % of μN, F₁ −0.17 % of μP; at Q/μP = 0.526 the stick and slip nodes separate at r/a 0.753–0.783 against
+(1 − x)^{{1/3}} = 0.780, F₂/Q 2.7 %. So the half model is trusted and no full model was built. The held
+symmetry-plane contact nodes (frames.py "Contact nodes with held components") were not at fault.
+
+**Measured** (the table's rows; levels 1 and 2 on 2 ranks, level 1 also on one rank; 3 509 s in all at load 8–13):
+
+Level 1: h₀ = a/6, growth 0.25, 17 034 unknowns, 982 s on 2 ranks; level 2: h₀ = a/8, growth 0.2, 35 043
+unknowns, 2 171 s (errors against (1 − Q/μP)^{{1/3}} and, for the compliance, (s − s_M)/δ_M):
+
+| level | Q/μP | c/a fit | c/a nodes | (1 − Q/μP)^{{1/3}} | compliance | F₂/Q |
+|---|---|---|---|---|---|---|
+| 1 | 0.215 | −3.3 % | −2.1 % | 0.923 | +0.19 % | −0.2 % |
+| 1 | 0.531 | −1.9 % | −1.8 % | 0.777 | +0.39 % | +0.1 % |
+| 1 | 0.839 | −6.8 % | −3.6 % | 0.544 | +0.29 % | −0.3 % |
+| 2 | 0.212 | −2.7 % | −2.3 % | 0.924 | +0.69 % | +0.1 % |
+| 2 | 0.527 | −1.5 % | −1.4 % | 0.779 | +0.66 % | −0.0 % |
+| 2 | 0.835 | −2.1 % | +1.6 % | 0.549 | +0.49 % | −0.3 % |
+
+Unloading from Q*/μP = 0.839 (0.835) to 0.298 / −0.435 (0.302 / −0.428): (s − s_MD)/|δ_MD| = +1.54 / +0.59 % at
+level 1, +0.86 / −0.70 % at level 2; F₂/Q ≤ 1.9 %. The press: a −1.6 % / −0.7 % of Hertz's (±h₀/2), 75 of 82 / 138
+of 149 closed nodes stick, Q_press −0.26 % / −0.17 % of μP, F₂ +2.1 % / +1.5 % of μP; P changes by ≤ 0.04 % under
+the shear (β = 0: none); the stick zone's centroid within 0.036 a / 0.013 a of the axis (a disc). δ'(0) is 2.7 % /
+2.1 % below the half-spaces' (2 − ν)/(4Ga).
+
+**Bounds.** On the finer level (h₀ = a/8) every row meets its bound: c/a (fitted) −2.7, −1.5, −2.1 % (≤ 3 %)
+and the compliance +0.69, +0.66, +0.49 % loading, +0.86, −0.70 % unloading (≤ 2 %). The trend from a/6 to a/8:
+the fitted c/a's error falls at every load (3.3 → 2.7, 1.9 → 1.5, 6.8 → 2.1 %); the separating radius (not the
+row's value) stays within its ±h₀/2 = ±6–11 % resolution on both levels (it crosses from −3.6 to +1.6 % at 0.8);
+the compliance errors stay below 1 % loading on both levels (+0.2–0.4 % → +0.5–0.7 %: not a convergence trend,
+a level of the model's own, within the bound) and the unloading's fall (1.54 → 0.86 %, 0.59 → 0.70 %). The slip
+part alone (s/s_M − 1, in the notes) is 2–18 % off at Q/μP = 0.2 (s_M is 0.5 % of δ_M there: the measurement's
+floor), which is why the bound is on the compliance. Level 2 took 36 min on 2 ranks at load 10–13, beyond the
+15 min a level was budgeted (the machine was shared by three engineers' jobs).
+
+**1 vs 2 ranks: 1.0e-6, not 1e-8.** The column is the largest relative difference over P, a, δ'(0) and per step
+Q/μP, both c and s. The forces agree far better: at h₀ = a/4 (the fast test's level, run by hand on 1 and 2
+ranks) P agrees to 4.7e-10 and the press's tangential force to 2.2e-10 μP, but δ'(0), the probe's displacement
+over its Q − Q_press (0.2 % of μP), to 2.2e-7: the probe divides that absolute agreement by 0.002 μP, and s = δ −
+Q δ'(0) inherits it. So the 1e-8 is not met by this case's derived quantities; a probe of larger Q (with
+Mindlin's secant correction x/6) or a tighter residual reduction than 1e-12 would be the remedy, not run here.
+
+The fast test (tests/problems/test_mindlin_core.py, h₀ = a/4, growth 1.0, 4 851 unknowns, 43 s at load 8): at
+Q/μP = 0.568 the fit −6.0 %, the separating radius −4.8 %, F₂/Q 1.1 %, the stick centroid 0.018 a, the slip part
++2.6 % of δ_M; it asserts the resolution (c within ±h₀/2, the centroid within h₀/4, F₂/Q and the compliance within
+5 %), not these numbers.
+
+The former rows of this case (an unstructured hemisphere of radius R = 4, `cattaneo_mindlin`: c/a −7.5 % / −2.7 %
+at Q/μP ≈ 0.37 / 0.83 with h = a/5.7, within its ±h/2) are replaced; that model remains in
+tests/problems/test_verification.py's fast subset.
 
 ## 7. Shrink fit (Lamé)
 
@@ -1204,8 +1300,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cases", choices=("all", "two-body", "mindlin", "hertz", "hertz-two-bodies",
                                                    "incline-two-bodies"),
                         default="all",
-                        help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), mindlin: only "
-                             "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md; "
+                        help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), into "
+                             "verification_two_body.csv and two_body_rows.md; mindlin: only case 6's, into "
+                             "verification_mindlin.csv, mindlin_rows.md and mindlin_raw.json; "
                              "hertz-two-bodies: only case 9's (verification_hertz_two_bodies.csv, "
                              "hertz_two_bodies_rows.md); hertz: only "
                              "case 2's, into verification_hertz.csv, hertz_rows.md and hertz.png; incline-two-bodies: "
@@ -1226,10 +1323,14 @@ def main(argv: list[str] | None = None) -> int:
             rows = incline_two_body_rows(comm)
         elif args.cases == "hertz-two-bodies":
             rows = collect_two_body(comm, HERTZ2_TABLE_LEVELS, ())
+        elif args.cases == "mindlin":
+            if comm.rank == 0:
+                args.out.mkdir(parents=True, exist_ok=True)
+            rows = _mindlin_rows(comm, MINDLIN_TABLE_LEVELS, args.out / "mindlin_raw.json")
         else:
             rows = collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS)
         name = {"hertz": "hertz", "incline-two-bodies": "incline_two_bodies",
-                "hertz-two-bodies": "hertz_two_bodies"}.get(args.cases, "two_body")
+                "hertz-two-bodies": "hertz_two_bodies", "mindlin": "mindlin"}.get(args.cases, "two_body")
         if comm.rank == 0:
             args.out.mkdir(parents=True, exist_ok=True)
             with open(args.out / f"verification_{name}.csv", "w", newline="") as f:

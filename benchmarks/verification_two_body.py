@@ -214,13 +214,6 @@ CORE_DELTA = A_CORE**2 / R_CORE
 #: Levels: h₀/a, the growth of the edge per unit distance beyond the cores, the cores' size L/a.
 CORE_LEVELS: dict[int, tuple[float, float, float]] = {
     0: (1 / 8, 0.2, 1.2), 1: (1 / 12, 0.15, 1.2), 2: (1 / 16, 0.15, 1.2), 3: (1 / 20, 0.15, 1.2)}
-#: Cattaneo–Mindlin's loading Q/μP aimed at, then its unloading (from the last) to these Q/μP.
-MINDLIN_LOADS = (0.2, 0.5, 0.8)
-MINDLIN_UNLOADS = (0.3, -0.4)
-#: The first tangential step, Q/μP ≈ 0.002, measures the finite bodies' compliance δ'(0) = δ/Q: the stick zone
-#: is the whole contact but its outermost 0.07 % of a (c/a = 0.998^{1/3}); Mindlin's secant there exceeds his slope
-#: at 0 by x/6 = 3e-4 (s ≈ x²/9 against 2x/3), below what is measured. (A bonded model, μ = 100, stalled GMRES.)
-PROBE_LOAD = 0.002
 CORE_SETTINGS = {"pc": "gamg", "rtol": 1e-12}
 
 
@@ -288,6 +281,8 @@ class _CoreModel:
                 "Q_side": float(force[1]), "a": separating_radius(r, closed),
                 "c": separating_radius(r[closed], stick[closed]), "closed": int(closed.sum()),
                 "stick": int(stick.sum()), "r": r, "pressure": np.asarray(nodes.pressure),
+                "x": np.asarray(nodes.coordinates), "force": np.asarray(nodes.force), "area": np.asarray(nodes.area),
+                "state": np.asarray(nodes.state),
                 "on_plane": np.min(np.abs(nodes.coordinates[:, :2]), axis=1) < 1e-9 * A_CORE,
                 "unknowns": int(self.problem.model.num_dofs_global), "iterations": int(result.iterations)}
 
@@ -345,63 +340,3 @@ def unloading_slip(x_star: float, x: float, P: float, a: float) -> float:
     """Mindlin–Deresiewicz: from Q* down to Q, δ = δ* − 2 δ_load((Q* − Q)/2); its slip part (the linear term
     C·Q passes through the rule unchanged: C Q* − 2C (Q* − Q)/2 = C Q)."""
     return float(mindlin_slip(x_star, P, a) - 2 * mindlin_slip((x_star - x) / 2, P, a))
-
-
-def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
-                 loads: tuple[float, ...] = MINDLIN_LOADS, unloads: tuple[float, ...] = MINDLIN_UNLOADS
-                 ) -> dict[str, Any]:
-    """Case 6 on the half model, both bodies E 70, ν 0.3 (β = 0), μ = 0.3: pressed δ = a²/R, then the flat face
-    moved along x1 to the displacements aimed at Q/μP = ``loads`` (Mindlin's compliance, ×1.05 for the bodies'
-    bulk), then back to those aimed at ``unloads`` (Mindlin–Deresiewicz). Per step Q/μP, c/a against
-    (1 − Q/μP)^{1/3} (loading), and the slip part of the displacement s = δ − Q δ'(0) against Mindlin's, δ'(0) the
-    finite bodies' compliance measured by the first, tiny step (Q/μP ≈ ``PROBE_LOAD``: all stick)."""
-    t0 = time.perf_counter()
-    spec = CORE_LEVELS[level] if isinstance(level, int) else level
-    mesh = core_mesh(comm, spec, False)
-    materials = (MINDLIN_MATERIAL, MINDLIN_MATERIAL)
-    model = _CoreModel(comm, mesh, False, materials, MINDLIN_FRICTION, "mindlin6_")
-    steps: list[dict[str, Any]] = []
-    try:
-        pressed = model.solve((0.0, 0.0, -CORE_DELTA))
-        P = pressed["P"]
-        E_star = effective_modulus(materials)
-        a_ref = (3 * P * R_CORE / (4 * E_star)) ** (1 / 3)
-        probe = 1.05 * float(mindlin_compliance(PROBE_LOAD, P, a_ref))
-        b = model.solve((probe, 0.0, -CORE_DELTA))
-        compliance0 = probe / b["Q"]
-        shifts = [("load", 1.05 * float(mindlin_compliance(x, P, a_ref))) for x in loads]
-        top = shifts[-1][1]
-        x_top = loads[-1]
-        shifts += [("unload", top - 2 * 1.05 * float(mindlin_compliance((x_top - x) / 2, P, a_ref)))
-                   for x in unloads]
-        x_star = None
-        for kind, shift in shifts:
-            s = model.solve((shift, 0.0, -CORE_DELTA))
-            x = s["Q"] / (MINDLIN_FRICTION * s["P"])
-            slip = shift - compliance0 * s["Q"]
-            if kind == "load":
-                slip_ref = float(mindlin_slip(x, P, a_ref))
-                total_ref = float(mindlin_compliance(x, P, a_ref))
-                c_ref = (1 - x) ** (1 / 3)
-                x_star = x
-            else:
-                assert x_star is not None
-                slip_ref = unloading_slip(x_star, x, P, a_ref)
-                total_ref = float(mindlin_compliance(x_star, P, a_ref)
-                                  - 2 * mindlin_compliance((x_star - x) / 2, P, a_ref))
-                c_ref = float("nan")
-            steps.append({"kind": kind, "shift": shift, "load": x, "Q": s["Q"], "c_over_a": s["c"] / s["a"],
-                          "reference": c_ref, "error": (s["c"] / s["a"]) / c_ref - 1 if kind == "load" else
-                          float("nan"), "slip": slip, "slip_ref": slip_ref, "err_slip": slip / slip_ref - 1,
-                          "total_ref": total_ref, "err_total": (slip - slip_ref) / total_ref,
-                          "P_change": s["P"] / P - 1, "Q_side": s["Q_side"] / s["Q"], "a": s["a"], "c": s["c"],
-                          "closed": s["closed"], "stick": s["stick"], "converged": s["converged"]})
-    finally:
-        model.destroy()
-    return {"steps": steps, "P": P, "a": pressed["a"], "a_ref": a_ref, "err_radius": pressed["a"] / a_ref - 1,
-            "compliance0": compliance0, "compliance0_ref": 2 * float(mindlin_compliance(1.0, 1.0, a_ref)) / 3
-            / MINDLIN_FRICTION, "press_stick": pressed["stick"], "h_over_a": spec[0],
-            "unknowns": pressed["unknowns"], "closed": pressed["closed"],
-            "probe": b["Q"] / (MINDLIN_FRICTION * P),
-            "converged": pressed["converged"] and b["converged"] and all(s["converged"] for s in steps),
-            "wall": time.perf_counter() - t0}

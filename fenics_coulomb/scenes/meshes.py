@@ -1,6 +1,8 @@
 """A body's mesh from a gmsh file: read on rank 0, distributed by the deterministic partitioner
 (:mod:`fenics_coulomb.scenes.partition`: the same file on the same ranks gives the same partition and the same
-bits), with its facet and cell tags; a file that is not a readable gmsh mesh is an InputError naming it."""
+bits), with its facet and cell tags; a file that is not a readable gmsh mesh is an InputError naming it, and so is
+one whose physical surfaces hold elements that are not faces of its volume elements (DOLFINx would drop them from
+the facet tags without a word: a boundary condition on that surface would miss them)."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import numpy as np
 from fenics_coulomb.errors import check_all
 from fenics_coulomb.scenes.partition import create_partitioner
 
-__all__ = ["read_gmsh", "read_gmsh_tags"]
+__all__ = ["read_gmsh", "read_gmsh_tags", "surface_elements_off_volume", "unmatched_surface_elements"]
 
 
 def _number_nodes_continuously(gmsh: object) -> None:
@@ -23,6 +25,83 @@ def _number_nodes_continuously(gmsh: object) -> None:
     if tags.size and (tags.min() != 1 or tags.max() != tags.size or np.unique(tags).size != tags.size):
         gmsh.model.mesh.renumberNodes()  # type: ignore[attr-defined]
         gmsh.model.mesh.renumberElements()  # type: ignore[attr-defined]
+
+
+#: gmsh's surface element types (3-node and 6-node triangles; 4-, 9- and 8-node quadrangles) → their corner count.
+_SURFACE_CORNERS = {2: 3, 9: 3, 3: 4, 10: 4, 16: 4}
+
+
+def _rows(nodes: np.ndarray, corners: int) -> np.ndarray:
+    """Each element's corner node tags, sorted, as one opaque value per element (for set membership)."""
+    rows = np.ascontiguousarray(np.sort(np.asarray(nodes, dtype=np.uint64).reshape(-1, corners), axis=1))
+    return rows.view(np.dtype((np.void, rows.dtype.itemsize * corners))).ravel()
+
+
+def _volume_faces(gmsh: object) -> dict[int, np.ndarray]:
+    """The faces of the current gmsh model's volume elements, per corner count (3, 4), as :func:`_rows`."""
+    mesh = gmsh.model.mesh  # type: ignore[attr-defined]
+    faces: dict[int, list[np.ndarray]] = {3: [], 4: []}
+    for etype in mesh.getElementTypes(3):
+        for corners in (3, 4):  # gmsh's face types: 3 triangles, 4 quadrangles
+            try:
+                nodes = mesh.getElementFaceNodes(etype, corners, primary=True)
+            except Exception:  # noqa: BLE001 -- gmsh raises a plain Exception for a face type the element lacks
+                continue
+            if len(nodes):
+                faces[corners].append(_rows(nodes, corners))
+    return {k: np.concatenate(v) if v else np.zeros(0, dtype=np.void) for k, v in faces.items()}
+
+
+def surface_elements_off_volume(gmsh: object, surfaces: list[int] | None = None) -> dict[int, tuple[int, int]]:
+    """Per surface entity of the current gmsh model (``surfaces``, default all): (the number of its elements that
+    are not faces of a volume element, its number of elements); only the entities with such elements."""
+    mesh = gmsh.model.mesh  # type: ignore[attr-defined]
+    known = _volume_faces(gmsh)
+    if surfaces is None:
+        surfaces = [t for _, t in gmsh.model.getEntities(2)]  # type: ignore[attr-defined]
+    off: dict[int, tuple[int, int]] = {}
+    for entity in surfaces:
+        types, _, nodes = mesh.getElements(2, entity)
+        total = bad = 0
+        for etype, enodes in zip(types, nodes, strict=True):
+            corners = _SURFACE_CORNERS.get(int(etype))
+            if corners is None:
+                continue
+            width = mesh.getElementProperties(etype)[3]
+            rows = _rows(np.asarray(enodes).reshape(-1, width)[:, :corners], corners)
+            total += len(rows)
+            bad += int(np.count_nonzero(~np.isin(rows, known[corners])))
+        if bad:
+            off[int(entity)] = (bad, total)
+    return off
+
+
+def unmatched_surface_elements(gmsh: object) -> str:
+    """'' when every element of every physical surface of the current gmsh model is a face of one of its volume
+    elements, else a message naming the physical surfaces that hold others (e.g. a transfinite surface whose
+    triangles' diagonals differ from those of its transfinite volume's tetrahedra), with the counts."""
+    model = gmsh.model  # type: ignore[attr-defined]
+    groups = model.getPhysicalGroups(2)
+    entities = {tag: [int(e) for e in model.getEntitiesForPhysicalGroup(dim, tag)] for dim, tag in groups}
+    off = surface_elements_off_volume(gmsh, sorted({e for v in entities.values() for e in v}))
+    found = []
+    for dim, tag in groups:
+        bad = sum(off[e][0] for e in entities[tag] if e in off)
+        if bad:
+            total = sum(len(_rows_of(gmsh, e)) for e in entities[tag])
+            name = model.getPhysicalName(dim, tag) or "(unnamed)"
+            found.append(f"{bad} of the {total} elements of physical surface {tag} {name!r}")
+    if not found:
+        return ""
+    return ("; ".join(found) + " are not faces of the volume's elements (the surface mesh does not match the "
+            "volume mesh, e.g. a transfinite surface whose diagonals differ from its volume's): their facets "
+            "would not be tagged")
+
+
+def _rows_of(gmsh: object, entity: int) -> list[int]:
+    """The element tags of a surface entity's triangles and quadrangles."""
+    types, tags, _ = gmsh.model.mesh.getElements(2, entity)  # type: ignore[attr-defined]
+    return [int(t) for ty, ts in zip(types, tags, strict=True) if int(ty) in _SURFACE_CORNERS for t in ts]
 
 
 def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
@@ -46,6 +125,9 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
                 message = f"mesh file {path!r} holds no volume (3D) entities"
             else:
                 _number_nodes_continuously(gmsh)
+                unmatched = unmatched_surface_elements(gmsh)
+                if unmatched:
+                    message = f"mesh file {path!r}: {unmatched}"
         except Exception as err:  # gmsh raises plain Exceptions
             message = f"mesh file {path!r} cannot be read by gmsh: {err}"
         if message:

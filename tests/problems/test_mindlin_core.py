@@ -1,0 +1,55 @@
+"""Issue 36's case 6 (Cattaneo–Mindlin, β = 0) on the half model of meshes/sphere_on_block_half.py at a coarse
+level (benchmarks/verification_mindlin.py ``mindlin_core``; docs/verification §6): h₀ = a/4 in both cores, the edge
+growing by 1.0 per unit distance beyond (4 851 unknowns), pressed, probed, loaded to Q/μP ≈ 0.5.
+
+What it guards: the symmetry plane and the measurement relative to the press. With the upper core's symmetry face
+untagged (its triangles were not the tetrahedra's faces, so the roller missed it) the press left a side force
+F₂ = 0.65 μ N on the half (tractions along −x2 at μp over most of the contact), the stick zone was no disc and the
+probe's Q came out negative (measured absolutely, the press's own F₁ exceeded it).
+
+Measured at this level (2 ranks): Q/μP = 0.568, c/a from Cattaneo's traction fitted 0.7105 against 0.7558
+(−6.0 %), from the stick/slip nodes −4.8 %; F₂/Q = 1.1 %; the stick zone's centroid 0.018 a; the slip part of δ
++2.6 % of Mindlin's δ. The bounds are the level's resolution, not these numbers: c within ±h₀/2 (a radius read
+between nodes), the centroid within h₀/4, F₂/Q and the compliance within 5 %.
+"""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from benchmarks.verification_mindlin import PROBE_LOAD, cattaneo_traction, fit_stick_radius, mindlin_core
+
+LEVEL = (1 / 4, 1.0, 1.2)
+H0 = LEVEL[0]  # in units of a
+
+
+@pytest.fixture(scope="module")
+def case():
+    return mindlin_core(MPI.COMM_WORLD, LEVEL, loads=(0.5,), unloads=())
+
+
+def test_fit_recovers_cattaneo():
+    """The least-squares fit returns the c of an exact Cattaneo profile sampled at scattered radii."""
+    rng = np.random.default_rng(3)
+    r = np.sort(rng.random(200)) * 0.5
+    q = cattaneo_traction(r, 0.37, 0.5, 0.12)
+    assert fit_stick_radius(r, q, np.ones_like(r), 0.5, 0.12) == pytest.approx(0.37, abs=1e-6)
+
+
+def test_half_model_is_mindlin(case):
+    """Relative to the press: the probe's Q is positive and near its aim, the side force small, the stick zone a
+    centred disc whose radius is Cattaneo's within the level's resolution, the slip part Mindlin's within 5 %."""
+    r = case
+    assert r["converged"]
+    assert 0.5 * PROBE_LOAD < r["probe"] < 2 * PROBE_LOAD
+    (step,) = r["steps"]
+    assert 0.4 < step["load"] < 0.7
+    assert abs(step["side"]) <= 0.05
+    assert abs(step["centroid"]) <= H0 / 4
+    assert abs(step["c_fit_over_a"] - step["reference"]) <= H0 / 2
+    assert abs(step["c_over_a"] - step["reference"]) <= H0 / 2
+    assert abs(step["err_total"]) <= 0.05
+    assert abs(step["P_change"]) <= 0.01
