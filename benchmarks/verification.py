@@ -35,7 +35,9 @@ Cases (the derivations are in docs/verification/README.md):
 
 The incline is also run as a user writes it, from the scene file docs/verification/incline.toml.
 
-The cases not built yet are rows saying "not yet" and why (``NOT_YET``).
+* **Steady rolling (Carter)** (benchmarks/verification_rolling.py): a rigid roller rolled with a prescribed creep
+  on a plane-strain slice of an almost incompressible block until the tangential force is steady: the creep
+  Carter's law gives for the measured Q, P against the prescribed one (Johnson, §8.2).
 """
 
 from __future__ import annotations
@@ -72,6 +74,7 @@ from benchmarks.verification_two_body import (  # noqa: E402
     cattaneo_mindlin,
     hertz_core,
 )
+from benchmarks.verification_rolling import carter_rows  # noqa: E402
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
 __all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "INCLINE_TWO_BODY_SCENE", "SLOPE_LEVELS", "incline",
@@ -607,7 +610,7 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
                                      f"(all with held components){trend}"})
                 previous[key] = r["err_" + key]
     rows += collect_two_body(comm)
-    rows += NOT_YET
+    rows += carter_rows(comm)
     return rows, curves
 
 
@@ -1112,19 +1115,6 @@ and +4.1 % at a/9, not falling with h).
 """
 
 
-#: The cases of the verification plan not in the table yet, and why.
-NOT_YET = [
-    {"case": case, "quantity": quantity, "level": "—", "reference": reference, "source": source, "value": "not yet",
-     "error": float("nan"), "bound": None, "unknowns": "—", "ranks": "—", "wall": float("nan"), "agree": "—",
-     "note": note}
-    for case, quantity, reference, source, note in [
-        ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))",
-         "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
-         "docs/rolling did not reach the steady state; a longer roll is not in this table yet"),
-    ]
-]
-
-
 HEADER = ("| case | quantity | mesh level | reference | source | ours | rel. error | trend (coarse → fine) | bound "
           "| met | unknowns | ranks | wall s | 1 vs 2 ranks | note |\n"
           "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
@@ -1202,14 +1192,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "verification")
     parser.add_argument("--hertz-levels", type=int, nargs="*", default=list(HERTZ_LEVELS))
     parser.add_argument("--cases", choices=("all", "two-body", "mindlin", "hertz", "hertz-two-bodies",
-                                                   "incline-two-bodies"),
+                                                   "incline-two-bodies", "carter"),
                         default="all",
                         help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), mindlin: only "
                              "Cattaneo–Mindlin's, into verification_two_body.csv and two_body_rows.md; "
                              "hertz-two-bodies: only case 9's (verification_hertz_two_bodies.csv, "
                              "hertz_two_bodies_rows.md); hertz: only "
                              "case 2's, into verification_hertz.csv, hertz_rows.md and hertz.png; incline-two-bodies: "
-                             "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md "
+                             "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md; "
+                             "carter: only case 8's, into verification_carter.csv and carter_rows.md "
                              "(each to be merged into the table)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -1218,18 +1209,20 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("fenics_coulomb").setLevel(logging.WARNING)
     load_before = _load() if comm.rank == 0 else ""
     t0 = time.perf_counter()
-    if args.cases in ("two-body", "mindlin", "hertz", "hertz-two-bodies", "incline-two-bodies"):
+    if args.cases in ("two-body", "mindlin", "hertz", "hertz-two-bodies", "incline-two-bodies", "carter"):
         curves: dict[str, list[Any]] = {"hertz": [], "lubkin": []}
         if args.cases == "hertz":
             rows = hertz_rows(comm, tuple(args.hertz_levels), curves)
         elif args.cases == "incline-two-bodies":
             rows = incline_two_body_rows(comm)
+        elif args.cases == "carter":
+            rows = carter_rows(comm)
         elif args.cases == "hertz-two-bodies":
             rows = collect_two_body(comm, HERTZ2_TABLE_LEVELS, ())
         else:
             rows = collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS)
         name = {"hertz": "hertz", "incline-two-bodies": "incline_two_bodies",
-                "hertz-two-bodies": "hertz_two_bodies"}.get(args.cases, "two_body")
+                "hertz-two-bodies": "hertz_two_bodies", "carter": "carter"}.get(args.cases, "two_body")
         if comm.rank == 0:
             args.out.mkdir(parents=True, exist_ok=True)
             with open(args.out / f"verification_{name}.csv", "w", newline="") as f:
