@@ -31,7 +31,7 @@ import ufl
 from fenics_coulomb import ContactProblem, ContactState, Cylinder
 from fenics_coulomb.scenes.partition import box_partitioner
 
-__all__ = ["E", "NU", "MU", "R", "DEPTH", "CARTER_LEVELS", "CARTER_TABLE_LEVELS", "CARTER_CREEPS", "carter_rows",
+__all__ = ["E", "NU", "MU", "R", "DEPTH", "CARTER_LEVELS", "CARTER_RUNS", "carter_rows",
            "carter_reference", "carter_creep", "hertz_half_width",
            "slice_block", "roll"]
 
@@ -42,6 +42,8 @@ LOG = logging.getLogger("verification")
 E, NU, MU, R, DEPTH = 70.0, 0.49, 0.3, 1.0, 0.01
 #: Rule of the steady state: Q changed by less than STEADY_TOL (relative) over the last STEADY_STEPS steps.
 STEADY_TOL, STEADY_STEPS = 1e-3, 5
+#: The far-field correction's cycle (rolled distance between two corrections).
+CYCLE = 0.2
 #: Mesh levels: (node spacing h on the track, the block's extent [x0, x1], depth H, the track [t0, t1], cells
 #: across the depth, the rolling step Δ as a multiple of h).
 CARTER_LEVELS: dict[int, dict[str, Any]] = {
@@ -49,6 +51,9 @@ CARTER_LEVELS: dict[int, dict[str, Any]] = {
     0: {"h": 0.02, "x": (-1.5, 2.5), "H": 1.0, "track": (-0.15, 0.95), "nz": 10, "step": 1},
     1: {"h": 0.01, "x": (-1.5, 2.5), "H": 1.0, "track": (-0.15, 0.95), "nz": 16, "step": 1},
     2: {"h": 0.005, "x": (-1.5, 2.5), "H": 1.0, "track": (-0.15, 0.95), "nz": 24, "step": 2},
+    # deeper blocks (the far field's depth H): the squeeze-out of the bonded, almost incompressible layer
+    10: {"h": 0.02, "x": (-4.0, 5.0), "H": 2.0, "track": (-0.15, 0.95), "nz": 14, "step": 1},
+    11: {"h": 0.02, "x": (-8.0, 9.0), "H": 4.0, "track": (-0.15, 0.95), "nz": 20, "step": 1},
 }
 
 
@@ -86,7 +91,7 @@ def slice_block(comm: MPI.Comm, level: int) -> tuple[dolfinx.mesh.Mesh, dolfinx.
     def grow(length: float) -> np.ndarray:
         steps, d = [], h
         while sum(steps) < length:
-            d = min(d * 1.15, 0.1)
+            d = min(d * 1.15, 0.1 * H)
             steps.append(d)
         return np.cumsum(steps) * length / sum(steps)
 
@@ -98,7 +103,7 @@ def slice_block(comm: MPI.Comm, level: int) -> tuple[dolfinx.mesh.Mesh, dolfinx.
     x = msh.geometry.x
     x[:, 0] = np.interp(x[:, 0], np.linspace(0.0, 1.0, nx + 1), xs)
     x[:, 1] *= h
-    x[:, 2] = -H * (1.0 - x[:, 2]) ** 2
+    x[:, 2] = -H * (1.0 - x[:, 2]) ** spec.get("grade", 2.0)
     located = [dolfinx.mesh.locate_entities_boundary(msh, 2, f) for f in (
         lambda p: np.isclose(p[2], 0.0), lambda p: np.isclose(p[2], -H),
         lambda p: np.isclose(p[1], 0.0) | np.isclose(p[1], h))]
@@ -113,6 +118,16 @@ def _forces(comm: MPI.Comm, result: Any, width: float) -> tuple[float, float]:
     force = comm.allreduce(np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3).sum(axis=0),
                            op=MPI.SUM)
     return -float(force[2]) / width, -float(force[0]) / width
+
+
+def _surface_u1(comm: MPI.Comm, u: Any, V: Any) -> np.ndarray:
+    """(x1, u1) of the top surface's nodes on the face x2 = 0 (reference x1), gathered on every rank, sorted."""
+    owned = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:owned]
+    top = np.flatnonzero(np.isclose(x[:, 2], 0.0) & np.isclose(x[:, 1], 0.0))
+    values = u.x.array.reshape(-1, 3)[:owned]
+    rows = np.concatenate(comm.allgather(np.column_stack([x[top, 0], values[top, 0]])))
+    return rows[np.argsort(rows[:, 0])]
 
 
 def roll(comm: MPI.Comm, creep: float, level: int = 0, preload: float = 1.0, max_steps: int = 200,
@@ -215,6 +230,7 @@ def roll(comm: MPI.Comm, creep: float, level: int = 0, preload: float = 1.0, max
                         qs[-1] = Q
                 last = k
         report = problem.report(result)
+        surface = _surface_u1(comm, problem.u, V)
     rolled = len(qs) * step
     nodes = report.nodes
     face = np.isclose(nodes.coordinates[:, 1], 0.0, atol=1e-12)
@@ -228,33 +244,29 @@ def roll(comm: MPI.Comm, creep: float, level: int = 0, preload: float = 1.0, max
     xs, xe = (float(x[stick].min()), float(x[stick].max())) if stick.any() else (math.nan, math.nan)
     a_hertz = hertz_half_width(P)
     ratio = Q / (MU * P)
+    # the surface strain ∂u1/∂x1 over the stick zone (least squares over its nodes): the creep the kinematics give
+    inside = (surface[:, 0] - rolled >= xs - 1e-9) & (surface[:, 0] - rolled <= xe + 1e-9) if stick.any() else []
+    stick_strain = float(np.polyfit(surface[inside, 0], surface[inside, 1], 1)[0]) if np.sum(inside) > 1 else math.nan
     wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     return {"creep": creep, "level": level, "h": h, "step": step, "P": P, "Q": Q, "Q/muP": ratio,
             "a_nodes": a_nodes, "a_hertz": a_hertz, "centre": float(0.5 * (x[closed].max() + x[closed].min())),
             "stick_from": xs, "stick_to": xe, "stick_width": (xe - xs + h) if stick.any() else 0.0,
             "stick_width_ref": 2 * a_hertz * math.sqrt(max(1.0 - ratio, 0.0)),
             "creep_carter": carter_creep(Q, P, a_hertz), "creep_carter_nodes": carter_creep(Q, P, a_nodes),
-            "Q_carter": carter_reference(creep, P), "steady_at": steady_at, "rolled": rolled,
+            "Q_carter": carter_reference(creep, P), "stick_strain": stick_strain, "steady_at": steady_at,
+            "rolled": rolled,
             "preload_steps": preload_steps, "preload": preload, "corrections": corrections, "history": history,
             "unknowns": unknowns, "wall": wall}
 
 
-#: The table's levels and creeps, and the second start of the two-start check (a pre-load of this fraction of
-#: Carter's Q at the first level and the larger creep).
-CARTER_TABLE_LEVELS = (0, 1)
-#: The far-field correction's cycle (rolled distance between two corrections).
-CYCLE = 0.2
-CARTER_CREEPS = (0.005, 0.01)
+#: The table's runs: (creep, level); the first level of the larger creep is also the first start of the
+#: two-start check, whose second start pre-loads this fraction of Carter's Q; and the steps of the one-rank
+#: comparison (the first steps of that roll, before any far-field correction).
+CARTER_RUNS = ((0.005, 0), (0.01, 0), (0.01, 1))
 SECOND_START = 0.5
+COMPARED_STEPS = 9
 SOURCE = ("Johnson, Contact Mechanics (1985), §8.2 (Carter 1926): ξ = (μa/R)(1 − √(1 − Q/μP)), "
           "a² = 4PR/(πE*)")
-
-
-def _one_rank(comm: MPI.Comm, *args: Any, **kwargs: Any) -> dict[str, Any] | None:
-    """``roll(MPI.COMM_SELF, ...)`` on rank 0 (the other ranks wait), broadcast."""
-    out = roll(MPI.COMM_SELF, *args, **kwargs) if comm.rank == 0 else None
-    comm.barrier()
-    return comm.bcast(out)
 
 
 def _steady_note(r: dict[str, Any]) -> str:
@@ -266,44 +278,46 @@ def _steady_note(r: dict[str, Any]) -> str:
              f"NOT steady after {steps} steps (rolled {r['rolled']:.2f}): Q changed {change:.1e} over the last "
              f"{STEADY_STEPS} steps")
     return (f"{where}; pre-load {r['preload']:g} × Carter's Q, {len(r['corrections'])} far-field "
-            f"correction(s)")
+            f"correction(s); surface strain over the stick zone {r['stick_strain']:.5f}")
 
 
-def carter_rows(comm: MPI.Comm, levels: tuple[int, ...] = CARTER_TABLE_LEVELS,
-                creeps: tuple[float, ...] = CARTER_CREEPS) -> list[dict[str, Any]]:
-    """Case 8's rows: per creep and level the creep Carter gives for the measured steady Q, P and a against the
-    prescribed one; the first level also on one rank; and the steady Q from a second start (the attractor)."""
+def carter_rows(comm: MPI.Comm, runs: tuple[tuple[float, int], ...] = CARTER_RUNS) -> list[dict[str, Any]]:
+    """Case 8's rows: per (creep, level) the creep Carter gives for the measured steady Q, P and a against the
+    prescribed one; the first run of the larger creep also compared with one rank (its first steps) and rolled
+    from a second start (the attractor)."""
     rows: list[dict[str, Any]] = []
     case = "8. steady rolling (Carter)"
     done: dict[tuple[float, int], dict[str, Any]] = {}
-    for creep in creeps:
-        previous: float | None = None
-        for i, level in enumerate(levels):
-            r = done[creep, level] = roll(comm, creep, level)
-            agree = "—"
-            if i == 0:
-                one = _one_rank(comm, creep, level)
-                assert one is not None
-                agree = f"{max(abs(r[k] - one[k]) / abs(one[k]) for k in ('P', 'Q')):.1e}"
-            error = r["creep_carter"] / creep - 1.0
-            if comm.rank == 0:
-                LOG.info(f"Carter: ξ = {creep}, level {level}: P {r['P']:.6f}, Q {r['Q']:.6f}, Q/μP {r['Q/muP']:.4f} "
-                         f"(Carter {r['Q_carter'] / (MU * r['P']):.4f}), ξ_Carter {r['creep_carter']:.6f} "
-                         f"({error:+.2%}), {_steady_note(r)}, {r['wall']:.0f} s")
-            trend = f"; from {previous:+.2%}" if previous is not None else ""
-            previous = error
-            rows.append({
-                "case": case, "quantity": f"creep ξ from Carter's law for the measured steady Q, P (prescribed ξ = "
-                f"{creep:g})", "level": f"{level}: h = {r['h']:g} = a/{r['a_hertz'] / r['h']:.3g}, step "
-                f"{r['step']:g}, plane-strain slice, hex", "reference": f"{creep:g}", "source": SOURCE,
-                "value": f"{r['creep_carter']:.6f}", "error": error, "bound": 5e-2, "unknowns": r["unknowns"],
-                "ranks": comm.size, "wall": r["wall"], "agree": agree,
-                "note": f"Q/μP = {r['Q/muP']:.4f} (Carter's for ξ: {r['Q_carter'] / (MU * r['P']):.4f}), P = "
-                        f"{r['P']:.5f}, a = {r['a_nodes']:.4f} (closed nodes) vs {r['a_hertz']:.4f} (Hertz); stick "
-                        f"zone [{r['stick_from']:+.4f}, {r['stick_to']:+.4f}] − centre {r['centre']:+.4f}: 2a' = "
-                        f"{r['stick_width']:.4f} vs 2a√(1 − Q/μP) = {r['stick_width_ref']:.4f}; "
-                        + _steady_note(r) + trend})
-    level, creep = levels[0], creeps[-1]
+    previous: dict[float, float] = {}
+    compared = max(c for c, _ in runs), min(lvl for c, lvl in runs if c == max(c for c, _ in runs))
+    for creep, level in runs:
+        r = done[creep, level] = roll(comm, creep, level)
+        agree = "—"
+        if (creep, level) == compared:
+            one = roll(MPI.COMM_SELF, creep, level, max_steps=COMPARED_STEPS, cycle=0.0) if comm.rank == 0 else None
+            one = comm.bcast(None if one is None else one["history"])
+            index = len(one) - 1  # the same step of the two-rank roll
+            agree = f"{max(abs(r['history'][index][j] - one[index][j]) / abs(one[index][j]) for j in (1, 2)):.1e}"
+        error = r["creep_carter"] / creep - 1.0
+        if comm.rank == 0:
+            LOG.info(f"Carter: ξ = {creep}, level {level}: P {r['P']:.6f}, Q {r['Q']:.6f}, Q/μP {r['Q/muP']:.4f} "
+                     f"(Carter {r['Q_carter'] / (MU * r['P']):.4f}), ξ_Carter {r['creep_carter']:.6f} "
+                     f"({error:+.2%}), {_steady_note(r)}, {r['wall']:.0f} s")
+        trend = f"; from {previous[creep]:+.2%}" if creep in previous else ""
+        previous[creep] = error
+        rows.append({
+            "case": case, "quantity": f"creep ξ from Carter's law for the measured steady Q, P (prescribed ξ = "
+            f"{creep:g})", "level": f"{level}: h = {r['h']:g} = a/{r['a_hertz'] / r['h']:.3g}, step "
+            f"{r['step']:g}, H = {CARTER_LEVELS[level]['H']:g}, plane-strain slice, hex", "reference": f"{creep:g}",
+            "source": SOURCE, "value": f"{r['creep_carter']:.6f}", "error": error, "bound": 5e-2,
+            "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree,
+            "note": f"Q/μP = {r['Q/muP']:.4f} (Carter's for ξ: {r['Q_carter'] / (MU * r['P']):.4f}), P = "
+                    f"{r['P']:.5f}, a = {r['a_nodes']:.4f} (closed nodes) vs {r['a_hertz']:.4f} (Hertz); stick "
+                    f"zone [{r['stick_from']:+.4f}, {r['stick_to']:+.4f}] − centre {r['centre']:+.4f}: 2a' = "
+                    f"{r['stick_width']:.4f} vs 2a√(1 − Q/μP) = {r['stick_width_ref']:.4f}; "
+                    + _steady_note(r) + (f"; 1 vs 2 ranks: P, Q after {COMPARED_STEPS} rolling steps"
+                                         if agree != "—" else "") + trend})
+    creep, level = compared
     first = done[creep, level]
     second = roll(comm, creep, level, preload=SECOND_START)
     if comm.rank == 0:
