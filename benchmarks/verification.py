@@ -1068,82 +1068,81 @@ reference-configuration model for both methods.
 ## 8. Steady rolling (Carter)
 
 `benchmarks/verification_rolling.py` (`roll`, `carter_rows`; `--cases carter` writes only these rows). A rigid
-roller of radius R = 1 (the analytic `Cylinder`, axis along x2) is pressed by d = 0.01 into a block of E = 70,
-ν = 0.49, clamped at the depth H (1, 2 or 4; its ends at x1 = −1.5 and 2.5 for H = 1, −4 and 5 for H = 2, −8
-and 9 for H = 4: several H from the roll) and rolled along +x1, μ = 0.3; the mesh has the spacing h on the track
-−0.15 ≤ x1 ≤ 0.95 and grows geometrically (× 1.15) away from it, z = −H ζ² toward the top.
+roller of radius R = 1 (the analytic `Cylinder`, axis along x2) is pressed by d = 0.01 into a block of E = 70, ν =
+0.49, clamped at the depth H (1, 2 or 4; its ends at x1 = −1.5 and 2.5 for H = 1, −4 and 5 for H = 2, −8 and 9 for
+H = 4: several H from the roll) and rolled along +x1, μ = 0.3; the mesh has the spacing h on the track −0.15 ≤ x1 ≤
+0.95 and grows geometrically (× 1.15) away from it, z = −H ζ² toward the top.
 
-**A plane-strain slice.** The block is one hexahedron thick in x2 (W = h) with rollers u2 = 0 on both x2 faces;
-its contact nodes keep their held u2 (frames.py, "Contact nodes with held components": the normal is orthogonal
-to e2 and the roller's motion has no x2 component). The 3D model of docs/rolling (a block 0.5 wide with FREE x2
-faces, 82k unknowns) is not plane strain at its mid-plane: at ν = 0.49 the free faces let the block bulge
-sideways, and its mid-plane P per unit length is 0.375 against the slice's 0.52 for the same indentation (a
-0.0742 against 0.085); the slice is the plane-strain problem Carter solves, with 2D Hertz's a = √(4PR/πE*),
-E* = E/(1 − ν²) — the closed nodes' half-width matches it within h/2 on every level (the table's notes). The
-slice costs 3.8k unknowns at h = 0.02 and H = 1, 10k at H = 4 (2.2k on the fast test's level). Its volumetric term is integrated at the
-cell centre (selective reduced integration: no volumetric locking at ν → ½; P changed −3 % against full
-integration).
+**A plane-strain slice.** The block is one hexahedron thick in x2 (W = h) with rollers u2 = 0 on both x2 faces; its
+contact nodes keep their held u2 (frames.py, "Contact nodes with held components": the normal is orthogonal to e2
+and the roller's motion has no x2 component). The 3D model of docs/rolling (a block 0.5 wide with FREE x2 faces,
+82k unknowns) is not plane strain at its mid-plane: at ν = 0.49 the free faces let the block bulge sideways, and
+its mid-plane P per unit length is 0.375 against the slice's 0.52 for the same indentation (a 0.0742 against
+0.085); the slice is the plane-strain problem Carter solves, with 2D Hertz's a = √(4PR/πE*), E* = E/(1 − ν²) — the
+closed nodes' half-width matches it within h/2 on every level (the table's notes). The slice costs 3.8k unknowns at
+h = 0.02 and H = 1, 10k at H = 4 (2.2k on the fast test's level). Its volumetric term is integrated at the cell
+centre (selective reduced integration: no volumetric locking at ν → ½; P changed −3 % against full integration).
 
-**The creep the kinematics define.** Step k moves the roller's centre by s = kΔ along e1 and turns it by
-θ = θ₀ + s(1 + ξ)/R about +e2 (right-handed: e3 → e1). The roller's material point at the contact, c − R e3,
-moves per unit of rolled distance by e1 + θ'(e2 × (−R e3)) = e1 − (1 + ξ) e1 = −ξ e1: the roller's surface
-moves BACKWARDS relative to the block (at rest far from the contact) by ξ per unit rolled — the relative velocity
-of the surfaces over the rolling velocity, Carter's creep (Johnson §8.1), with the sign of a driving roller: the
-friction on the block points backwards (Q = −F1 > 0, measured). In the steady state the block's displacement is
-u(x1 − s) (it moves with the roller), so a block point moves by −u' per unit rolled; in the stick zone it moves
-with the roller's surface: u' = ξ, the block's surface strain over the stick zone equals the creep (the
-rigid roller has none). Carter's half-space solution (Johnson §8.2, one body rigid): the traction q = q' + q''
-with q' = μp, q'' = −μ(a'/a)p₀√(1 − (x − a + a')²/a'²) on the stick zone [a − 2a', a] (LEADING edge), whose
-surface strains (2/πE*)∫q/(x − s)ds are μx/R and −μ(x − a + a')/R: constant, μ(a − a')/R = ξ, with
-Q = μP(1 − a'²/a²), i.e. ξ = (μa/R)(1 − √(1 − Q/μP)). The row compares the creep this law gives for the
-measured steady Q, P and a (Hertz's, for the measured P) with the prescribed ξ.
+**The creep the kinematics define.** Step k moves the roller's centre by s = kΔ along e1 and turns it by θ = θ₀ +
+s(1 + ξ)/R about +e2 (right-handed: e3 → e1). The roller's material point at the contact, c − R e3, moves per unit
+of rolled distance by e1 + θ'(e2 × (−R e3)) = e1 − (1 + ξ) e1 = −ξ e1: the roller's surface moves BACKWARDS
+relative to the block (at rest far from the contact) by ξ per unit rolled — the relative velocity of the surfaces
+over the rolling velocity, Carter's creep (Johnson §8.1), with the sign of a driving roller: the friction on the
+block points backwards (Q = −F1 > 0, measured). In the steady state the block's displacement is u(x1 − s) (it moves
+with the roller), so a block point moves by −u' per unit rolled; in the stick zone it moves with the roller's
+surface: u' = ξ, the block's surface strain over the stick zone equals the creep (the rigid roller has none).
+Carter's half-space solution (Johnson §8.2, one body rigid): the traction q = q' + q'' with q' = μp, q'' =
+−μ(a'/a)p₀√(1 − (x − a + a')²/a'²) on the stick zone [a − 2a', a] (LEADING edge), whose surface strains
+(2/πE*)∫q/(x − s)ds are μx/R and −μ(x − a + a')/R: constant, μ(a − a')/R = ξ, with Q = μP(1 − a'²/a²), i.e. ξ =
+(μa/R)(1 − √(1 − Q/μP)). The row compares the creep this law gives for the measured steady Q, P and a (Hertz's, for
+the measured P) with the prescribed ξ.
 
-**Why the roll from Q = 0 is slow, and the pre-load.** The bulk between the contact and the clamp is a shear
-spring in series with the contact: with the far-field compliance C (the contact's rigid shift per unit Q),
-dQ/ds = (ξ − ξ_local(Q))/C, a relaxation over the length L = C dQ/dξ_local. Measured (h = 0.01, H = 1, run alone): turning
-the roller in place by R dθ = 5e-4 raises Q by 0.0163 (C ≈ 0.031), and the roll from the pre-load relaxes with
-the ratio 0.67 per 0.1 rolled (L ≈ 0.25 = 3 a): from Q = 0 the 0.1 % rule needs ≈ 7 L ≈ 1.7 of rolling —
-docs/rolling's 20–25 steps of 0.01 reached Q/μP = 0.35–0.45, not the steady state. So: (1) before rolling, the
-roller is turned IN PLACE (no translation) until Q reaches Carter's value for ξ — the bulk's spring pre-loaded
-(a turn in place is the same relative motion as a backward translation without rotation; translating FORWARD
-without rotation would load the other way); (2) every 0.2 of rolling, Aitken's Δ² on the last three
-quarter-cycles of Q(s) (a geometric relaxation) estimates the steady Q∞, and the roller is turned in place by
-(Q∞ − Q) dθ/dQ (the pre-load's slope): the far field wound up to it; (3) the run stops when Q changed by less
-than 0.1 % over the last five steps (the issue's rule), never across a correction. The steady state is the
-attractor: the row "steady Q from a second start" rolls the same case from a pre-load of half Carter's Q.
+**Why the roll from Q = 0 is slow, and the pre-load.** The bulk between the contact and the clamp is a shear spring
+in series with the contact: with the far-field compliance C (the contact's rigid shift per unit Q), dQ/ds = (ξ −
+ξ_local(Q))/C, a relaxation over the length L = C dQ/dξ_local. Measured (h = 0.01, H = 1, run alone): turning the
+roller in place by R dθ = 5e-4 raises Q by 0.0163 (C ≈ 0.031), and the roll from the pre-load relaxes with the
+ratio 0.67 per 0.1 rolled (L ≈ 0.25 = 3 a): from Q = 0 the 0.1 % rule needs ≈ 7 L ≈ 1.7 of rolling — docs/rolling's
+20–25 steps of 0.01 reached Q/μP = 0.35–0.45, not the steady state. So: (1) before rolling, the roller is turned IN
+PLACE (no translation) until Q reaches Carter's value for ξ — the bulk's spring pre-loaded (a turn in place is the
+same relative motion as a backward translation without rotation; translating FORWARD without rotation would load
+the other way); (2) every 0.2 of rolling, Aitken's Δ² on the last three quarter-cycles of Q(s) (a geometric
+relaxation) estimates the steady Q∞, and the roller is turned in place by (Q∞ − Q) dθ/dQ (the pre-load's slope):
+the far field wound up to it; (3) the run stops when Q changed by less than 0.1 % over the last five steps (the
+issue's rule), never across a correction. The steady state is the attractor: the row "steady Q from a second start"
+rolls the same case from a pre-load of half Carter's Q.
 
-**Results and trend.** The kinematics hold: the block's surface strain over the stick zone (the
-least-squares slope of u1 over its nodes, in the notes) is the prescribed creep to the stick zone's resolution
-(0.00998 for ξ = 0.01 at H = 1; 0.0096 on the 3–5 stick nodes at H = 2 and 4), the stick zone lies at the
-LEADING edge, and the closed nodes' half-width is 2D Hertz's for the measured P within h/2. Carter's law does NOT
-hold on the block of docs/rolling (clamped at H = 1 = 12 a): the steady Q is too small for the creep, ξ_Carter(Q)
-= 0.00775 (−22.5 %, h = 0.02) and 0.00755 (−24.5 %, h = 0.01, run alone) for ξ = 0.01, and 0.00233 (−53 %,
-h = 0.02, run alone) for ξ = 0.005 — a DEFICIT of 0.0023–0.0027 in the creep, the same for both creeps and both
-meshes. It is a surface strain the normal load makes by itself: an almost incompressible layer BONDED to a rigid
-base can neither compress nor slide on its base, so the indentation squeezes material out from under the roller
-and stretches the surface there, and the tangential traction only has to supply ξ minus that stretch (Carter's
-half-space with β → 0 has no such strain). It scales like P/(E*H) (0.0057 at H = 1: the deficit is 0.39–0.47 of it),
-and ν → ½ makes it larger (ν = 0.499, H = 1, h = 0.01, run alone: ξ_Carter 0.0068, −32 %). Dundurs' β =
-(1 − 2ν)/(2(1 − ν)) = 0.0196 here (docs/rolling had 0.01); its coupling strain −2βp/E*, β a/R ≈ 1.7e-3 at the
-centre, is not separated from the rest by these runs. A DEEPER block removes the squeeze: at h = 0.02, ξ = 0.01
-the error goes −22.5 % (H = 1) → +3.8 % (H = 2) → +7.6 % (H = 4), and +6.9 % for ξ = 0.005 at H = 4 (the rows).
-So the answer to "a far field stiff enough, or a longer roll": neither — the pre-load and the correction replace
-the long roll (steady after 10–38 steps, 0.2–0.76 of rolling, against ≈ 1.7 from Q = 0 at H = 1), and the far
-field must be DEEP (a half-space), not stiff: the shallow clamped block is the stiff one and is the error. What
-remains at H = 4 is the mesh's: h = 0.02 is a/3.4 (the stick zone 3–4 nodes wide) and the creep law is read off
-Q/μP near 0.75, where ξ_Carter is most sensitive to Q (dξ/ξ = 1.5 dQ/Q); LEVEL12. The 5 % bound is therefore not
-met on the levels this budget affords; by the P/(E*H) scaling the squeeze still takes ≈ 4 % off at H = 4 = 59 a
-(0.43 × 0.331/(92.1 × 4) = 3.9e-4), so the mesh's error there is ≈ +11 % at h = a/3.4 (at H = 2 the two partly
-cancel: +3.8 %, not a better model), and the bound needs both a deeper block and h ≤ a/7 (a finer track: 20–40k unknowns, about 40 min a run on this machine under its load),
-not run here. The steady state is the attractor: from a pre-load of half Carter's Q the same case (H = 1, the
-slowest relaxation) reaches Q = 0.081485 against 0.080813 from the full pre-load (+0.83 %, the row "steady Q from
-a second start"): the two starts approach from either side (the first from above, the second from below) and the
-rule stops each while |Q − Q∞| may still be 0.3–0.5 % (0.1 % over five steps of 0.02 with L ≈ 0.25), so
-Q∞ = 0.0811 ± 0.4 %; the 0.1 % between two starts needs a tighter rule than the issue's (not met: the row says
-no). The rows were run on ONE rank: two ranks on this shared machine
-(load 13–14) ran about ten times slower than one (the ranks' busy-polling against four other 2-rank jobs), and
-would not have ended in the session; tests/problems/test_verification_rolling.py compares 1 and 2 ranks (P and Q
-after a ten-step roll, to 1e-8: passed, 2-rank pass).
+**Results and trend.** The kinematics hold: the block's surface strain over the stick zone (the least-squares slope
+of u1 over its nodes, in the notes) is the prescribed creep to the stick zone's resolution (0.00998 for ξ = 0.01 at
+H = 1; 0.0096 on the 3–5 stick nodes at H = 2 and 4), the stick zone lies at the LEADING edge, and the closed
+nodes' half-width is 2D Hertz's for the measured P within h/2. Carter's law does NOT hold on the block of
+docs/rolling (clamped at H = 1 = 12 a): the steady Q is too small for the creep, ξ_Carter(Q) = 0.00775 (−22.5 %, h
+= 0.02) and 0.00755 (−24.5 %, h = 0.01, run alone) for ξ = 0.01, and 0.00233 (−53 %, h = 0.02, run alone) for ξ =
+0.005 — a DEFICIT of 0.0023–0.0027 in the creep, the same for both creeps and both meshes. It is a surface strain
+the normal load makes by itself: an almost incompressible layer BONDED to a rigid base can neither compress nor
+slide on its base, so the indentation squeezes material out from under the roller and stretches the surface there,
+and the tangential traction only has to supply ξ minus that stretch (Carter's half-space with β → 0 has no such
+strain). It scales like P/(E*H) (0.0057 at H = 1: the deficit is 0.39–0.47 of it), and ν → ½ makes it larger (ν =
+0.499, H = 1, h = 0.01, run alone: ξ_Carter 0.0068, −32 %). Dundurs' β = (1 − 2ν)/(2(1 − ν)) = 0.0196 here
+(docs/rolling had 0.01); its coupling strain −2βp/E*, β a/R ≈ 1.7e-3 at the centre, is not separated from the rest
+by these runs. A DEEPER block removes the squeeze: at h = 0.02, ξ = 0.01 the error goes −22.5 % (H = 1) → +3.8 % (H
+= 2) → +7.6 % (H = 4), and +6.9 % for ξ = 0.005 at H = 4 (the rows). So the answer to "a far field stiff enough, or
+a longer roll": neither — the pre-load and the correction replace the long roll (steady after 10–38 steps, 0.2–0.76
+of rolling, against ≈ 1.7 from Q = 0 at H = 1), and the far field must be DEEP (a half-space), not stiff: the
+shallow clamped block is the stiff one and is the error. What remains at H = 4 is the mesh's: h = 0.02 is a/3.4
+(the stick zone 3–4 nodes wide) and the creep law is read off Q/μP near 0.75, where ξ_Carter is most sensitive to Q
+(dξ/ξ = 1.5 dQ/Q); LEVEL12. The 5 % bound is therefore not met on the levels this budget affords; by the P/(E*H)
+scaling the squeeze still takes ≈ 4 % off at H = 4 = 59 a (0.43 × 0.331/(92.1 × 4) = 3.9e-4), so the mesh's error
+there is ≈ +11 % at h = a/3.4 (at H = 2 the two partly cancel: +3.8 %, not a better model), and the bound needs
+both a deeper block and h ≤ a/7 (a finer track: 20–40k unknowns, about 40 min a run on this machine under its
+load), not run here. The steady state is the attractor: from a pre-load of half Carter's Q the same case (H = 1,
+the slowest relaxation) reaches Q = 0.081485 against 0.080813 from the full pre-load (+0.83 %, the row "steady Q
+from a second start"): the two starts approach from either side (the first from above, the second from below) and
+the rule stops each while |Q − Q∞| may still be 0.3–0.5 % (0.1 % over five steps of 0.02 with L ≈ 0.25), so Q∞ =
+0.0811 ± 0.4 %; the 0.1 % between two starts needs a tighter rule than the issue's (not met: the row says no). The
+rows were run on ONE rank: two ranks on this shared machine (load 13–14) ran about ten times slower than one (the
+ranks' busy-polling against four other 2-rank jobs), and would not have ended in the session;
+tests/problems/test_verification_rolling.py compares 1 and 2 ranks (P and Q after a ten-step roll, to 1e-8: passed,
+2-rank pass).
 
 ## 9. Hertz between two elastic bodies
 
