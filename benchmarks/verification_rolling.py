@@ -263,11 +263,12 @@ def roll(comm: MPI.Comm, creep: float, level: int = 0, preload: float = 1.0, max
             "unknowns": unknowns, "wall": wall}
 
 
-#: The table's runs: (creep, level) — the far field's depth H = 1, 2, 4 at h = 0.02, then the other creep at H = 4;
+#: The table's runs: (creep, level) — the far field's depth H = 1, 2, 4 at h = 0.02, the other creep at H = 4, and
+#: h = 0.014 at H = 4;
 #: the first level of the larger creep is also the first start of the two-start check, whose second start
 #: pre-loads this fraction of Carter's Q; and the steps of the one-rank comparison (the first steps of that roll,
 #: before any far-field correction).
-CARTER_RUNS = ((0.01, 0), (0.01, 10), (0.01, 11), (0.005, 11))
+CARTER_RUNS = ((0.01, 0), (0.01, 10), (0.01, 11), (0.005, 11), (0.01, 12))
 SECOND_START = 0.5
 COMPARED_STEPS = 9
 SOURCE = ("Johnson, Contact Mechanics (1985), §8.2 (Carter 1926): ξ = (μa/R)(1 − √(1 − Q/μP)), "
