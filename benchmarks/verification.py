@@ -38,7 +38,9 @@ Cases (the derivations are in docs/verification/README.md):
 
 The incline is also run as a user writes it, from the scene file docs/verification/incline.toml.
 
-The cases not built yet are rows saying "not yet" and why (``NOT_YET``).
+* **Steady rolling (Carter)** (benchmarks/verification_rolling.py): a rigid roller rolled with a prescribed creep
+  on a plane-strain slice of an almost incompressible block until the tangential force is steady: the creep
+  Carter's law gives for the measured Q, P against the prescribed one (Johnson, §8.2).
 """
 
 from __future__ import annotations
@@ -74,6 +76,7 @@ from benchmarks.verification_two_body import (  # noqa: E402
     CORE_DELTA,
     hertz_core,
 )
+from benchmarks.verification_rolling import carter_rows  # noqa: E402
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
 __all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "INCLINE_TWO_BODY_SCENE", "SLOPE_LEVELS", "incline",
@@ -609,7 +612,7 @@ def collect(comm: MPI.Comm, hertz_levels: tuple[int, ...] = HERTZ_LEVELS
                                      f"(all with held components){trend}"})
                 previous[key] = r["err_" + key]
     rows += collect_two_body(comm)
-    rows += NOT_YET
+    rows += carter_rows(comm)
     return rows, curves
 
 
@@ -828,8 +831,8 @@ inflated accordingly).
 
 {table}
 
-The "not yet" row: the case of the verification plan not in this table yet, steady rolling (Carter), which
-needs a longer roll than docs/rolling has had. Support reactions (a node on two
+Case 8 (steady rolling, Carter) meets its 5 % in no row of this table (h = a/3.4 at the deep H = 4); one finer
+level measured alone does (+2.1 % at h = a/4.8): §8 gives the reason and the trend. Support reactions (a node on two
 supports, one-component pushes, rollers, a driven master body) are checked against an assembly of K u − l of
 their own in tests/model/test_support_reactions.py and tests/model/test_reactions.py, not in this table.
 
@@ -1159,6 +1162,90 @@ tests/problems/test_finite_sliding_shrink.py, 1 and 2 ranks). Node-to-surface's 
 the shaft's facets from update to update (7–20 of 42 nodes, exit 3 after 10 updates), so the table stays with the
 reference-configuration model for both methods.
 
+## 8. Steady rolling (Carter)
+
+`benchmarks/verification_rolling.py` (`roll`, `carter_rows`; `--cases carter` writes only these rows). A rigid
+roller of radius R = 1 (the analytic `Cylinder`, axis along x2) is pressed by d = 0.01 into a block of E = 70, ν =
+0.49, clamped at the depth H (1, 2 or 4; its ends at x1 = −1.5 and 2.5 for H = 1, −4 and 5 for H = 2, −8 and 9 for
+H = 4: several H from the roll) and rolled along +x1, μ = 0.3; the mesh has the spacing h on the track −0.15 ≤ x1 ≤
+0.95 and grows geometrically (× 1.15) away from it, z = −H ζ² toward the top.
+
+**A plane-strain slice.** The block is one hexahedron thick in x2 (W = h) with rollers u2 = 0 on both x2 faces; its
+contact nodes keep their held u2 (frames.py, "Contact nodes with held components": the normal is orthogonal to e2
+and the roller's motion has no x2 component). The 3D model of docs/rolling (a block 0.5 wide with FREE x2 faces,
+82k unknowns) is not plane strain at its mid-plane: at ν = 0.49 the free faces let the block bulge sideways, and
+its mid-plane P per unit length is 0.375 against the slice's 0.52 for the same indentation (a 0.0742 against
+0.085); the slice is the plane-strain problem Carter solves, with 2D Hertz's a = √(4PR/πE*), E* = E/(1 − ν²) — the
+closed nodes' half-width matches it within h/2 on every level (the table's notes). The slice costs 3.8k unknowns at
+h = 0.02 and H = 1, 10k at H = 4 (2.2k on the fast test's level). Its volumetric term is integrated at the cell
+centre (selective reduced integration: no volumetric locking at ν → ½; P changed −3 % against full integration).
+
+**The creep the kinematics define.** Step k moves the roller's centre by s = kΔ along e1 and turns it by θ = θ₀ +
+s(1 + ξ)/R about +e2 (right-handed: e3 → e1). The roller's material point at the contact, c − R e3, moves per unit
+of rolled distance by e1 + θ'(e2 × (−R e3)) = e1 − (1 + ξ) e1 = −ξ e1: the roller's surface moves BACKWARDS
+relative to the block (at rest far from the contact) by ξ per unit rolled — the relative velocity of the surfaces
+over the rolling velocity, Carter's creep (Johnson §8.1), with the sign of a driving roller: the friction on the
+block points backwards (Q = −F1 > 0, measured). In the steady state the block's displacement is u(x1 − s) (it moves
+with the roller), so a block point moves by −u' per unit rolled; in the stick zone it moves with the roller's
+surface: u' = ξ, the block's surface strain over the stick zone equals the creep (the rigid roller has none).
+Carter's half-space solution (Johnson §8.2, one body rigid): the traction q = q' + q'' with q' = μp, q'' =
+−μ(a'/a)p₀√(1 − (x − a + a')²/a'²) on the stick zone [a − 2a', a] (LEADING edge), whose surface strains
+(2/πE*)∫q/(x − s)ds are μx/R and −μ(x − a + a')/R: constant, μ(a − a')/R = ξ, with Q = μP(1 − a'²/a²), i.e. ξ =
+(μa/R)(1 − √(1 − Q/μP)). The row compares the creep this law gives for the measured steady Q, P and a (Hertz's, for
+the measured P) with the prescribed ξ.
+
+**Why the roll from Q = 0 is slow, and the pre-load.** The bulk between the contact and the clamp is a shear spring
+in series with the contact: with the far-field compliance C (the contact's rigid shift per unit Q), dQ/ds = (ξ −
+ξ_local(Q))/C, a relaxation over the length L = C dQ/dξ_local. Measured (h = 0.01, H = 1, run alone): turning the
+roller in place by R dθ = 5e-4 raises Q by 0.0163 (C ≈ 0.031), and the roll from the pre-load relaxes with the
+ratio 0.67 per 0.1 rolled (L ≈ 0.25 = 3 a): from Q = 0 the 0.1 % rule needs ≈ 7 L ≈ 1.7 of rolling — docs/rolling's
+20–25 steps of 0.01 reached Q/μP = 0.35–0.45, not the steady state. So: (1) before rolling, the roller is turned IN
+PLACE (no translation) until Q reaches Carter's value for ξ — the bulk's spring pre-loaded (a turn in place is the
+same relative motion as a backward translation without rotation; translating FORWARD without rotation would load
+the other way); (2) every 0.2 of rolling, Aitken's Δ² on the last three quarter-cycles of Q(s) (a geometric
+relaxation) estimates the steady Q∞, and the roller is turned in place by (Q∞ − Q) dθ/dQ (the pre-load's slope):
+the far field wound up to it; (3) the run stops when Q changed by less than 0.1 % over the last five steps (the
+issue's rule), never across a correction. The steady state is the attractor: the row "steady Q from a second start"
+rolls the same case from a pre-load of half Carter's Q.
+
+**Results and trend.** The kinematics hold: the block's surface strain over the stick zone (the least-squares slope
+of u1 over its nodes, in the notes) is the prescribed creep to the stick zone's resolution (0.00998 for ξ = 0.01 at
+H = 1; 0.0096 on the 3–5 stick nodes at H = 2 and 4), the stick zone lies at the LEADING edge, and the closed
+nodes' half-width is 2D Hertz's for the measured P within h/2. Carter's law does NOT hold on the block of
+docs/rolling (clamped at H = 1 = 12 a): the steady Q is too small for the creep, ξ_Carter(Q) = 0.00775 (−22.5 %, h
+= 0.02) and 0.00755 (−24.5 %, h = 0.01, run alone) for ξ = 0.01, and 0.00233 (−53 %, h = 0.02, run alone) for ξ =
+0.005 — a DEFICIT of 0.0023–0.0027 in the creep, nearly the same for both creeps and both meshes. It is a surface
+strain the normal load makes by itself: an almost incompressible layer BONDED to a rigid base can neither compress
+nor slide on its base, so the indentation squeezes material out from under the roller and stretches the surface
+there, and the tangential traction only has to supply ξ minus that stretch (Carter's half-space with β → 0 has no
+such strain). It scales like P/(E*H) (0.0057 at H = 1: the deficit is 0.39–0.47 of it), and ν → ½ makes it larger
+(ν = 0.499, H = 1, h = 0.01, run alone: ξ_Carter 0.0068, −32 %). Dundurs' β = (1 − 2ν)/(2(1 − ν)) = 0.0196 here
+(docs/rolling had 0.01); its coupling strain −2βp/E*, β a/R ≈ 1.7e-3 at the centre, is not separated from the rest
+by these runs. A DEEPER block removes the squeeze: at h = 0.02, ξ = 0.01 the error goes −22.5 % (H = 1) → +3.8 % (H
+= 2) → +7.6 % (H = 4), and +6.9 % for ξ = 0.005 at H = 4 (the rows). So the answer to "a far field stiff enough, or
+a longer roll": neither — the pre-load and the correction replace the long roll (steady after 10–38 steps, 0.2–0.76
+of rolling, against ≈ 1.7 from Q = 0 at H = 1), and the far field must be DEEP (a half-space), not stiff: the
+shallow clamped block is the stiff one and is the error. What remains at H = 4 is mostly the mesh's: h = 0.02 is
+a/3.4 (the stick zone 3–4 nodes wide) and the creep law is read off Q/μP near 0.75, where ξ_Carter is most
+sensitive to Q (dξ/ξ = 1.5 dQ/Q). One finer level at H = 4, h = 0.014 = a/4.8 (14.8 k unknowns, `roll(comm, 0.01,
+12)`), measured ALONE on one rank after the table's run (08:07, load 4.7 → 3.2, 171 s wall, 144 s CPU; Q flat to
+±0.03 % over the last 10 steps, no correction; not in the table: the session's budget for runs had ended), gives
+Q/μP = 0.7530 against Carter's 0.7427, ξ_Carter = 0.010211: +2.1 % (the rule held at step 20, rolled 0.28; stick
+zone 2a' = 0.0697 against 2a√(1 − Q/μP) = 0.0673; surface strain over the stick zone 0.00958). So at H = 4 the
+error falls +7.6 % → +2.1 % from h = a/3.4 to a/4.8 and meets the 5 % bound on that finer level; by the P/(E*H)
+scaling the squeeze still takes ≈ 4 % off at H = 4 = 59 a (0.43 × 0.331/(92.1 × 4) = 3.9e-4, an estimate), so part
+of the +2.1 % is two errors of opposite sign (at H = 2, h = 0.02 the two cancel more: +3.8 %, not a better model).
+The command now also runs (0.01, 12) (`CARTER_RUNS`); the table above holds the rows of the run before that was
+added. The steady state is the attractor: from a pre-load of half Carter's Q the same case (H = 1, the slowest
+relaxation) reaches Q = 0.081485 against 0.080813 from the full pre-load (+0.83 %, the row "steady Q from a second
+start"): the rule stops each while |Q − Q∞| may still be 0.3–0.5 % (0.1 % over five steps of 0.02 with L ≈ 0.25),
+so the two agree to the rule's own tolerance; the 0.1 % between two starts needs a tighter rule than the issue's
+(not met: the row says no). The rows were run on ONE rank: two ranks on this shared machine (load 13–14) ran about
+ten times slower than one (four other engineers' 2-rank jobs shared the 2 cores; level 0's roll: 18 solves in 6 min
+on 2 ranks against 38 steps in 90 s on one), and would not have ended in the session;
+tests/problems/test_verification_rolling.py compares 1 and 2 ranks (P and Q after a ten-step roll, to 1e-8: passed,
+2-rank pass).
+
 ## 9. Hertz between two elastic bodies
 
 `benchmarks/verification_two_body.py` (`hertz_core`) on the mesh of `meshes/sphere_on_block_half.py` (gmsh):
@@ -1206,19 +1293,6 @@ tests/problems/test_two_body_cores.py checks the agreement to 1e-8 at level 0. T
 unstructured slave's scatter of the former case 9 (±5–10 % around the profile, the fitted p₀ +5.0 % at h = a/4.5
 and +4.1 % at a/9, not falling with h).
 """
-
-
-#: The cases of the verification plan not in the table yet, and why.
-NOT_YET = [
-    {"case": case, "quantity": quantity, "level": "—", "reference": reference, "source": source, "value": "not yet",
-     "error": float("nan"), "bound": None, "unknowns": "—", "ranks": "—", "wall": float("nan"), "agree": "—",
-     "note": note}
-    for case, quantity, reference, source, note in [
-        ("8. steady rolling (Carter)", "creep law", "ξ = (μa/R)(1 − √(1 − Q/μP))",
-         "Johnson, Contact Mechanics, ch. 8 (Carter 1926)",
-         "docs/rolling did not reach the steady state; a longer roll is not in this table yet"),
-    ]
-]
 
 
 HEADER = ("| case | quantity | mesh level | reference | source | ours | rel. error | trend (coarse → fine) | bound "
@@ -1298,7 +1372,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "verification")
     parser.add_argument("--hertz-levels", type=int, nargs="*", default=list(HERTZ_LEVELS))
     parser.add_argument("--cases", choices=("all", "two-body", "mindlin", "hertz", "hertz-two-bodies",
-                                                   "incline-two-bodies"),
+                                                   "incline-two-bodies", "carter"),
                         default="all",
                         help="two-body: only the two-body rows (Hertz, Cattaneo–Mindlin), into "
                              "verification_two_body.csv and two_body_rows.md; mindlin: only case 6's, into "
@@ -1306,7 +1380,8 @@ def main(argv: list[str] | None = None) -> int:
                              "hertz-two-bodies: only case 9's (verification_hertz_two_bodies.csv, "
                              "hertz_two_bodies_rows.md); hertz: only "
                              "case 2's, into verification_hertz.csv, hertz_rows.md and hertz.png; incline-two-bodies: "
-                             "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md "
+                             "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md; "
+                             "carter: only case 8's, into verification_carter.csv and carter_rows.md "
                              "(each to be merged into the table)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
@@ -1315,12 +1390,14 @@ def main(argv: list[str] | None = None) -> int:
     logging.getLogger("fenics_coulomb").setLevel(logging.WARNING)
     load_before = _load() if comm.rank == 0 else ""
     t0 = time.perf_counter()
-    if args.cases in ("two-body", "mindlin", "hertz", "hertz-two-bodies", "incline-two-bodies"):
+    if args.cases in ("two-body", "mindlin", "hertz", "hertz-two-bodies", "incline-two-bodies", "carter"):
         curves: dict[str, list[Any]] = {"hertz": [], "lubkin": []}
         if args.cases == "hertz":
             rows = hertz_rows(comm, tuple(args.hertz_levels), curves)
         elif args.cases == "incline-two-bodies":
             rows = incline_two_body_rows(comm)
+        elif args.cases == "carter":
+            rows = carter_rows(comm)
         elif args.cases == "hertz-two-bodies":
             rows = collect_two_body(comm, HERTZ2_TABLE_LEVELS, ())
         elif args.cases == "mindlin":
@@ -1330,7 +1407,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             rows = collect_two_body(comm, () if args.cases == "mindlin" else HERTZ2_TABLE_LEVELS)
         name = {"hertz": "hertz", "incline-two-bodies": "incline_two_bodies",
-                "hertz-two-bodies": "hertz_two_bodies", "mindlin": "mindlin"}.get(args.cases, "two_body")
+                "hertz-two-bodies": "hertz_two_bodies", "mindlin": "mindlin",
+                "carter": "carter"}.get(args.cases, "two_body")
         if comm.rank == 0:
             args.out.mkdir(parents=True, exist_ok=True)
             with open(args.out / f"verification_{name}.csv", "w", newline="") as f:

@@ -1,0 +1,48 @@
+"""The fast subset of case 8 of the verification table (benchmarks/verification_rolling.py): tractive rolling of
+a rigid roller on a plane-strain slice, a short roll from the pre-loaded start on the coarse test level
+(h = 0.02 ≈ a/4.2, ten steps of h, no far-field correction).
+
+What a short roll can check, with bounds of its own: the slice is plane strain (the contact nodes keep their held
+u2 and stay in contact), the normal problem is 2D Hertz's (the closed nodes' half-width within one spacing h of
+a = √(4PR/πE*)), the driving roller's traction on the block points backwards with partial slip (0 < Q < μP), the
+stick zone lies at the LEADING edge (it holds the leading closed node, the trailing one slips) with the width
+2a√(1 − Q/μP) to two spacings (its edges lie between nodes), and two ranks give one rank's P and Q to 1e-8.
+Carter's creep law itself needs the steady state, which the table's rows reach (docs/verification §8).
+"""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import pytest
+
+from benchmarks.verification_rolling import MU, hertz_half_width, roll
+
+CREEP = 0.01
+
+
+@pytest.fixture(scope="module")
+def rolled():
+    return roll(MPI.COMM_WORLD, CREEP, level=-1, max_steps=10, cycle=0.0)
+
+
+def test_short_roll_from_the_preload(rolled):
+    r, h = rolled, rolled["h"]
+    assert len(r["history"]) == r["preload_steps"] + 1 + 10 and r["corrections"] == []
+    assert abs(r["a_nodes"] - hertz_half_width(r["P"])) <= h
+    assert 0.0 < r["Q"] < MU * r["P"]
+    leading = r["centre"] + r["a_nodes"] - h / 2  # the leading closed node
+    trailing = r["centre"] - r["a_nodes"] + h / 2
+    assert r["stick_to"] == pytest.approx(leading, abs=1e-9)
+    assert r["stick_from"] > trailing + h / 2
+    assert abs(r["stick_width"] - r["stick_width_ref"]) <= 2 * h
+
+
+@pytest.mark.compares_ranks
+def test_one_rank_agrees(rolled):
+    """The same roll on rank 0 alone (MPI.COMM_SELF): P and Q to 1e-8."""
+    comm = MPI.COMM_WORLD
+    one = roll(MPI.COMM_SELF, CREEP, level=-1, max_steps=10, cycle=0.0) if comm.rank == 0 else None
+    one = comm.bcast(None if one is None else {k: one[k] for k in ("P", "Q")})
+    for key in ("P", "Q"):
+        assert rolled[key] == pytest.approx(one[key], rel=1e-8), key
