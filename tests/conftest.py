@@ -149,9 +149,9 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                           "split in every process given the same arguments")
 
 
-#: Each module's measured share of the serial pass (seconds of a loaded run, 2026-11-26: the top 80 test phases of
-#: ``pytest --durations`` summed per module, 0.74 s for each other test); a module not listed counts 0.74 s a test.
-#: Stale weights only unbalance the shards, they never change what runs.
+#: Each module's measured share of the serial pass: CPU seconds of its tests (the pytest process and the children it
+#: waited for: mpirun, pvpython, the command), summed per module, 2026-11-26 (docs/testing.md); a module not listed
+#: counts 0.74 s a test. Stale weights only unbalance the shards, they never change what runs.
 SHARD_WEIGHTS = Path(__file__).with_name("shard_weights.json")
 SHARD_DEFAULT = 0.74
 

@@ -75,26 +75,47 @@ def dual_matrix(X, n=64):
 
 
 def _ray_facets(x, direction, masters):
-    """For points x (q, 3) and one direction: the master facet hit (−1: none), its point and weights."""
+    """For points x (q, 3) and one direction: the master facet hit (−1: none), its point and weights.
+
+    Only the points whose projection along ``direction`` falls in the bounding box of the facet's projected
+    vertices (widened by 1e-6 of its size) are cast at a facet: a facet (a triangle, or a bilinear quadrilateral:
+    convex combinations of its vertices) lies in the convex hull of its vertices, so a ray outside that box
+    cannot meet it, and each ray's own linear solve or Newton iteration is the same as when cast at every facet.
+    """
     q = x.shape[0]
     hit = np.full(q, -1)
     xm = np.zeros((q, 3))
     wm = np.zeros((q, 4))
     best = np.full(q, np.inf)
+    e1 = np.cross(direction, [1.0, 0.0, 0.0] if abs(direction[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    plane = np.column_stack([e1, np.cross(direction, e1)])
+    xp = x @ plane
+    order = np.argsort(xp[:, 0], kind="stable")
+    first = xp[order, 0]
     for f, Y in enumerate(masters):
         nv = Y.shape[0]
+        Yp = Y @ plane
+        margin = 1e-6 * np.ptp(Yp, axis=0).max()
+        lo, hi = Yp.min(axis=0) - margin, Yp.max(axis=0) + margin
+        near = order[np.searchsorted(first, lo[0], "left"):np.searchsorted(first, hi[0], "right")]
+        near = np.sort(near[(xp[near, 1] >= lo[1]) & (xp[near, 1] <= hi[1])])
+        if near.size == 0:
+            continue
+        xn = x[near]
+        qn = near.size
         if nv == 3:
             # x + t d = Y0 + a (Y1 − Y0) + b (Y2 − Y0)
             Mtx = np.column_stack([-direction, Y[1] - Y[0], Y[2] - Y[0]])
-            sol = np.linalg.solve(Mtx, (x - Y[0]).T).T
+            sol = np.linalg.solve(Mtx, (xn - Y[0]).T).T
             t, a, b = sol.T
             inside = (a >= -1e-12) & (b >= -1e-12) & (a + b <= 1 + 1e-12)
             w = shape(3, a, b)
         else:
-            t, a, b = np.zeros(q), np.full(q, 0.5), np.full(q, 0.5)
+            t, a, b = np.zeros(qn), np.full(qn, 0.5), np.full(qn, 0.5)
             for _ in range(30):
                 y, _ = point(Y, a, b)
-                r = x + t[:, None] * direction - y
+                r = xn + t[:, None] * direction - y
                 d1 = np.outer(1 - b, Y[1] - Y[0]) + np.outer(b, Y[3] - Y[2])
                 d2 = np.outer(1 - a, Y[2] - Y[0]) + np.outer(a, Y[3] - Y[1])
                 # Cramer's rule for [d, −x_ξ, −x_η] step = −r
@@ -109,11 +130,11 @@ def _ray_facets(x, direction, masters):
                     break
             inside = (a >= -1e-12) & (a <= 1 + 1e-12) & (b >= -1e-12) & (b <= 1 + 1e-12)
             w = shape(4, a, b)
-        take = inside & (np.abs(t) < best)
-        hit[take], best[take] = f, np.abs(t[take])
-        y = w @ Y
-        xm[take] = y[take]
-        wm[take, :nv] = w[take]
+        take = inside & (np.abs(t) < best[near])
+        idx = near[take]
+        hit[idx], best[idx] = f, np.abs(t[take])
+        xm[idx] = w[take] @ Y
+        wm[idx, :nv] = w[take]
     return hit, xm, wm
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -76,14 +77,24 @@ def _digest(directory: Path) -> str:
     return h.hexdigest()
 
 
-def _interrupt_after(tmp_path, args: list[str], target: str, signum: int, marker: str = "it ") -> None:
-    """Write a result set, start ``args`` into the same directory, signal one rank or every rank once the run
-    printed ``marker``: it ends with 128 + the signal, no process is left, the earlier set is kept byte for byte
-    and no partial one is left."""
-    out = tmp_path / "out"
+@pytest.fixture(scope="module")
+def earlier_set(tmp_path_factory) -> Path:
+    """A result set of the real command (lev 1), written once for the module: each test copies it."""
+    out = tmp_path_factory.mktemp("earlier") / "out"
     subprocess.run([sys.executable, "-m", "fenics_coulomb", "--lev", "1", "--out", str(out), "--no-plots",
                     "--quiet"], env=command_env(display=False), check=True)
+    return out
+
+
+def _interrupt_after(tmp_path, earlier: Path, args: list[str], target: str, signum: int,
+                     marker: str = "it ") -> None:
+    """Put a copy of the result set ``earlier`` in place, start ``args`` into the same directory, signal one rank
+    or every rank once the run printed ``marker``: it ends with 128 + the signal, no process is left, the earlier
+    set is kept byte for byte and no partial one is left."""
+    out = tmp_path / "out"
+    shutil.copytree(earlier, out)
     before = _digest(out)
+    assert before == _digest(earlier)
     try:
         proc = start_in_newton([*args, "--out", str(out), "--no-plots"], display=False, marker=marker)
     except RuntimeError as err:
@@ -117,14 +128,14 @@ SIGNALS = pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("
     ["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"],  # a load path
 ], ids=["shell", "gamg", "ilu", "load-path"])
 @SIGNALS
-def test_interrupt_on_every_solver_path(tmp_path, path, target, signum):
-    _interrupt_after(tmp_path, path, target, signum)
+def test_interrupt_on_every_solver_path(tmp_path, earlier_set, path, target, signum):
+    _interrupt_after(tmp_path, earlier_set, path, target, signum)
 
 
 @SIGNALS
-def test_interrupt_during_the_geometry_iteration(tmp_path, target, signum):
+def test_interrupt_during_the_geometry_iteration(tmp_path, earlier_set, target, signum):
     """Finite sliding: a signal right after a geometry update (the ranks re-pair, re-place and solve again) ends
     every rank with 128 + the signal and keeps the earlier result set (-v: a load path's updates are logged)."""
     scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "stl_roller_rolling.toml"
-    _interrupt_after(tmp_path, ["--scene", str(scene), "-v"], target, signum,
+    _interrupt_after(tmp_path, earlier_set, ["--scene", str(scene), "-v"], target, signum,
                      marker="finite sliding: geometry update")

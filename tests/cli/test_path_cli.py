@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 
 from mpi4py import MPI
@@ -42,6 +45,22 @@ def run(*args: str) -> int:
     return status
 
 
+@pytest.fixture(scope="module")
+def demo_path_run() -> Iterator[Path]:
+    """The demo path at lev 2 (``--scene DEMO --lev 2``, plots included), run once on this communicator for the
+    tests that check it, resume from it and compare the real 2-rank command with it; its directory is shared by
+    all ranks and removed after the module."""
+    comm = MPI.COMM_WORLD
+    path = tempfile.mkdtemp(prefix="fenics-coulomb-path-") if comm.rank == 0 else None
+    path = Path(comm.bcast(path, root=0))
+    out = path / "path"
+    assert run("--scene", str(DEMO), "--lev", "2", "--out", str(out)) == 0
+    yield out
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
 def shared_file(path: Path, text: str) -> Path:
     if MPI.COMM_WORLD.rank == 0:
         path.write_text(text)
@@ -68,11 +87,10 @@ def relative(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(a - b).max() / max(np.abs(b).max(), np.finfo(float).tiny))
 
 
-def test_demo_path(mpi_tmp_path):
+def test_demo_path(demo_path_run, mpi_tmp_path):
     """The demo path: every solve is a grid with all fields at time = its step number, path.csv and summary
     agree, each step's contact force and reactions balance its applied load, the counts cover p."""
-    out = mpi_tmp_path / "path"
-    assert run("--scene", str(DEMO), "--lev", "2", "--out", str(out)) == 0
+    out = demo_path_run
     summary = json.loads((out / "summary.json").read_text())
     p = expected_sizes(2)[0]
     steps = summary["steps"]
@@ -195,11 +213,10 @@ def test_failed_step_exits_3_keeping_the_completed_steps(mpi_tmp_path, capsys):
         assert "step 2 of the load path did not converge" in err
 
 
-def test_resume_reproduces_the_path(mpi_tmp_path):
+def test_resume_reproduces_the_path(demo_path_run, mpi_tmp_path):
     """--start FILE --start-step K solves K+1..N from step K of an earlier path: the same states (1e-8)."""
-    full, resumed = mpi_tmp_path / "full", mpi_tmp_path / "resumed"
+    full, resumed = demo_path_run, mpi_tmp_path / "resumed"
     common = ("--scene", str(DEMO), "--lev", "2", "--no-plots")
-    assert run(*common, "--out", str(full)) == 0
     assert run(*common, "--start", str(full / "solution.xdmf"), "--start-step", "1", "--out", str(resumed)) == 0
     times = [float(g.find("Time").get("Value")) for g in grids(resumed)]
     assert times == pytest.approx(DEMO_TIMES[3:], abs=1e-15)
@@ -287,7 +304,7 @@ def test_bad_path_flags_exit_2(mpi_tmp_path, capsys):
 
 
 @pytest.mark.serial
-def test_real_command_two_ranks_equals_one(tmp_path):
+def test_real_command_two_ranks_equals_one(demo_path_run, tmp_path):
     """`mpirun -n 2 python3 -m fenics_coulomb --scene demos/scenes/d3_L2_path.toml` (the real command, from a
     directory outside the repository) gives the path of 1 rank (1e-8 at every step)."""
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_COMM", "PMIX", "PRTE_"))}
@@ -298,8 +315,7 @@ def test_real_command_two_ranks_equals_one(tmp_path):
                           env=env, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     assert proc.stderr.count("step 3/3, substep 2/2") == 1 and "load path completed" in proc.stdout
-    one = tmp_path / "one"
-    assert run("--scene", str(DEMO), "--lev", "2", "--no-plots", "--out", str(one)) == 0
+    one = demo_path_run  # the same scene and level on this one rank
     for k in range(7):
         x1, u1 = displacement(one, k)
         x2, u2 = displacement(two, k)

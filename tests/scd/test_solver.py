@@ -128,6 +128,8 @@ def test_serial_equals_parallel(problem_factory):
     assert np.linalg.norm(u - us) <= 1e-8 * np.linalg.norm(u)
 
 
+# on COMM_SELF with a dense reference: on 2 ranks each rank repeated the same solve and reference
+@pytest.mark.serial
 def test_matches_independent_solver():
     """A tiny scene (lev 0, 108 unknowns) against the Tresca fixed-point/FISTA solver on dense matrices."""
     with make_problem(0, "d3", "L2", comm=MPI.COMM_SELF, pc="lu", tol=1e-13, **TIGHT) as problem:
