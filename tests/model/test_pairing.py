@@ -491,31 +491,3 @@ def test_ranks_agree(cell, partitioner, method):
         f_one = np.einsum("kj,kj->k", one["w"], np.exp(one["mx"] @ a))
         assert np.allclose(f_many, f_one, atol=1e-12, rtol=0)
 
-
-@pytest.mark.serial
-def test_a_node_at_an_aligned_border_is_over_the_tilted_facet():
-    """Node-to-surface at M's outer border (projection.py, "Aligned borders"): a master facet tilted by τ = 1e-3
-    out of the plane perpendicular to its border z = 0 (a deformed slice's face), a slave node on z = 0 pressed
-    4e-3 into it lies 4e-6 beside the border: paired, with the facet's normal and the border point's weights; a
-    node 2e-4 (> BORDER_TOL·h) beyond the border on the facet's plane stays free; a node over the facet's
-    interior is paired as before. With BORDER_TOL = 0 the pressed node was free (the shrink fit's lost nodes)."""
-    import fenics_coulomb.model.pairs.projection as projection
-
-    tau = 1e-3
-    corners = np.array([[0, 0, 0], [0, 1, 0], [tau, 1, 1], [tau, 0, 1]], dtype=float)
-    surface = projection.Surface(corners[[[0, 1, 2], [0, 2, 3]]], np.array([[0, 1, 2], [0, 2, 3]]),
-                                 np.array([1.0, 1.0]))
-    x = np.array([[-0.004, 0.5, 0.0], [0.0, 0.5, -2e-4], [0.0, 0.5, 0.3]])
-    normal = np.array([1.0, 0.0, -tau]) / np.hypot(1.0, tau)
-    found = projection.project(x, surface, np.ones(2), np.arange(2))
-    assert found["paired"].tolist() == [True, False, True]
-    assert np.allclose(found["normal"][[0, 2]], normal, rtol=0, atol=1e-15)
-    assert np.allclose(found["closest"][0], [0.0, 0.5, 0.0]) and np.allclose(found["weights"][0], [0.5, 0.5, 0.0])
-    gap = (x[0] - found["closest"][0]) @ found["normal"][0]
-    assert gap == pytest.approx(-0.004 / np.hypot(1.0, tau), rel=1e-12)
-    original = projection.BORDER_TOL
-    try:
-        projection.BORDER_TOL = 0.0
-        assert not projection.project(x[:1], surface, np.ones(2), np.arange(2))["paired"][0]
-    finally:
-        projection.BORDER_TOL = original

@@ -51,15 +51,7 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   direction passes the test, and d/|d| — possibly tangential — would become the constraint's normal. Measured on
   the node-to-surface shrink fit in finite sliding: bore nodes pressed onto the shaft's vertices (|d| ~ 5e-10) were
   released by such a normal and penetrated 5e-5–1.4e-3 in the next geometry, which never settled; with the rule it
-  settles in 7 updates, its pressure 7e-5 from small sliding's.
-* Aligned borders: a node whose closest point lies on M's outer border (one facet) but whose foot on that
-  facet's plane lies within BORDER_TOL = 1e-4 h of it (|d − (d·n_f) n_f| <= BORDER_TOL·h) is over the facet:
-  paired with n = n_f. Where the slave's and the master's borders are aligned (both bodies held on one face: the
-  faces of a plane-strain slice, a symmetry plane), the deformation tilts the master facet out of the border's
-  plane by a small angle τ, and a node pressed to a depth |g| then lies |g|·τ beside the border: the tilted
-  shaft facets of the shrink fit in finite sliding put 2–10 nodes per update there (|g| up to 4e-3, τ ≈ 1e-3), each
-  such node then free and penetrating by 1e-3 the next, and the geometry never settled. The tolerance is mortar's
-  ALIGNED_TOL (:mod:`fenics_coulomb.model.pairs.segmentation`, "Coverage at aligned borders").
+  settles in 6 updates, its pressure 7e-5 from small sliding's.
 * SIGN CHOICE: "d lies in the normal cone" is read as "±d lies in it", so that a slave node inside the
   master body (d points into it: −d is in C) is paired with g < 0 (n = −d/|d| at an edge/vertex, n_f inside
   a facet; g = d·n = −|d|). When both hold (only possible for a cone containing a line), +d is used.
@@ -92,7 +84,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
-__all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "BORDER_TOL", "Surface", "norm", "dot", "where", "outward_normals",
+__all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals",
            "local_facets", "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes",
            "facet_ranks", "empty_closest"]
 
@@ -105,9 +97,6 @@ CONE_TOL = 1e-8
 #: An edge or vertex node whose ±d lies in the normal cone only within CONE_TOL·h, but off it by more than this
 #: angle (radians), takes the cone's mean direction as its normal (module docstring).
 CONE_ANGLE = 1e-3
-#: A node whose closest point lies on M's outer border is over the facet when its foot on the facet's plane lies
-#: within this × the facet size of the border (aligned borders: mortar's ALIGNED_TOL, the module docstring).
-BORDER_TOL = 1e-4
 
 
 # -- facet geometry ---------------------------------------------------------------------------------------
@@ -450,13 +439,6 @@ def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array,
         if vague.size:
             s = np.einsum("kq,kqi->ki", tied[vague].astype(float), normals[vague])
             n[vague] = s / norm(s)[:, None]
-        # at M's outer border (one facet): over the facet when its foot on the facet's plane lies within
-        # BORDER_TOL·h of the border (aligned borders, module docstring)
-        nf = normals[rows[sel], chosen[sel]]
-        border = ~paired[sel] & (tied[sel].sum(axis=1) == 1) & (norm(d[sel] - dot(d[sel], nf)[:, None] * nf)
-                                                                 <= BORDER_TOL * h[sel])
-        n[sel[border]] = nf[border]
-        paired[sel[border]] = True
     # x_s on the surface: the normalized sum of the tied facets' normals
     sel = np.flatnonzero(tiny)
     if sel.size:
