@@ -134,9 +134,8 @@ class Coupling:
         return False
 
     def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
-                       pressed: npt.NDArray[np.bool_], support: float | None = None) -> StencilChange:
-        """How the coupling's contact nodes change in X + u (collective; see :class:`StencilChange`; ``support``:
-        the displacement of a stencil's point below which a master node is no support, default ``tolerance``)."""
+                       pressed: npt.NDArray[np.bool_]) -> StencilChange:
+        """How the coupling's contact nodes change in X + u (collective; see :class:`StencilChange`)."""
         size = model.contact.size
         return StencilChange(np.zeros(size, dtype=bool), np.zeros(size), np.zeros((0, 3)))
 

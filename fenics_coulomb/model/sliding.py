@@ -17,13 +17,10 @@ previous step's physical u with the current Φ).
 **The geometry iteration.** u⁽⁰⁾ is the previous step's converged u (the reference configuration for a static
 solve); u⁽ᵐ⁺¹⁾ solves the problem with G(u⁽ᵐ⁾) linearized about u⁽ᵐ⁾, started from u⁽ᵐ⁾. It stops when G(u⁽ᵐ⁺¹⁾)
 
-1. has the same contact nodes and stencil supports (the master nodes with |Φ_jl| > max(ε, ρ)/h_j of every node,
-   h_j the largest cell diameter at node j, ρ the geometry's round-off :data:`ROUND_OFF_CAP` × the mesh's extent:
-   a weight that moves the stencil's point by less than the accuracy ε, or than the noise of the geometry's own
-   data, is no support — a node converging onto a master edge would otherwise flip between the facets on both
-   sides forever, and a node on an aligned border between a two-vertex edge stencil and a three-vertex one whose
-   third weight is 1e-10 (the shrink fit's bore nodes on the slice's faces at rtol 1e-10: ε/h = 6e-11); for an
-   obstacle node its obstacle), and
+1. has the same contact nodes and stencil supports (the master nodes with |Φ_jl| > ε/h_j of every node, h_j the
+   largest cell diameter at node j: a weight that moves the stencil's point by less than the accuracy ε is no
+   support — a node converging onto a master edge would otherwise flip between the facets on both sides
+   forever; for an obstacle node its obstacle), and
 2. differs from G(u⁽ᵐ⁾)'s linearization at u⁽ᵐ⁺¹⁾ by at most ε = e·‖u⁽ᵐ⁺¹⁾‖_∞ in every node's constraint
    data (or, at full accuracy, by a change that stopped shrinking between two updates with the same nodes and
    supports and lies below the geometry's round-off, :data:`ROUND_OFF_CAP` × the mesh's extent):
@@ -195,7 +192,7 @@ def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
 
 
 def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float,
-                    active: npt.NDArray[np.bool_] | None = None, round_off: float = 0.0) -> GeometryChange:
+                    active: npt.NDArray[np.bool_] | None = None) -> GeometryChange:
     """Compare the contact geometry of X + u with the linearization the solve used (collective).
 
     Args:
@@ -207,8 +204,6 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         active: Per contact node of the model, whether the solution presses it (not open); None: every node.
             An open node whose gap in the new geometry is ≥ −ε is satisfied by the solution whatever its
             partner: its changes do not count (see the module docstring, "Open nodes").
-        round_off: The geometry's round-off (:data:`ROUND_OFF_CAP` × the mesh's extent): a master node whose
-            weight moves the stencil's point by less than max(ε, round_off) is no support (module docstring, 1.).
     """
     comm = model.comm
     cmap = model.contact
@@ -234,8 +229,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         dt = _tangential(n, v) - _tangential(n_old, v)
         delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt)), 0.0)
     r0 = model.V.dofmap.index_map.local_range[0]
-    pairs = model.coupling.stencil_change(model, u, z, previous, tolerance, pressed,
-                                          max(tolerance, round_off))  # the coupling's own nodes
+    pairs = model.coupling.stencil_change(model, u, z, previous, tolerance, pressed)  # the coupling's own nodes
     moved[paired] = pairs.moved[paired]
     delta[paired] = pairs.delta[paired]
     gained_at = pairs.gained_at
@@ -337,8 +331,7 @@ class GeometryIteration:
             self.reduction = rtol
             return Step("continue", None, f"the start meets the loose reduction {reduction:.3g}: solved on to rtol "
                                           f"{rtol:g}")
-        change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
-                                 ROUND_OFF_CAP * self.extent)
+        change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active)
         self._solved.append((change.old_signature, u, reduction))
         if change.settled:
             if reduction <= rtol:

@@ -35,8 +35,8 @@ def test_shrink_fit_finite_equals_small(monkeypatch):
 
 def test_node_to_surface_shrink_fit_settles(monkeypatch):
     """Node-to-surface, level 0: finite sliding settles with all 42 bore nodes in contact and the pressure of small
-    sliding to 2e-4 (measured 7e-5). It exited 3 after 10 updates before the support floor
-    at the geometry's round-off and the cone's mean direction for vague normals (docs/sliding, "third round")."""
+    sliding to 2e-4 (measured 7e-5). It exited 3 after 10 updates before a vague normal took the cone's mean
+    direction (docs/sliding, "third round")."""
     results = {}
     for sliding in ("small", "finite"):
         monkeypatch.setattr(verification, "SHRINK_SLIDING", sliding)

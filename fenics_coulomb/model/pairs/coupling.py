@@ -282,11 +282,10 @@ class PairCoupling(Coupling):
         return True
 
     def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
-                       pressed: npt.NDArray[np.bool_], support: float | None = None) -> StencilChange:
+                       pressed: npt.NDArray[np.bool_]) -> StencilChange:
         assert self.pairing is not None
         pairing, held = self.held_pairing(model, self.pair_in(model, u))  # as configure would make it
-        return stencil_change(model, self.pairing, pairing, held, self._paired, u, z, previous, tolerance, pressed,
-                              support)
+        return stencil_change(model, self.pairing, pairing, held, self._paired, u, z, previous, tolerance, pressed)
 
     # -- the change of variables ---------------------------------------------------------------------------
     def physical(self, z: Array) -> Array:

@@ -24,11 +24,10 @@ Array = npt.NDArray[np.float64]
 
 def stencil_change(model: ContactModel, old: Pairing, pairing: Pairing, held: npt.NDArray[np.bool_],
                    paired: npt.NDArray[np.bool_], u: Array, z: Array, previous: Array | None, tolerance: float,
-                   pressed: npt.NDArray[np.bool_], support: float | None = None) -> StencilChange:
+                   pressed: npt.NDArray[np.bool_]) -> StencilChange:
     """The change of the paired nodes from ``old`` (the model's pairing, its nodes ``paired`` among the contact
     map's) to ``pairing`` (of X + u, with the held components ``held`` of its nodes), ``u`` physical and ``z`` in
-    the model's unknown, ``pressed`` per contact node, ``support`` the displacement of a stencil's point below
-    which a master node is no support (default ``tolerance``; collective).
+    the model's unknown, ``pressed`` per contact node (collective).
 
     A node counts when the solution presses it or it penetrates in the new geometry (gap < −``tolerance``): a
     pressed node that lost its partner or changed its stencil support moved; a new candidate that penetrates is
@@ -42,11 +41,10 @@ def stencil_change(model: ContactModel, old: Pairing, pairing: Pairing, held: np
     moved = np.zeros(size, dtype=bool)
     delta = np.zeros(size)
     sel = np.flatnonzero(paired)  # the paired nodes of the contact map, in the order of old.blocks
-    floor = tolerance if support is None else support
-    threshold = np.asarray(floor / model.node_size()[old.blocks], dtype=np.float64)
+    threshold = np.asarray(tolerance / model.node_size()[old.blocks], dtype=np.float64)
     old_support = supports(old.master_blocks, old.weights, threshold)
     new_support = supports(pairing.master_blocks, pairing.weights,
-                           np.asarray(floor / model.node_size()[pairing.blocks], dtype=np.float64))
+                           np.asarray(tolerance / model.node_size()[pairing.blocks], dtype=np.float64))
     _, i_old, i_new = np.intersect1d(old.blocks, pairing.blocks, assume_unique=True, return_indices=True)
     lost = np.ones(old.blocks.size, dtype=bool)
     lost[i_old] = False
