@@ -378,22 +378,28 @@ def test_bad_input():
                        petsc_options_prefix="bad_")
 
 
+def _held_blocks(traction: float):
+    """The two blocks, the lower bottom clamped, the upper top held in x1 and x2 only and loaded by the traction
+    (0, 0, ``traction``): the form, the load, the clamp and the two component supports, and the facet tags."""
+    msh, ft = two_blocks(MPI.COMM_WORLD, gap=0.0)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)
+    top = ft.find(UPPER_TOP)
+    held = [dolfinx.fem.dirichletbc(0.0, dolfinx.fem.locate_dofs_topological(V.sub(k), 2, top), V.sub(k))
+            for k in (0, 1)]
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=ft)
+    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, traction])), ufl.TestFunction(V)) * ds(UPPER_TOP)
+    return elasticity(V), L, clamp, held, ft
+
+
 @pytest.mark.parametrize("friction", [0.0, 0.3])
 def test_a_body_held_along_the_contact_normal_by_contact_alone(friction):
     """The upper block held only in x1 and x2 on its top face (its motion along x3 left free) and pressed by a
     traction q on the clamped lower block: accepted; the pair carries the load, P = q·area, the contact
     balance and physics hold. Held in x1 only (x2 and the rotation about x3 free: tangential, which contact
     cannot hold) it is refused, naming the body."""
-    msh, ft = two_blocks(MPI.COMM_WORLD, gap=0.0)
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
-    a = elasticity(V)
-    clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)
-    top = ft.find(UPPER_TOP)
-    held = [dolfinx.fem.dirichletbc(0.0, dolfinx.fem.locate_dofs_topological(V.sub(k), 2, top), V.sub(k))
-            for k in (0, 1)]
     q = 0.05
-    ds = ufl.Measure("ds", domain=msh, subdomain_data=ft)
-    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -q])), ufl.TestFunction(V)) * ds(UPPER_TOP)
+    a, L, clamp, held, ft = _held_blocks(-q)
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=friction)
     with ContactProblem(a, L, [clamp, *held], contact_pairs=[pair], settings=TIGHT,
                         petsc_options_prefix="held_by_contact_") as problem:
@@ -413,15 +419,7 @@ def test_a_body_held_by_contact_alone_that_lifts_off_is_named():
     it lifts off, and the solve fails (max_it) with a message naming the body, its centroid and the pair —
     on every rank, with the pair's closed nodes in the last iterate. Pressed down, the same problem converges
     (the previous test)."""
-    msh, ft = two_blocks(MPI.COMM_WORLD, gap=0.0)
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
-    a = elasticity(V)
-    clamp = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)
-    top = ft.find(UPPER_TOP)
-    held = [dolfinx.fem.dirichletbc(0.0, dolfinx.fem.locate_dofs_topological(V.sub(k), 2, top), V.sub(k))
-            for k in (0, 1)]
-    ds = ufl.Measure("ds", domain=msh, subdomain_data=ft)
-    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, 0.05])), ufl.TestFunction(V)) * ds(UPPER_TOP)
+    a, L, clamp, held, ft = _held_blocks(0.05)
     pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3, name="blocks")
     with ContactProblem(a, L, [clamp, *held], contact_pairs=[pair], settings={**TIGHT, "max_it": 8},
                         petsc_options_prefix="lifted_off_") as problem:

@@ -19,15 +19,22 @@ import pytest
 import benchmarks.verification as verification
 
 
-def test_shrink_fit_finite_equals_small(monkeypatch):
-    """Mortar, level 0: finite sliding converges with all 42 bore nodes in contact (held, as in small sliding) and
-    its pressure and bore hoop stress lie within 2e-3 of small sliding's."""
+def _both_models(monkeypatch, method):
+    """Level 0 of the shrink fit with ``method`` in small and in finite sliding; finite converges with all 42 bore
+    nodes in contact (held, as in small sliding)."""
     results = {}
     for sliding in ("small", "finite"):
         monkeypatch.setattr(verification, "SHRINK_SLIDING", sliding)
-        results[sliding] = verification.shrink_fit(MPI.COMM_WORLD, "mortar", 0)
+        results[sliding] = verification.shrink_fit(MPI.COMM_WORLD, method, 0)
     small, finite = results["small"], results["finite"]
     assert finite["converged"] and finite["contact_nodes"] == finite["held"] == small["contact_nodes"] == 42
+    return small, finite
+
+
+def test_shrink_fit_finite_equals_small(monkeypatch):
+    """Mortar, level 0: finite sliding converges with all 42 bore nodes in contact (held, as in small sliding) and
+    its pressure and bore hoop stress lie within 2e-3 of small sliding's."""
+    small, finite = _both_models(monkeypatch, "mortar")
     assert finite["pressure"] == pytest.approx(small["pressure"], rel=2e-3)
     assert finite["hoop"] == pytest.approx(small["hoop"], rel=2e-3)
     assert finite["err_pressure"] < 0.0 and finite["err_hoop"] < 0.0  # still below Lamé: the facetting
@@ -37,11 +44,6 @@ def test_node_to_surface_shrink_fit_settles(monkeypatch):
     """Node-to-surface, level 0: finite sliding settles with all 42 bore nodes in contact and the pressure of small
     sliding to 2e-4 (measured 7e-5). It exited 3 after 10 updates before a vague normal took the cone's mean
     direction (docs/sliding, "third round")."""
-    results = {}
-    for sliding in ("small", "finite"):
-        monkeypatch.setattr(verification, "SHRINK_SLIDING", sliding)
-        results[sliding] = verification.shrink_fit(MPI.COMM_WORLD, "node-to-surface", 0)
-    small, finite = results["small"], results["finite"]
-    assert finite["converged"] and finite["contact_nodes"] == finite["held"] == small["contact_nodes"] == 42
+    small, finite = _both_models(monkeypatch, "node-to-surface")
     assert finite["pressure"] == pytest.approx(small["pressure"], rel=2e-4)
     assert finite["hoop"] == pytest.approx(small["hoop"], rel=2e-4)
