@@ -133,20 +133,30 @@ class _Hemisphere:
         self.problem.destroy()
 
 
+def hertz_reference(P: float, radius: float, materials: tuple[tuple[float, float], ...] = HERTZ_MATERIALS
+                    ) -> tuple[float, float]:
+    """Hertz's contact radius a = (3PR/4E*)^{1/3} and p₀ = 3P/(2πa²) for the measured P (Johnson §4.2)."""
+    a_ref = (3 * P * radius / (4 * effective_modulus(materials))) ** (1 / 3)
+    return a_ref, 3 * P / (2 * np.pi * a_ref**2)
+
+
+def _pressed(model: Any, depth: float) -> dict[str, Any]:
+    """``model`` (a _Hemisphere or _CoreModel) solved once with its flat face moved ``depth`` down, then
+    destroyed (collective)."""
+    try:
+        return model.solve((0.0, 0.0, -depth))
+    finally:
+        model.destroy()
+
+
 def hertz_two_bodies(comm: MPI.Comm, level: int | tuple[float, float, float], rtol: float = 1e-10) -> dict[str, Any]:
     """The frictionless hemisphere on the block (different materials) pressed δ = ``HERTZ_DELTA``: a and p₀
     against Hertz for the measured P (a³ = 3PR/(4E*), p₀ = 3P/(2πa²)); p₀ from the least-squares fit of
     p₀ √(1 − r²/a²) to the nodal pressures λⱼ/Dⱼ over r < a/2 (the measured a), as in case 2."""
     t0 = time.perf_counter()
     spec = HERTZ2_LEVELS[level] if isinstance(level, int) else level
-    body = _Hemisphere(comm, spec, HERTZ_MATERIALS, 0.0, "hertz2v_", rtol)
-    try:
-        s = body.solve((0.0, 0.0, -HERTZ_DELTA))
-    finally:
-        body.destroy()
-    E_star = effective_modulus(HERTZ_MATERIALS)
-    a_ref = (3 * s["P"] * R / (4 * E_star)) ** (1 / 3)
-    p0_ref = 3 * s["P"] / (2 * np.pi * a_ref**2)
+    s = _pressed(_Hemisphere(comm, spec, HERTZ_MATERIALS, 0.0, "hertz2v_", rtol), HERTZ_DELTA)
+    a_ref, p0_ref = hertz_reference(s["P"], R)
     core = s["r"] < s["a"]
     shape = np.sqrt(1 - (s["r"][core] / s["a"]) ** 2)
     p0 = float(shape @ s["pressure"][core] / (shape @ shape))
@@ -302,14 +312,8 @@ def hertz_core(comm: MPI.Comm, level: int | tuple[float, float, float]) -> dict[
     ν 0.3): a and p₀ against Hertz with 1/E* = Σ(1 − νᵢ²)/Eᵢ for the measured P (collective)."""
     t0 = time.perf_counter()
     spec = CORE_LEVELS[level] if isinstance(level, int) else level
-    model = _CoreModel(comm, core_mesh(comm, spec, True), True, HERTZ_MATERIALS, 0.0, "hertz9q_")
-    try:
-        s = model.solve((0.0, 0.0, -CORE_DELTA))
-    finally:
-        model.destroy()
-    E_star = effective_modulus(HERTZ_MATERIALS)
-    a_ref = (3 * s["P"] * R_CORE / (4 * E_star)) ** (1 / 3)
-    p0_ref = 3 * s["P"] / (2 * np.pi * a_ref**2)
+    s = _pressed(_CoreModel(comm, core_mesh(comm, spec, True), True, HERTZ_MATERIALS, 0.0, "hertz9q_"), CORE_DELTA)
+    a_ref, p0_ref = hertz_reference(s["P"], R_CORE)
     p0 = _mean_pressure_p0(s["r"], s["pressure"], a_ref)
     off = ~s["on_plane"]
     p0_off = _mean_pressure_p0(s["r"][off], s["pressure"][off], a_ref)
