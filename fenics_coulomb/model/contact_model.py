@@ -57,6 +57,7 @@ from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.arguments import SLIDING, function_space, validate_arguments, validate_friction
 from fenics_coulomb.model.contact_map import ContactMap, held_blocks, hold
 from fenics_coulomb.model.coupling import Coupling, IdentityCoupling
+from fenics_coulomb.model.forces import block_to_scalar_dofs, boundary_areas
 from fenics_coulomb.model.frames import local_shift, to_global
 from fenics_coulomb.model.mesh_checks import check_mesh
 from fenics_coulomb.model.obstacles import Obstacle
@@ -241,6 +242,15 @@ class ContactModel:
         if getattr(self, "_scalar_space", None) is None:
             self._scalar_space = dolfinx.fem.functionspace(self.V.mesh, ("Lagrange", 1))
         return self._scalar_space
+
+    @property
+    def boundary_areas(self) -> npt.NDArray[np.float64]:
+        """∫ φᵢ ds over the contact boundary (the facets of :attr:`markers`) at each local DOF block, owned blocks
+        (0 at ghosts; :func:`~fenics_coulomb.model.forces.boundary_areas`), assembled once: the mesh, its tags and
+        the markers never change in a model's life (collective the first time)."""
+        if getattr(self, "_boundary_areas", None) is None:
+            self._boundary_areas = boundary_areas(self.V, self.scalar_space, self.facet_tags, list(self.markers))
+        return self._boundary_areas
 
     def node_size(self) -> npt.NDArray[np.float64]:
         """The largest diameter of the cells at each local DOF block (owned and ghost), computed once."""
@@ -428,10 +438,7 @@ class ContactModel:
         S = self.scalar_space
         values = dolfinx.fem.Function(S)
         values.interpolate(friction)
-        cell_blocks = self.V.dofmap.list.ravel()
-        scalars = S.dofmap.list.ravel()
-        to_scalar = np.full(self.V.dofmap.index_map.size_local + self.V.dofmap.index_map.num_ghosts, -1, np.int32)
-        to_scalar[cell_blocks] = scalars
+        to_scalar = block_to_scalar_dofs(self.V, S)
         F = np.ascontiguousarray(values.x.array[to_scalar[self.contact.blocks if blocks is None else blocks]],
                                  dtype=np.float64)
         bad = ~(np.isfinite(F) & (F >= 0.0))

@@ -3,7 +3,7 @@
 
 from __future__ import annotations
 
-import weakref
+from typing import TYPE_CHECKING
 
 from petsc4py import PETSc
 
@@ -16,9 +16,10 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.model.contact_model import ContactModel
+if TYPE_CHECKING:
+    from fenics_coulomb.model.contact_model import ContactModel
 
-__all__ = ["block_to_scalar_dofs", "contact_areas"]
+__all__ = ["block_to_scalar_dofs", "boundary_areas", "contact_areas"]
 
 
 def block_to_scalar_dofs(V: dolfinx.fem.FunctionSpace, S: dolfinx.fem.FunctionSpace) -> npt.NDArray[np.int32]:
@@ -37,30 +38,24 @@ def contact_areas(model: ContactModel) -> npt.NDArray[np.float64]:
     pressure there is f_j·n_j / D_j; collective)."""
     if not model.markers:
         return np.zeros(model.contact.size)
-    return model.coupling.contact_areas(_lumped_areas(model))
+    return model.coupling.contact_areas(model.boundary_areas[model.contact.blocks])
 
 
-#: ∫ φᵢ ds over each model's contact boundary per owned DOF block (the mesh, its facet tags and the markers never
-#: change in a model's life; plain arrays, no PETSc object).
-_LUMPED: weakref.WeakKeyDictionary[ContactModel, npt.NDArray[np.float64]] = weakref.WeakKeyDictionary()
-
-
-def _lumped_areas(model: ContactModel) -> npt.NDArray[np.float64]:
-    """∫ φᵢ ds over the contact boundary at each owned contact node (assembled once per model; collective the
-    first time)."""
-    if model not in _LUMPED:
-        msh = model.V.mesh
-        S = model.scalar_space
-        v = ufl.TestFunction(S)
-        ds = ufl.Measure("ds", domain=msh, subdomain_data=model.facet_tags)
-        form = dolfinx.fem.form(sum((v * ds(tag) for tag in model.markers[1:]), v * ds(model.markers[0])))
-        b = dolfinx.fem.petsc.assemble_vector(form)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        values = b.getArray(readonly=True).copy()
-        b.destroy()
-        per_block = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts)
-        to_scalar = block_to_scalar_dofs(model.V, S)
-        owned = to_scalar < values.size
-        per_block[owned] = values[to_scalar[owned]]
-        _LUMPED[model] = per_block
-    return _LUMPED[model][model.contact.blocks]
+def boundary_areas(V: dolfinx.fem.FunctionSpace, S: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags,
+                   markers: list[int]) -> npt.NDArray[np.float64]:
+    """∫ φᵢ ds over the facets tagged ``markers`` at each local DOF block of the vector P1 space ``V`` (owned
+    blocks; 0 at ghosts and off those facets), φᵢ the basis of its scalar space ``S`` (collective: one vector
+    assembly)."""
+    msh = V.mesh
+    v = ufl.TestFunction(S)
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=facet_tags)
+    form = dolfinx.fem.form(sum((v * ds(tag) for tag in markers[1:]), v * ds(markers[0])))
+    b = dolfinx.fem.petsc.assemble_vector(form)
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    values = b.getArray(readonly=True).copy()
+    b.destroy()
+    per_block = np.zeros(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts)
+    to_scalar = block_to_scalar_dofs(V, S)
+    owned = to_scalar < values.size
+    per_block[owned] = values[to_scalar[owned]]
+    return per_block
