@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import hashlib
 import io
 import json
@@ -123,8 +124,19 @@ def _stl(triangles: object) -> str:
     return "\n".join([*lines, "endsolid fuzz", ""])
 
 
+@functools.cache
+def _mistagged_cube() -> str:
+    """The text of a gmsh file whose physical surface 1 holds triangles that are not faces of its tetrahedra
+    (meshes/transfinite_cube.py, "Right")."""
+    from meshes.transfinite_cube import write_cube
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return write_cube(Path(tmp) / "cube.msh", "Right").read_text()
+
+
 def hostile_cases() -> list[tuple[list[str], dict[str, str]]]:
-    """Obstacles the contact nodes cannot see, a loose accuracy and rtol given twice: (argv, files) —
+    """Obstacles the contact nodes cannot see, a gmsh surface whose elements are not faces of the volume, a loose
+    accuracy and rtol given twice: (argv, files) —
     each must end with exit 2 in one line or exit 3, never exit 0 with a wrong answer."""
     from meshes.surfaces import icosphere, rectangle
 
@@ -142,6 +154,10 @@ def hostile_cases() -> list[tuple[list[str], dict[str, str]]]:
         "type = 'surface'\nfile = 'up.stl'\ndisplacement = [0, 0, -0.01]\n",
     ]
     cases = [(["--scene", "{dir}/scene.toml"], {"scene.toml": block + text, **stl}) for text in scenes]
+    mesh = ("[body]\nshape = 'mesh'\nmesh = 'cube.msh'\nclamped = ['face5']\ncontact = ['face6']\n[boundaries]\n"
+            + "".join(f"face{i} = {i}\n" for i in range(1, 7)) + "[tractions]\n[[obstacle]]\ntype = 'plane'\n"
+            "point = [0, 0, 1.0]\nnormal = [0, 0, -1]\ndisplacement = [0, 0, -0.01]\n")
+    cases.append((["--scene", "{dir}/scene.toml"], {"scene.toml": mesh, "cube.msh": _mistagged_cube()}))
     cases += [(["--lev", "0", "--rtol", "1e-5", "--accuracy", "1e-3"], {}),
               (["--scene", "{dir}/scene.toml", "--lev", "0"],
                {"scene.toml": "[solver]\nrtol = 1e-6\naccuracy = 1e-4\n"}),

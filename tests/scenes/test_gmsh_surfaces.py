@@ -20,30 +20,12 @@ import pytest
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.scenes.meshes import read_gmsh_tags
+from meshes.transfinite_cube import write_cube
 
 
 def _cube(path: str, arrangement: str) -> None:
-    """A transfinite unit cube (2 cells per edge, tetrahedra), every face a physical surface (tag = its entity);
-    face 1 triangulated with ``arrangement``."""
-    import gmsh
-
-    gmsh.initialize()
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        box = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
-        gmsh.model.occ.synchronize()
-        for _, curve in gmsh.model.getEntities(1):
-            gmsh.model.mesh.setTransfiniteCurve(curve, 3)
-        for _, surface in gmsh.model.getEntities(2):
-            gmsh.model.mesh.setTransfiniteSurface(surface, arrangement if surface == 1 else "Left")
-            gmsh.model.addPhysicalGroup(2, [surface], surface, name=f"face{surface}")
-        gmsh.model.mesh.setTransfiniteVolume(box)
-        gmsh.model.addPhysicalGroup(3, [box], 1)
-        gmsh.model.mesh.generate(3)
-        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-        gmsh.write(path)
-    finally:
-        gmsh.finalize()
+    """meshes/transfinite_cube.py's cube, face 1 triangulated with ``arrangement``."""
+    write_cube(path, arrangement)
 
 
 def _read(arrangement: str) -> tuple[object, object, object]:
@@ -76,3 +58,32 @@ def test_unmatched_surface_is_refused() -> None:
     check the file was read without a word)."""
     with pytest.raises(InputError, match=r"8 of the 8 elements of physical surface 1 'face1'"):
         _read("Right")
+
+
+@pytest.mark.parametrize("arrangement", ["Right", "Left"])
+def test_the_command_refuses_an_unmatched_surface(arrangement, mpi_tmp_path, capsys) -> None:
+    """The same file through the command line, as a user meets it: exit 2, one line on rank 0 naming the surface,
+    nothing on the other ranks, no result set; the consistent mesh in the same scene solves (exit 0)."""
+    from fenics_coulomb.cli import EXIT_INPUT, main
+
+    comm = MPI.COMM_WORLD
+    if comm.rank == 0:
+        _cube(str(mpi_tmp_path / "cube.msh"), arrangement)
+        (mpi_tmp_path / "scene.toml").write_text(
+            '[body]\nshape = "mesh"\nmesh = "cube.msh"\nclamped = ["face5"]\ncontact = ["face6"]\n'
+            "[boundaries]\n" + "".join(f"face{i} = {i}\n" for i in range(1, 7)) +
+            "[tractions]\n[[obstacle]]\ntype = 'plane'\npoint = [0, 0, 1.0]\nnormal = [0, 0, -1]\n"
+            "displacement = [0, 0, -0.01]\n")
+    comm.barrier()
+    status = main(["--scene", str(mpi_tmp_path / "scene.toml"), "--out", str(mpi_tmp_path / "out"), "--quiet",
+                   "--no-plots"])
+    lines = capsys.readouterr().err.strip().splitlines()
+    if arrangement == "Left":
+        assert status == 0 and (mpi_tmp_path / "out" / "summary.json").exists(), lines
+        return
+    assert status == EXIT_INPUT
+    if comm.rank == 0:
+        assert len(lines) == 1 and "8 of the 8 elements of physical surface 1 'face1'" in lines[0], lines
+    else:
+        assert lines == [], lines
+    assert not (mpi_tmp_path / "out").exists()
