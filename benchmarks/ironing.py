@@ -35,10 +35,10 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "docs" / "sliding" / "ironing.toml"
 
 
-def run(comm: MPI.Comm, sliding: str = "finite", scene_path: Path = SCENE, substeps: tuple[int, int] | None = None
-        ) -> list[dict[str, Any]]:
-    """Solve the ironing path; one row per solve (the same on every rank)."""
-    scene = Scene.from_toml(str(scene_path)).override(sliding=sliding)
+def run(comm: MPI.Comm, sliding: str = "finite", scene_path: Path = SCENE, substeps: tuple[int, int] | None = None,
+        rtol: float | None = None) -> list[dict[str, Any]]:
+    """Solve the ironing path; one row per solve (the same on every rank); ``rtol`` replaces the scene's."""
+    scene = Scene.from_toml(str(scene_path)).override(sliding=sliding, rtol=rtol)
     if substeps is not None:  # a shorter path (tests): the drag and the way back in fewer substeps
         import dataclasses
 
@@ -150,10 +150,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(ROOT / "docs" / "sliding"))
     parser.add_argument("--sliding", default="finite", choices=["finite", "small"])
+    parser.add_argument("--substeps", type=int, nargs=2, metavar=("DRAG", "BACK"), default=None,
+                        help="a shorter path: the drag and the way back in these many substeps (the scene: 14 14)")
+    parser.add_argument("--rtol", type=float, default=None, help="the solves' rtol (the scene: 1e-9)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
-    rows = run(comm, args.sliding)
+    rows = run(comm, args.sliding, substeps=None if args.substeps is None else tuple(args.substeps),
+               rtol=args.rtol)
     seconds = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     friction = float(Scene.from_toml(str(SCENE)).contact_pairs[0].friction)
     write(Path(args.out), rows, friction, seconds, comm, args.sliding)
