@@ -76,7 +76,7 @@ from benchmarks.verification_two_body import (  # noqa: E402
     CORE_DELTA,
     hertz_core,
 )
-from benchmarks.verification_rolling import carter_rows  # noqa: E402
+from benchmarks.verification_rolling import CARTER_RUNS, carter_rows  # noqa: E402
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
 __all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "INCLINE_TWO_BODY_SCENE", "SLOPE_LEVELS", "incline",
@@ -1383,6 +1383,10 @@ def main(argv: list[str] | None = None) -> int:
                              "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md; "
                              "carter: only case 8's, into verification_carter.csv and carter_rows.md "
                              "(each to be merged into the table)")
+    parser.add_argument("--carter-runs", nargs="*", metavar="CREEP:LEVEL",
+                        help="carter: these runs instead of CARTER_RUNS (e.g. 0.01:11)")
+    parser.add_argument("--carter-no-second-start", action="store_true",
+                        help="carter: without the second start's roll")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     if comm.rank == 0:
@@ -1397,7 +1401,9 @@ def main(argv: list[str] | None = None) -> int:
         elif args.cases == "incline-two-bodies":
             rows = incline_two_body_rows(comm)
         elif args.cases == "carter":
-            rows = carter_rows(comm)
+            runs = tuple((float(c), int(lvl)) for c, lvl in (x.split(":") for x in args.carter_runs)) \
+                if args.carter_runs else CARTER_RUNS
+            rows = carter_rows(comm, runs, second_start=not args.carter_no_second_start)
         elif args.cases == "hertz-two-bodies":
             rows = collect_two_body(comm, HERTZ2_TABLE_LEVELS, ())
         elif args.cases == "mindlin":

@@ -326,10 +326,11 @@ def _ranks_agree(two: dict[str, Any], one: list[tuple[float, float, float, float
     return max(abs(a[j] - b[j]) / abs(b[j]) for a, b in zip(two["history"], one) for j in (1, 2))
 
 
-def carter_rows(comm: MPI.Comm, runs: tuple[tuple[float, int], ...] = CARTER_RUNS) -> list[dict[str, Any]]:
+def carter_rows(comm: MPI.Comm, runs: tuple[tuple[float, int], ...] = CARTER_RUNS, second_start: bool = True
+                ) -> list[dict[str, Any]]:
     """Case 8's rows: per (creep, level) the creep Carter gives for the measured steady Q, P and a against the
     prescribed one; the first run of the larger creep also rolled on one rank (compared solve by solve) and rolled
-    from a second start (the attractor)."""
+    from a second start (the attractor; not with ``second_start=False``)."""
     rows: list[dict[str, Any]] = []
     case = "8. steady rolling (Carter)"
     done: dict[tuple[float, int], dict[str, Any]] = {}
@@ -361,6 +362,8 @@ def carter_rows(comm: MPI.Comm, runs: tuple[tuple[float, int], ...] = CARTER_RUN
                     f"{r['stick_width']:.4f} vs 2a√(1 − Q/μP) = {r['stick_width_ref']:.4f}; "
                     + _steady_note(r) + ("; 1 vs 2 ranks: P and Q at every solve of the two rolls (the same "
                                          f"{len(r['history'])} solves)" if agree != "—" else "") + trend})
+    if not second_start:
+        return rows
     creep, level = compared
     first = done[creep, level]
     second = roll(comm, creep, level, preload=SECOND_START)
