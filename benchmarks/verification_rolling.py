@@ -144,7 +144,9 @@ def remaining(qs: list[float], step: float, length: float) -> float:
 
     Q_k − Q∞ = A r^k with r = exp(−Δ/L) per step: Q∞ − Q_k = (Q_k − Q_{k−n}) ρ/(1 − ρ), ρ = r^n, n =
     ``STEADY_STEPS``. The change over n steps is taken as the largest of the last n such changes (the stick zone's
-    node-by-node jitter makes a single one fall near zero); nan until 2n steps exist.
+    node-by-node jitter makes a single one fall near zero, and a turn's transient passes an extremum): on a pure
+    geometric tail this is the oldest change, the remainder times r^−(n−1) (conservative); nan until 2n steps
+    exist.
     """
     n = STEADY_STEPS
     if len(qs) < 2 * n:
