@@ -34,7 +34,7 @@ from fenics_coulomb.scenes.partition import box_partitioner
 
 __all__ = ["E", "NU", "MU", "R", "DEPTH", "CARTER_LEVELS", "CARTER_RUNS", "carter_rows",
            "carter_reference", "carter_creep", "hertz_half_width",
-           "slice_block", "roll", "remaining"]
+           "slice_block", "roll", "remaining", "ranks_agreement"]
 
 LOG = logging.getLogger("verification")
 
@@ -326,6 +326,18 @@ def _ranks_agree(two: dict[str, Any], one: list[tuple[float, float, float, float
     if len(one) != len(two["history"]):
         return math.nan
     return max(abs(a[j] - b[j]) / abs(b[j]) for a, b in zip(two["history"], one) for j in (1, 2))
+
+
+def ranks_agreement(comm: MPI.Comm, creep: float = 0.01, level: int = 11, steps: int = 12) -> dict[str, Any]:
+    """The first ``steps`` rolling steps on ``comm`` and on its rank 0 alone (``MPI.COMM_SELF``): the largest
+    relative difference of P and Q over every solve (the pre-load's turns, the steps, a correction's turn), both
+    rolls' solves, wall and CPU seconds. A cheaper 1 vs 2 ranks check than carter_rows' whole roll (§8: a loaded
+    machine)."""
+    two = roll(comm, creep, level, max_steps=steps)
+    one = roll(MPI.COMM_SELF, creep, level, max_steps=steps) if comm.rank == 0 else None
+    one = comm.bcast(None if one is None else {k: one[k] for k in ("history", "wall", "cpu")})
+    return {"agree": _ranks_agree(two, one["history"]), "solves": (len(two["history"]), len(one["history"])),
+            "corrections": two["corrections"], "wall": (two["wall"], one["wall"]), "cpu": (two["cpu"], one["cpu"])}
 
 
 def carter_rows(comm: MPI.Comm, runs: tuple[tuple[float, int], ...] = CARTER_RUNS, second_start: bool = True
