@@ -1251,9 +1251,10 @@ session's time): the former table gave +6.9 % at H = 4, h = a/3.4 (the issue's r
 one rank). The new rule and track moved level 11 by +0.2 % (+7.6 % → +7.79 %), but level 12 by −2.9 %: the
 former rule gave +2.1 % there (Q/μP = 0.7530; run alone, 171 s, no correction, flat to ±0.03 % over its last ten
 steps), the new roll, with two corrections, −0.75 % (Q/μP = 0.7388, flat to 2e-5 over its last five steps).
-The uncorrected roll of level 12 (pre-load 1, one rank, 40 steps, load 5–7) says which is the steady state: Q/μP =
-0.7514, 0.7456, 0.7424, 0.7406 at steps 10, 20, 30, 40, falling by 0.56 per ten steps (L = 0.23, as on level 11),
-its Δ² limit 0.7383; the corrected roll's 0.7388 is that limit (ξ_Carter −0.75 %; −0.8 % at the Δ² limit), and the
+The uncorrected roll of level 12 (pre-load 1, one rank, 60 steps, 1314 s wall, 439 CPU-s, load 5–7) says which
+is the steady state: Q/μP = 0.7514, 0.7456, 0.7424, 0.7406, 0.7396, 0.7390 at steps 10, 20, …, 60, falling by
+0.56–0.60 per ten steps (L = 0.23, as on level 11), its Δ² limit 0.7381–0.7384; the corrected roll's 0.7388 is
+within 0.1 % of it (ξ_Carter −0.75 %; about −0.85 % at the Δ² limit), and the
 former +2.1 % was a roll stopped on its way down by the issue's rule alone. So at H = 4 the error goes +7.8 % → −0.75 %
 from h = a/3.4 to a/4.8: the bound is met on the finer level, but the −0.75 % is the squeeze-out's estimated ≈ −4 %
 (below) against a mesh error of ≈ +3 %, not separated by two levels; a third level (h = a/6.8, ≈ 33k unknowns,
