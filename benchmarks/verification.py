@@ -1295,7 +1295,7 @@ jobs; 10:06–10:32), those 22 solves took 1150 s wall and 297 CPU-s on two rank
 ranks, and on an oversubscribed machine each rank spins in the collectives while the other waits for its core
 (`OMPI_MCA_mpi_yield_when_idle=1` was worse: 4.7 % of a core per rank instead of 25 %, stopped after 6 min). The
 rows were therefore run on ONE rank (`--carter-runs`, `--carter-no-second-start`): level 11 979 s wall and 127
-CPU-s (46 solves), its second start 756 s and 100 CPU-s, level 12 2089 s and 333 CPU-s (16.7k unknowns), at load
+CPU-s (47 solves), its second start 756 s and 100 CPU-s, level 12 2089 s and 333 CPU-s (16.7k unknowns), at load
 7–13 with three of this session's own jobs beside (the header). Case 8 as `--cases carter` runs it on two ranks
 would cost, at this machine's load, ≈ 13.5 CPU-s per solve for ≈ 50 (level 11) + ≈ 40 (its second start) + ≈ 60
 (level 12, 1.5 times larger) solves plus the one-rank roll (130 CPU-s): ≈ 2500 CPU-s over the two ranks, far more
