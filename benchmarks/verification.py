@@ -71,7 +71,7 @@ ROOT = Path(__file__).resolve().parents[1]
 from benchmarks.two_body_patch import exact_pressure  # noqa: E402
 from benchmarks.two_body_patch import run as patch_run  # noqa: E402
 
-from benchmarks.verification_mindlin import MINDLIN_CORE_LEVELS, MINDLIN_LOADS, mindlin_core  # noqa: E402
+from benchmarks.verification_mindlin import MINDLIN_CORE_LEVELS, MINDLIN_LOADS, STUCK_FRICTION, mindlin_core  # noqa: E402
 from benchmarks.verification_two_body import (  # noqa: E402
     CORE_DELTA,
     hertz_core,
@@ -700,7 +700,8 @@ def _mindlin_differences(r: dict[str, Any], one: dict[str, Any]) -> dict[str, fl
     """The relative differences between the two-rank and one-rank runs of case 6: P, a, δ'(0) (the stuck probe's;
     the small probe's secant beside it) and per step (``key@step``) Q/μP, the fitted and separating stick radii, the
     slip part (relative to δ_M) and the side force (F₂/Q, absolute), and the stick and closed node counts."""
-    diffs = {k: abs(r[k] - one[k]) / abs(one[k]) for k in ("P", "a", "compliance0", "compliance0_probe")}
+    diffs = {k: abs(r[k] - one[k]) / abs(one[k]) for k in ("P", "a", "compliance0", "compliance0_probe")
+             if np.isfinite(one[k])}
     for i, (a, b) in enumerate(zip(r["steps"], one["steps"], strict=True)):
         for k in (*MINDLIN_KEYS, "stick", "closed"):
             if np.isfinite(b[k]):
@@ -749,8 +750,11 @@ def _mindlin_rows(comm: MPI.Comm, levels: tuple[int, ...], raw: Path | None = No
                   "unknowns": r["unknowns"], "ranks": comm.size, "wall": r["wall"], "agree": agree}
         base = (f"one material E 70 ν 0.3, μ = 0.3; P = {r['P']:.5f}, a {r['err_radius']:+.1%} of Hertz's "
                 f"(±h₀/2); everything relative to the press (its Q = {r['press_Q']:+.4f} μP, F₂ = "
-                f"{r['press_side']:+.4f} μP); δ'(0) = {r['compliance0']:.5f} from the probe Q/μP = {r['probe']:.4f} "
-                f"(half-spaces: {r['compliance0_halfspace']:.5f})")
+                f"{r['press_side']:+.4f} μP, {r['press_slipping']} closed nodes slipping); "
+                f"δ'(0) = {r['compliance0']:.5f} "
+                f"from the stuck probe (friction {STUCK_FRICTION:g}, Q/μP = {r['stuck']['load']:.4f}, "
+                f"{r['stuck']['slipping']} closed nodes slipping, {r['stuck']['changed']} nodes changed contact, P "
+                f"{r['stuck']['P_change']:+.1e}; half-spaces: {r['compliance0_halfspace']:.5f})")
         for step in r["steps"]:
             aim = step["kind"]
             x = step["load"]
