@@ -1159,7 +1159,8 @@ loading starts from the press itself, and only δ'(0), hence s, changed. The pre
 set the press's at both levels, 0 / **2** of 149 closed nodes slipping at level 2 (the finer rim's outermost nodes
 carry more tangential force per pressure: friction 10 is not enough there at this Q; δ'(0) at level 2 is therefore
 a little above the bonded one, by about what one slipping rim node added at h₀ = a/6, +0.2 %, i.e. the level-2
-compliance errors would be about that much larger; a friction of 30, or Q/μP ≈ 0.01, is the next run), P −4e-5 /
+compliance errors would be about that much larger; friction 30 at level 2 did not converge, 100 Newton steps,
+|y|/|y0| 2.0e-2, one rank at load 5–6; left: a smaller Q/μP ≈ 0.01 with 3 times the division, not run), P −4e-5 /
 −3e-5.
 
 **Bounds.** On the finer level (h₀ = a/8) every row meets its bound: c/a (fitted) −2.7, −1.5, −2.1 % (≤ 3 %)
