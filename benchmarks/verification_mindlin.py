@@ -12,13 +12,15 @@ as the probe's). Per step (docs/verification/README.md §6 derives the reference
   the least-squares fit of Cattaneo's traction q(r) = μp₀[√(1 − r²/a²) − (c/a)√(1 − r²/c²)] (r < c; μp₀√(1 − r²/a²)
   beyond) to the nodal tractions (force per area: the change of the x1 contact force since the press over the
   node's mortar area D_j), a and p₀ Hertz's for the measured P;
-* the slip part of the displacement s = δ − Q δ'(0) against Mindlin's, δ'(0) from the probe;
+* the slip part of the displacement s = δ − Q δ'(0) against Mindlin's, δ'(0) the stuck compliance of
+  :func:`stuck_compliance` (the small probe's secant beside it);
 * the side force F₂/Q (0: Mindlin's traction is along x1) and the stick zone's centroid x̄₁/a (0: a disc centred
   on the axis).
 """
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any
 
@@ -31,8 +33,8 @@ from benchmarks.verification_two_body import (A_CORE, CORE_DELTA, MINDLIN_FRICTI
                                               _CoreModel, core_mesh, effective_modulus, mindlin_compliance,
                                               mindlin_slip, unloading_slip)
 
-__all__ = ["MINDLIN_CORE_LEVELS", "MINDLIN_LOADS", "MINDLIN_UNLOADS", "PROBE_LOAD", "cattaneo_traction",
-           "fit_stick_radius", "mindlin_core"]
+__all__ = ["MINDLIN_CORE_LEVELS", "MINDLIN_LOADS", "MINDLIN_UNLOADS", "PROBE_LOAD", "STUCK_FRICTION", "STUCK_LOAD",
+           "cattaneo_traction", "fit_stick_radius", "mindlin_core", "stuck_compliance"]
 
 #: Levels of the half model for case 6: h₀/a, the edge's growth per unit distance beyond the cores, L/a.
 MINDLIN_CORE_LEVELS: dict[int, tuple[float, float, float]] = {
@@ -46,6 +48,11 @@ MINDLIN_UNLOADS = (0.3, -0.4)
 PROBE_LOAD = 0.002
 #: Aimed displacements: Mindlin's compliance × this (the finite bodies' bulk adds ≈ 5 %); Q is measured.
 BULK = 1.05
+#: The stuck probe: the friction that holds every closed node of the pressed state in stick, and the load aimed at
+#: (Q/μP of Mindlin's compliance × 1.05; the stuck contact is stiffer: Q comes out ≈ 0.55 μP).
+STUCK_FRICTION, STUCK_LOAD = 10.0, 0.03
+#: The solver of case 6's models: GAMG, residual reduction MINDLIN_RTOL (the environment variable, for studies).
+MINDLIN_SETTINGS = {"pc": "gamg", "rtol": float(os.environ.get("MINDLIN_RTOL", "1e-12"))}
 
 
 def cattaneo_traction(r: npt.ArrayLike, c: float, a: float, p0: float, friction: float = MINDLIN_FRICTION
@@ -89,8 +96,38 @@ def fit_stick_radius(r: npt.ArrayLike, q: npt.ArrayLike, weight: npt.ArrayLike, 
 def _on_nodes(pressed: dict[str, Any], x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """The pressed state's x1 contact force at the contact nodes of reference coordinates ``x`` (0 at a node that
     was no contact node then: the contact map of finite sliding changes with the configuration)."""
-    key = {tuple(np.round(row / A_CORE, 9)): f for row, f in zip(pressed["x"], pressed["force"][:, 0], strict=True)}
-    return np.array([key.get(tuple(np.round(row / A_CORE, 9)), 0.0) for row in x])
+    key = dict(zip(_node_keys(pressed["x"]), pressed["force"][:, 0], strict=True))
+    return np.array([key.get(k, 0.0) for k in _node_keys(x)])
+
+
+def _node_keys(x: npt.NDArray[np.float64]) -> list[tuple[float, ...]]:
+    return [tuple(np.round(row / A_CORE, 9)) for row in x]
+
+
+def stuck_compliance(comm: MPI.Comm, mesh: tuple[Any, Any, Any], pressed_u: Any, pressed: dict[str, Any],
+                     shift: float) -> dict[str, Any]:
+    """The finite bodies' initial tangential compliance δ'(0) measured without a small load: a second model of the
+    same mesh with friction ``STUCK_FRICTION``, its history set to the pressed state (``pressed_u``, the pressed
+    displacement, and ``pressed``, its measurements), its flat face moved by ``shift`` along x1 at the press's
+    depth. Every closed node sticks, so the step is the bonded (Mindlin's Q → 0+) problem, linear in the shift:
+    δ'(0) = shift / (Q − Q_press) with Q of order μP, not 0.002 μP (the small probe divides the solver's last
+    digits by its Q). Returns δ'(0), Q/μP, the closed nodes not stuck and the nodes whose contact state (closed or
+    open) differs from the pressed state's (both 0 for the bonded problem; global counts), P's change (collective)."""
+    materials = (MINDLIN_MATERIAL, MINDLIN_MATERIAL)
+    model = _CoreModel(comm, mesh, False, materials, STUCK_FRICTION, "mindlin6s_", MINDLIN_SETTINGS)
+    try:
+        model.problem.reset(pressed_u, step=1)
+        s = model.solve((shift, 0.0, -CORE_DELTA))
+    finally:
+        model.destroy()
+    closed = s["state"] != 0
+    before = dict(zip(_node_keys(pressed["x"]), pressed["state"] != 0, strict=True))
+    after = dict(zip(_node_keys(s["x"]), closed, strict=True))  # a node no longer paired is open
+    changed = sum(bool(before.get(k, False)) != bool(after.get(k, False)) for k in set(before) | set(after))
+    Q = s["Q"] - pressed["Q"]
+    return {"compliance0": shift / Q, "load": Q / (MINDLIN_FRICTION * s["P"]), "Q": Q, "shift": shift,
+            "slipping": int(np.sum(closed & (s["state"] != 1))), "changed": int(changed), "closed": int(closed.sum()),
+            "P_change": s["P"] / pressed["P"] - 1, "converged": s["converged"], "iterations": s["iterations"]}
 
 
 def _step(s: dict[str, Any], pressed: dict[str, Any], kind: str, shift: float, compliance0: float,
@@ -129,24 +166,34 @@ def _step(s: dict[str, Any], pressed: dict[str, Any], kind: str, shift: float, c
 
 
 def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
-                 loads: tuple[float, ...] = MINDLIN_LOADS, unloads: tuple[float, ...] = MINDLIN_UNLOADS
-                 ) -> dict[str, Any]:
+                 loads: tuple[float, ...] = MINDLIN_LOADS, unloads: tuple[float, ...] = MINDLIN_UNLOADS,
+                 secant_probe: bool = False) -> dict[str, Any]:
     """Case 6 on the half model at ``level`` (:data:`MINDLIN_CORE_LEVELS` or (h₀/a, growth, L/a)): pressed
-    δ = a²/R, probed, loaded to the displacements aimed at Q/μP = ``loads`` (Mindlin's compliance × 1.05), then
-    unloaded to those aimed at ``unloads`` (Mindlin–Deresiewicz from the last load); per step the measurements of
-    :func:`_step` (collective)."""
+    δ = a²/R, δ'(0) from the stuck probe (:func:`stuck_compliance`, a second model), loaded to the displacements
+    aimed at Q/μP = ``loads`` (Mindlin's compliance × 1.05), then unloaded to those aimed at ``unloads``
+    (Mindlin–Deresiewicz from the last load); per step the measurements of :func:`_step`. ``secant_probe``: first
+    the former small probe Q/μP ≈ ``PROBE_LOAD`` on the path (its secant shift/Q in ``compliance0_probe``, its
+    slipping nodes in ``probe_slipping``; NaN and −1 without) (collective)."""
     t0 = time.perf_counter()
     spec = MINDLIN_CORE_LEVELS[level] if isinstance(level, int) else level
     materials = (MINDLIN_MATERIAL, MINDLIN_MATERIAL)
-    model = _CoreModel(comm, core_mesh(comm, spec, False), False, materials, MINDLIN_FRICTION, "mindlin6_")
+    mesh = core_mesh(comm, spec, False)
+    model = _CoreModel(comm, mesh, False, materials, MINDLIN_FRICTION, "mindlin6_", MINDLIN_SETTINGS)
     steps: list[dict[str, Any]] = []
+    compliance0_probe, probe_load, probe_slipping, probe_converged = float("nan"), float("nan"), -1, True
     try:
         pressed = model.solve((0.0, 0.0, -CORE_DELTA))
         P = pressed["P"]
         a_ref = (3 * P * R_CORE / (4 * effective_modulus(materials))) ** (1 / 3)
-        probe_shift = BULK * float(mindlin_compliance(PROBE_LOAD, P, a_ref))
-        probe = model.solve((probe_shift, 0.0, -CORE_DELTA))
-        compliance0 = probe_shift / (probe["Q"] - pressed["Q"])
+        stuck = stuck_compliance(comm, mesh, model.problem.u, pressed,
+                                 BULK * float(mindlin_compliance(STUCK_LOAD, P, a_ref)))
+        compliance0 = stuck["compliance0"]
+        if secant_probe:
+            probe_shift = BULK * float(mindlin_compliance(PROBE_LOAD, P, a_ref))
+            probe = model.solve((probe_shift, 0.0, -CORE_DELTA))
+            compliance0_probe = probe_shift / (probe["Q"] - pressed["Q"])
+            probe_load = (probe["Q"] - pressed["Q"]) / (MINDLIN_FRICTION * P)
+            probe_slipping, probe_converged = int(np.sum(probe["state"] == 2)), probe["converged"]
         shifts = [("load", x, BULK * float(mindlin_compliance(x, P, a_ref))) for x in loads]
         top, x_top = shifts[-1][2], loads[-1]
         shifts += [("unload", x, top - 2 * BULK * float(mindlin_compliance((x_top - x) / 2, P, a_ref)))
@@ -161,9 +208,12 @@ def mindlin_core(comm: MPI.Comm, level: int | tuple[float, float, float],
         model.destroy()
     G = MINDLIN_MATERIAL[0] / (2 * (1 + MINDLIN_MATERIAL[1]))
     return {"steps": steps, "P": P, "a": pressed["a"], "a_ref": a_ref, "err_radius": pressed["a"] / a_ref - 1,
-            "compliance0": compliance0, "compliance0_halfspace": (2 - MINDLIN_MATERIAL[1]) / (4 * G * a_ref),
+            "compliance0": compliance0, "compliance0_probe": compliance0_probe, "stuck": stuck,
+            "compliance0_halfspace": (2 - MINDLIN_MATERIAL[1]) / (4 * G * a_ref),
             "press_Q": pressed["Q"] / (MINDLIN_FRICTION * P), "press_side": pressed["Q_side"] / (MINDLIN_FRICTION * P),
-            "press_stick": pressed["stick"], "h_over_a": spec[0], "growth": spec[1], "unknowns": pressed["unknowns"],
-            "closed": pressed["closed"], "probe": (probe["Q"] - pressed["Q"]) / (MINDLIN_FRICTION * P),
-            "converged": pressed["converged"] and probe["converged"] and all(s["converged"] for s in steps),
+            "press_stick": pressed["stick"], "press_slipping": int(np.sum(pressed["state"] == 2)),
+            "h_over_a": spec[0], "growth": spec[1], "unknowns": pressed["unknowns"],
+            "closed": pressed["closed"], "probe": probe_load, "probe_slipping": probe_slipping,
+            "converged": pressed["converged"] and probe_converged and stuck["converged"]
+            and all(s["converged"] for s in steps),
             "a_core": A_CORE, "wall": time.perf_counter() - t0}

@@ -247,10 +247,12 @@ def core_mesh(comm: MPI.Comm, level: int | tuple[float, float, float], quarter: 
 
 class _CoreModel:
     """The sphere cap on the block (half or quarter model) as a ContactProblem; the flat face prescribed through
-    ``self.flat``; ``copies`` the full model's multiple of the forces (2 or 4)."""
+    ``self.flat``; ``copies`` the full model's multiple of the forces (2 or 4); ``settings`` the solver's (default
+    ``CORE_SETTINGS``)."""
 
     def __init__(self, comm: MPI.Comm, mesh: tuple[Any, Any, Any], quarter: bool,
-                 materials: tuple[tuple[float, float], tuple[float, float]], friction: float, prefix: str):
+                 materials: tuple[tuple[float, float], tuple[float, float]], friction: float, prefix: str,
+                 settings: dict[str, Any] | None = None):
         from meshes.sphere_on_block_half import BODIES as CB
         from meshes.sphere_on_block_half import TAGS as CT
 
@@ -273,7 +275,8 @@ class _CoreModel:
             form += ufl.inner(2 * mu * eps_u + lmbda * ufl.tr(eps_u) * ufl.Identity(3), eps_v) * dx(CB[body])
         self.pair = ContactPair(facet_tags, slave=CT["top"], master=CT["cap"], friction=friction,
                                 search_distance=0.5 * A_CORE, name="cap", method="mortar")
-        self.problem = ContactProblem(form, None, bcs, contact_pairs=[self.pair], settings=CORE_SETTINGS,
+        self.problem = ContactProblem(form, None, bcs, contact_pairs=[self.pair],
+                                      settings=CORE_SETTINGS if settings is None else settings,
                                       petsc_options_prefix=prefix, sliding=SLIDING)
 
     def solve(self, displacement: tuple[float, float, float]) -> dict[str, Any]:
