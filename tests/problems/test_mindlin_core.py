@@ -31,6 +31,7 @@ def case():
     return mindlin_core(MPI.COMM_WORLD, LEVEL, loads=(0.5,), unloads=())
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_fit_recovers_cattaneo():
     """The least-squares fit returns the c of an exact Cattaneo profile sampled at scattered radii."""
     rng = np.random.default_rng(3)

@@ -50,6 +50,7 @@ from benchmarks.verification import (  # noqa: E402
 COARSE = (1 / 3, 0.3)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_incline_reference_values():
     """The formula's published value (0.412371 for μ = 0.3) and its limits: tan α without friction, and the
     push along a level plane (tan α = 0) is μ × weight."""
