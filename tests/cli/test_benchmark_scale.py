@@ -34,11 +34,13 @@ def plan(argv: list[str]) -> scale.Plan:
 
 # -- pairing ----------------------------------------------------------------------------------------------
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_weak_pairs_exact_when_unknowns_double_per_level():
     pairs = scale.weak_pairs(3, [1, 2, 4, 8], lambda lev: 1000 * 2**lev)
     assert pairs == [(3, 1), (4, 2), (5, 4), (6, 8)]
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 @pytest.mark.parametrize("base, ranks", [(7, [1, 2]), (7, [1, 2, 4, 8, 16]), (10, [2, 4, 8, 16])])
 def test_weak_pairs_are_the_closest_levels(base, ranks):
     target = unknowns(base) / ranks[0]
@@ -54,6 +56,7 @@ def test_weak_pairs_are_the_closest_levels(base, ranks):
     assert levels == sorted(levels)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_weak_pair_on_our_machine():
     """lev 7 on 1 rank and lev 8 on 2 ranks: unknowns per rank within 35 % (the recorded weak pair)."""
     assert scale.weak_pairs(7, [1, 2], unknowns) == [(7, 1), (8, 2)]
@@ -62,6 +65,7 @@ def test_weak_pair_on_our_machine():
 
 # -- command-line plans -----------------------------------------------------------------------------------
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_plan_default_is_the_level_study():
     p = plan([])
     assert p.case == "d3/L2"
@@ -69,11 +73,13 @@ def test_plan_default_is_the_level_study():
     assert plan(["--lev11"]).jobs[-1] == ("levels", 11, 2)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_plan_ranks_is_strong_scaling_at_a_fixed_level():
     assert plan(["--ranks", "1", "2", "4", "8", "16"]).jobs == [("strong", 10, r) for r in (1, 2, 4, 8, 16)]
     assert plan(["--ranks", "1", "2", "--lev", "8"]).jobs == [("strong", 8, 1), ("strong", 8, 2)]
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_plan_weak_and_combinations():
     assert plan(["--weak"]).jobs == [("weak", 7, 1), ("weak", 8, 2)]
     jobs = plan(["--weak", "--strong", "--ranks", "1", "2", "--lev", "8", "--levels", "6", "--np", "1"]).jobs
@@ -81,6 +87,7 @@ def test_plan_weak_and_combinations():
     assert jobs[0] == ("levels", 6, 1)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 @pytest.mark.parametrize("argv", [["--repeat", "0"], ["--ranks", "0"], ["--np", "0"], ["--case", "d3"],
                                   ["--levels", "-1"]])
 def test_plan_rejects_bad_values(argv):
@@ -88,6 +95,7 @@ def test_plan_rejects_bad_values(argv):
         plan(argv)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_launcher_oversubscribes_only_beyond_the_cores():
     ompi = "mpirun (Open MPI) 5.0.7"
     assert scale.launcher_command("mpirun -n {n}", 2, 2, ompi) == ["mpirun", "-n", "2"]
@@ -99,6 +107,7 @@ def test_launcher_oversubscribes_only_beyond_the_cores():
 
 # -- peak RSS -----------------------------------------------------------------------------------------------
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_aggregate_rss():
     records = [{"rank": "0", "peak_rss_kib": 1024 * 300}, {"rank": "1", "peak_rss_kib": 1024 * 100}]
     agg = scale.aggregate_rss(records)
@@ -110,6 +119,7 @@ def test_aggregate_rss():
     assert math.isnan(scale.aggregate_rss([])["rss_sum_MiB"])
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_read_rss_orders_by_rank(tmp_path):
     for rank in (10, 2, 0):
         (tmp_path / f"rss-{rank}.json").write_text(json.dumps({"rank": str(rank), "peak_rss_kib": rank}))
@@ -129,6 +139,7 @@ def test_peak_rss_wrapper_measures_the_child_from_outside(tmp_path):
     assert 300 * 1024 <= record["peak_rss_kib"] < 600 * 1024
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_rank_from_environment():
     assert peak_rss.rank_from_environment({"PMI_RANK": "7"}) == "7"
     assert peak_rss.rank_from_environment({"SLURM_PROCID": "12", "OMPI_COMM_WORLD_RANK": "1"}) == "1"
@@ -167,6 +178,7 @@ def test_phases_of_the_linear_reference(mpi_tmp_path):
         scale.phases("other", data)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_pair_rows_and_markdown():
     def row(solve, wall, rss):
         return {"study": "strong", "lev": 8, "ranks": 2, "repeat": 0, "solve": solve, "n": 209088, "wall_s": wall,
@@ -181,6 +193,7 @@ def test_pair_rows_and_markdown():
     assert lines[0] == "| lev | ratio | x |" and lines[2] == "| 8 | 1.50 | – |"
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_efficiencies():
     def entry(ranks, n, contact, linear):
         return {"ranks": ranks, "n": n, "c_wall_s": contact, "l_wall_s": linear}

@@ -140,7 +140,7 @@ def test_petsc_options_reach_the_ksp(mpi_tmp_path):
     pc = ["-coulomb_pc_type", "lu"]
     if MPI.COMM_WORLD.size > 1:
         pc += ["-coulomb_pc_factor_mat_solver_type", "mumps"]
-    status = main(["--lev", "1", "--out", str(out), "--quiet", "-coulomb_ksp_type", "preonly", *pc])
+    status = main(["--lev", "1", "--out", str(out), "--quiet", "--no-plots", "-coulomb_ksp_type", "preonly", *pc])
     from petsc4py import PETSc
 
     opts = PETSc.Options()

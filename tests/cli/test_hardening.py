@@ -115,6 +115,7 @@ def test_a_closed_surface_pressed_in_still_solves(mpi_tmp_path):
     assert force[2] < 0.0 and abs(force[2]) > 10 * max(abs(force[0]), abs(force[1]))
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_the_surface_cache_follows_the_file_not_its_name(tmp_path, monkeypatch):
     """Triangles were cached by the file's name: a rewritten file, or another file of the same relative name after
     a change of directory, silently gave the old geometry. An obstacle keeps the geometry it was created with."""
@@ -134,6 +135,7 @@ def test_the_surface_cache_follows_the_file_not_its_name(tmp_path, monkeypatch):
     assert Surface(file="s.stl").signed_distance(point)[0] == pytest.approx(0.5)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_closed_surfaces_have_a_core_open_ones_none(tmp_path):
     ball = Surface(file=str(write_stl(tmp_path / "ball.stl", icosphere(0.5, (1.0, 0.5, 1.5), level=2))))
     core = ball.core(np.zeros(3), np.ones(3), 2)
@@ -362,6 +364,7 @@ def test_api_entry_points_name_bad_arguments(mpi_tmp_path):
             use()
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_surface_from_msh_leaves_the_callers_gmsh_session(tmp_path):
     """Surface("x.msh") finalized the caller's gmsh session (and replaced its model)."""
     import gmsh

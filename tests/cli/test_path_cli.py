@@ -138,7 +138,7 @@ def test_demo_path(demo_path_run, mpi_tmp_path):
     # the static solve of the final load differs: friction remembers the reversal (residual slip)
     static = mpi_tmp_path / "static"
     assert run("--scene", str(ROOT / "demos/scenes/d3_L2.toml"), "--lev", "2", "--rtol", "1e-10",
-               "--out", str(static)) == 0
+               "--no-plots", "--out", str(static)) == 0
     assert relative(displacement(out)[1], displacement(static)[1]) > 1e-3
     # ... but the path's first step end (the same load from 0 in 3 increments) is close to it
     assert relative(displacement(out, 3)[1], displacement(static)[1]) < 1e-1  # grid 0 is t = 0
@@ -147,8 +147,8 @@ def test_demo_path(demo_path_run, mpi_tmp_path):
 def test_steps_one_is_the_static_solve(mpi_tmp_path):
     """--steps 1 is the static solve (1e-10)."""
     one, static = mpi_tmp_path / "one", mpi_tmp_path / "static"
-    assert run("--lev", "2", "--steps", "1", "--out", str(one)) == 0
-    assert run("--lev", "2", "--out", str(static)) == 0
+    assert run("--lev", "2", "--steps", "1", "--no-plots", "--out", str(one)) == 0
+    assert run("--lev", "2", "--no-plots", "--out", str(static)) == 0
     x1, u1 = displacement(one)
     x0, u0 = displacement(static)
     assert np.array_equal(x1, x0) and relative(u1, u0) <= 1e-10

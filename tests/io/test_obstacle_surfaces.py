@@ -52,6 +52,7 @@ OBSTACLES = {
 }
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 @pytest.mark.parametrize("name", list(OBSTACLES))
 def test_surfaces_lie_on_their_obstacles(name):
     """Every placed point is on the placed obstacle (its own signed distance 0); the triangles are proper; a
@@ -150,6 +151,7 @@ def test_a_rolling_path_writes_the_obstacle_at_every_time(mpi_tmp_path):
     Cylinder(point=(0.0, 0.0, 1e9 + 1.0), axis=(1e-300, 1.0, 0.0), radius=1e9),
     Plane(point=(1e15, 0.0, -1e15), normal=(1.0, 1.0, 1.0), rotation=[1e6, [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]),
 ], ids=["tiny sphere", "far sphere", "huge sphere", "huge cylinder", "far turned plane"])
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_hostile_obstacles_give_finite_surfaces(obstacle):
     """Obstacles far away, tiny or huge (as the fuzz tests' scenes have them): finite points, proper triangles,
     the placed points on the obstacle to the round-off of its own coordinates."""

@@ -160,6 +160,7 @@ def test_half_block_pushed_along_a_plane_with_its_bottom_edge_on_a_roller():
     assert abs(2.0 * half.reactions["push"][0] - full.reactions["push"][0]) <= 1e-8 * full.reactions["push"][0]
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_held_frames_put_the_held_axes_first():
     """held_frames: the first held axis becomes t₁ (a second one ±t₂), the normal loses its held components and
     stays unit, the frames right-handed; a held direction along the normal is a conflict (frame unchanged), and a

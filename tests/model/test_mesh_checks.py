@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from fenics_coulomb.model.mesh_checks import corner_determinants
 
@@ -23,6 +24,7 @@ def reference_hexahedron(X: np.ndarray) -> np.ndarray:
     return out
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_corner_determinants_of_distorted_hexahedra_and_tetrahedra():
     rng = np.random.default_rng(7)
     unit = np.array([[i & 1, (i >> 1) & 1, (i >> 2) & 1] for i in range(8)], dtype=float)

@@ -64,6 +64,7 @@ def library(S, M, nodes):
     return mortar_nodes((S.X, S.blocks, S.sign), (M.X, M.blocks, M.sign), nodes, (verts, closest))
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_quadrature_and_dual_basis():
     """The 7-point rule integrates degree 5 exactly; the dual basis is biorthogonal on a warped quadrilateral."""
     a, b = GAUSS7[:, 1], GAUSS7[:, 2]
@@ -86,6 +87,7 @@ def test_quadrature_and_dual_basis():
     assert np.allclose(psi.sum(axis=1), 1.0)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_clipping():
     """Sutherland–Hodgman: a square clipped by a rotated square is the octagon of the known area; disjoint
     polygons give nothing; a polygon inside the clipper is itself."""
@@ -143,6 +145,7 @@ def test_integrals_agree_with_brute_force(cell, case, subdivisions, tol):
         assert abs(res.stencil[k].sum() - 1) < (1e-12 if planar else 1e-7)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_partly_covered_nodes_are_free():
     """Slave = the larger lower top: the nodes whose facets reach past the upper block's footprint are not fully
     covered, whatever their gap (edge dropping); the fully covered ones lie inside the footprint."""

@@ -101,6 +101,7 @@ def cellwise(n=(8, 4), size=(2.0, 1.0), amplitude: float = 0.25, seed: int = 3) 
 
 
 # -- the clip polygon ------------------------------------------------------------------------------------
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_clip_polygons_lose_duplicate_and_collinear_vertices():
     """A master quadrilateral equal to the slave one, or 1e-9 / 1e-8 beside it, is the same 4-vertex polygon
     after cleaning (the clipping repeats vertices or adds ones 1e-9 from the corners); a collinear mid-edge
@@ -126,6 +127,7 @@ def test_clip_polygons_lose_duplicate_and_collinear_vertices():
     assert np.isclose(polygon_area(P, n)[0], 1.0)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_two_neighbouring_collinear_vertices_do_not_take_the_corner():
     """A clip polygon of the drag patch test's stall (docs/sliding: a slave edge on a master grid line, the
     footprint's whole-cell state after sub-cell states): two vertices 1.7e-7 apart at a corner (tol 1.1e-7), each

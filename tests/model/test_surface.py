@@ -68,6 +68,7 @@ def test_gaps_and_normals_against_a_brute_force_projection(tmp_path):
         assert brute_distance(p, T) <= 1e-7
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_side_inward_flips_the_gap(tmp_path):
     T = icosphere(RADIUS, tuple(CENTER), level=1)
     path = write_stl(tmp_path / "ball.stl", T, binary=True)  # binary STL as well; tmp_path is this rank's own

@@ -68,6 +68,7 @@ SCENES = doc_blocks("scenes.md", "toml")
 COMMANDS = [command for block in doc_blocks("scenes.md", "sh") for command in doc_commands(block)]
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_scenes_doc_has_examples():
     """The reference shows scenes and commands (a change of the block markup would silently drop them)."""
     assert len(SCENES) >= 5 and len(COMMANDS) >= 3
@@ -79,6 +80,7 @@ def test_scenes_doc_commands(doc_directory):
         assert main([*command, "--quiet", "--no-plots"]) == 0, command
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_scenes_doc_synopsis():
     """The flag synopsis of docs/scenes.md names every flag of the parser and no other."""
     (synopsis,) = doc_blocks("scenes.md", "text")

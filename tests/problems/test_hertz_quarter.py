@@ -40,6 +40,7 @@ def solved(tmp_path_factory):
     return indent_quarter(comm, 0, out=f"{path}/run")
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_reference_values():
     """Hertz's axis shear maximum (Johnson eq. 4.23, ν = 0.3): 0.310 p₀ at 0.481 a; the axis displacement under
     Hertz's pressure is δ at the surface and tends to Boussinesq's P(3 − 2ν)/(4πG d) at depth."""

@@ -37,6 +37,7 @@ def case():
     return mindlin_core(MPI.COMM_WORLD, LEVEL, loads=(0.5,), unloads=(), secant_probe=True)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_fit_recovers_cattaneo():
     """The least-squares fit returns the c of an exact Cattaneo profile sampled at scattered radii."""
     rng = np.random.default_rng(3)

@@ -23,6 +23,7 @@ FAST = [case for case in robustness.CASES if case.fast]
 BALANCE = 1e-6
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_the_fast_subset_covers_distortion_a_large_gap_and_high_friction():
     assert {case.name for case in FAST} == {"slivers", "thin-plate", "friction-2"}
     assert len(robustness.CASES) >= 8

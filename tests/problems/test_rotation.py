@@ -107,6 +107,7 @@ def test_bad_rotations_are_named(rotation, fragment):
         Cylinder(point=AXIS_POINT, axis=(0, 1, 0), radius=R).rotated(rotation)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_the_material_motion_against_the_explicit_rigid_map():
     """Obstacle.motion (the slip's obstacle part) against an independent construction: a point at angle φ on the
     cylinder's circle (x1, x3 about the axis point) goes to angle φ + θ: (R sin(φ + θ), −R cos(φ + θ)) with

@@ -25,6 +25,7 @@ def hertz():
     return hertz_core(MPI.COMM_WORLD, LEVEL)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_mindlin_formulas():
     """Mindlin's slip part s = δ − x δ'(0) vanishes to second order (x²/9 of 3μP(2 − ν)/8Ga); δ'(0) is 2/3 of that
     factor per unit x (twice the bonded disc's (2 − ν)/8Ga per body); Mindlin–Deresiewicz's unloading from x* is

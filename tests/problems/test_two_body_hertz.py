@@ -9,12 +9,14 @@ from __future__ import annotations
 from mpi4py import MPI
 
 import numpy as np
+import pytest
 
 from benchmarks.two_body_hertz import BODIES, TAGS, contact_radius, hertz, mesh, run  # noqa: E402
 
 from fenics_coulomb.model.pairs.two_body import connected_bodies  # noqa: E402
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_contact_radius():
     """The outermost closed node interpolated halfway to the nearest open node beyond it."""
     r = np.array([0.0, 0.1, 0.2, 0.25, 0.3, 0.15])

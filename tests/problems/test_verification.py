@@ -43,13 +43,14 @@ from benchmarks.verification import (  # noqa: E402
     incline_scene,
     lubkin,
     patch,
-    shrink_fit,
 )
+from shrink_fits import small_shrink_fit
 
 #: The coarse block of the Lubkin test (benchmarks/hertz.py's): (h₀/a, growth of the edge per unit distance).
 COARSE = (1 / 3, 0.3)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_incline_reference_values():
     """The formula's published value (0.412371 for μ = 0.3) and its limits: tan α without friction, and the
     push along a level plane (tan α = 0) is μ × weight."""
@@ -149,7 +150,7 @@ def test_shrink_fit_coarse(method, bound):
     """The interference is resolved (every bore node a contact node with held components), the pressure and the
     bore hoop stress lie below Lamé's within the coarse mesh's facetting bound, and agree with each other's
     error (the same facetting: the hoop stress is p's Lamé multiple to 1e-2)."""
-    r = shrink_fit(MPI.COMM_WORLD, method, 0)
+    r = small_shrink_fit(method)  # shared with tests/problems/test_finite_sliding_shrink.py
     assert r["converged"] and r["held"] == r["contact_nodes"] > 0
     for key in ("err_pressure", "err_hoop"):
         assert -bound <= r[key] < 0.0, (key, r[key])

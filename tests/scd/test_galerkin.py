@@ -85,6 +85,7 @@ def test_coarse_operators_are_the_galerkin_products_of_the_newton_matrix(problem
             op.destroy()
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_row_scaling_gives_the_rows_the_size_of_the_diagonal():
     """Open rows keep their size, constrained rows (stick, the normal row of a slip) are scaled by a/γ, and a
     sliding node's tangential rows by a/(a C_jj + γ b P_jj): the scaled row's diagonal is a on every row."""

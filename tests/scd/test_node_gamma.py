@@ -79,6 +79,7 @@ def test_default_keeps_the_papers_gamma_on_the_cuboid(lev):
         problem.destroy()
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_node_gamma_rule():
     """γᵢ = min(γ, κ·λ_max(Aᵢᵢ)) from the symmetric 3×3 blocks; None keeps γ."""
     rng = np.random.default_rng(0)

@@ -81,6 +81,7 @@ def robust(row: dict[str, str]) -> bool:
             and int(row["max_krylov"]) <= SolverSettings.gmres_restart)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_rule_is_robust_on_every_measured_case():
     """Wherever docs/pc-auto (benchmarks/pc_auto.py) measured a robust preconditioner, the rule picks one that
     was robust there too. Fails when the rule changes against the measurements (or these change)."""

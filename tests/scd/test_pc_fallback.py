@@ -61,6 +61,7 @@ def test_every_stage_of_the_ladder_takes_over_when_the_previous_one_stagnates(pr
     assert_physics(problem, uh)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_ladder():
     assert auto_ladder("ilu", 1000) == ["gamg", "hypre", "lu"]
     assert auto_ladder("gamg", 1000) == ["hypre", "lu"]

@@ -13,6 +13,7 @@ from fenics_coulomb.scd.stopping import ROUNDOFF_FACTOR, StoppingRule
 EPS = np.finfo(np.float64).eps
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_target_is_relative_to_the_residual_of_the_undeformed_body():
     for initial in (3.0, 1e6):  # the start's own residual does not matter
         rule = StoppingRule.create(1e-8, 50, initial=initial, scale=0.5, shift_norm=1.0, start_norm=0.0,
@@ -22,12 +23,14 @@ def test_target_is_relative_to_the_residual_of_the_undeformed_body():
         assert rule.satisfied(4.9e-9) and not rule.satisfied(5.1e-9)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_no_load_and_no_overlap_leaves_the_round_off_floor():
     rule = StoppingRule.create(1e-8, 50, initial=2.0, scale=0.0, shift_norm=1.0, start_norm=2.0, load_norm=0.0,
                                gamma=2.0)
     assert rule.target == 0.0 and rule.threshold == rule.floor > 0.0
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_iteration_limit_and_non_finite_residual_raise():
     rule = StoppingRule.create(1e-8, 3, initial=1.0, scale=1.0, shift_norm=1.0, start_norm=0.0, load_norm=1.0,
                                gamma=1.0)

@@ -104,6 +104,7 @@ def test_box_interpolation_refuses_another_grid():
     assert interpolate_cuboid(coarse_field(Vc), 2, Vf, "d3") is None
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_nested_levels_and_default():
     """--nested K solves lev − 2K, ..., lev − 2; by default one coarser level from lev NESTED_AUTO_MIN_LEV on,
     only for the cuboid from the paper's start; a given value wins."""

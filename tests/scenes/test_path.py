@@ -262,6 +262,7 @@ def test_move_and_reset_reject_bad_input():
         assert problem.obstacles[0].displacement == (0.0, 0.0, 0.001)
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_remaining_time_uses_the_warm_started_solves() -> None:
     """The first solve (cold start) only estimates while it is alone; after it, the median of the later solves."""
     from fenics_coulomb.scenes.path import remaining_time

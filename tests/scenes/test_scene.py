@@ -29,6 +29,7 @@ def test_sizes(lev, problem_factory):
     assert owned.size == np.unique(owned).size == model.p
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_known_sizes():
     """Two levels worked by hand: lev 0 is 4x2x2 cells, lev 1 is 6x3x3 (⌈5.66⌉ = 6, ⌈2.83⌉ = 3)."""
     assert cells_per_direction(0) == (4, 2, 2)

@@ -31,6 +31,7 @@ def write(tmp: Path, name: str, text: str) -> Path:
     return path
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 @pytest.mark.parametrize("path", SCENES, ids=lambda p: p.stem)
 def test_shipped_scenes_parse(path):
     scene = Scene.from_toml(path)
@@ -38,6 +39,7 @@ def test_shipped_scenes_parse(path):
     scene.solver.validate()
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_section7_scene_matches_paper_data():
     scene = Scene.from_toml(ROOT / "demos" / "scenes" / "d2_L1.toml")
     assert (scene.body.gap, scene.load.case, scene.friction.coefficient, scene.material.young,
@@ -45,6 +47,7 @@ def test_section7_scene_matches_paper_data():
     assert scene.traction_table() == {"top": (0.0, 0.0, -1.0), "right": (-0.2, 0.0, 0.0)}
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
 def test_expression_equals_numpy():
     f = parse_gap_expression("0.01 + 0.005*(sin(2*pi*x1) + cos(2*pi*x2))")
     x1, x2 = np.random.default_rng(0).random((2, 50))
