@@ -848,6 +848,15 @@ Machine: {machine}.
 Load (`uptime`) before: `{load_before}`; after: `{load_after}` (the machine was shared: wall times are
 inflated accordingly).
 
+**The whole table in one command** (2026-11-26, main 1050428, every case on 2 ranks, the first level of each also on
+one rank): **1 370 s (22.8 min)** with nothing else on the machine (load 0.35 at the start, 2.0 at the end): the
+inclines and the patch test seconds, Hertz ≈ 1 min, Lubkin ≈ 5 min, the shrink fit ≈ 1 min, case 6 (Mindlin) 61 s +
+203 s for its two levels, case 9 ≈ 5 min, case 8 (Carter) 141 s + 224 s + 106 s for its second start. Every value
+equals the separate runs' of the loaded machine (the three rows that moved: a node-to-surface patch value in its
+8th digit, Lubkin's 1 vs 2 ranks 5.9e-10 → 8.5e-10, case 8's 1 vs 2 ranks now over the whole roll, 4.3e-10). The
+loaded runs' wall and CPU times quoted in §6 and §8 (case 6 46 min, case 8 "too slow on two ranks") measured the
+load: a rank waiting in a collective polls while its partner waits for a core.
+
 ## The table
 
 {table}
@@ -1183,9 +1192,8 @@ in `comm.barrier()` and 0.01 s in the new wait (load 5.4). Proposed, not done:
 (i) the 1 vs 2 ranks comparison of case 6 on the fast test's level (h₀ = a/4, `test_one_rank_agrees`, 6.6e-9)
 instead of level 1 saves the one-rank level-1 run (228 s wall, 117 CPU s, 8 % of case 6); (ii) OpenMPI's
 `mpi_yield_when_idle` for the table's runs on a shared machine (the polling is 3/4 of the 2-rank CPU time measured
-here); (iii) level 2 is 59 % of case 6's wall time: the issue's 30 minutes for the whole table cannot hold while
-case 6 alone takes 46 min at load 6–12; its 1 485 CPU s (much of it polling) are 12 min of both cores: its time
-on an idle machine is to be measured.
+here); (iii) level 2 is 59 % of case 6's wall time, 46 min at load 6–12; on the idle machine case 6 took 61 s +
+203 s and the whole table 22.8 min (the header).
 
 **1 vs 2 ranks: 8.8e-8 at h₀ = a/6 (was 1.0e-6), 6.6e-9 at a/4: 1e-8 not reached on the table's level.** The
 column is the largest relative difference over P, a, δ'(0) and per step Q/μP, both stick radii, the slip part (over
@@ -1390,7 +1398,10 @@ jobs; 10:06–10:32), those 22 solves took 1150 s wall and 297 CPU-s on two rank
 (2.3 CPU-s per solve of 11k unknowns on one rank, 13.5 over both ranks on two): the slice is too small for two
 ranks, and on an oversubscribed machine each rank spins in the collectives while the other waits for its core
 (`OMPI_MCA_mpi_yield_when_idle=1` was worse: 4.7 % of a core per rank instead of 25 %, stopped after 6 min). The
-rows were therefore run on ONE rank (`--carter-runs`, `--carter-no-second-start`): level 11 979 s wall and 127
+rows were therefore first run on ONE rank; the whole table's run on the idle machine (the header) then ran them on two
+ranks in 141 s (level 11), 224 s (level 12) and 106 s (the second start), the same values, and compared the whole
+roll with one rank's: 4.3e-10.
+The one-rank runs (`--carter-runs`, `--carter-no-second-start`): level 11 979 s wall and 127
 CPU-s (47 solves), its second start 756 s and 100 CPU-s, level 12 2089 s and 333 CPU-s (16.7k unknowns), at load
 7–13 with three of this session's own jobs beside (the header). Case 8 as `--cases carter` runs it on two ranks
 would cost, at this machine's load, ≈ 13.5 CPU-s per solve for ≈ 50 (level 11) + ≈ 40 (its second start) + ≈ 60
