@@ -146,13 +146,35 @@ value, a within {a_dev:.4f} of it (the slave's contact size is 0.12).
     fig.savefig(out / "ironing.png", dpi=110)
 
 
+def _positive_int(text: str) -> int:
+    """A substep count: an integer ≥ 1 (argparse refuses anything else, on every rank, before any MPI call)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} substeps: need at least 1")
+    return value
+
+
+def _rtol(text: str) -> float:
+    """A residual reduction in (0, 1)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"rtol {value!r}: must lie in (0, 1)")
+    return value
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(ROOT / "docs" / "sliding"))
     parser.add_argument("--sliding", default="finite", choices=["finite", "small"])
-    parser.add_argument("--substeps", type=int, nargs=2, metavar=("DRAG", "BACK"), default=None,
+    parser.add_argument("--substeps", type=_positive_int, nargs=2, metavar=("DRAG", "BACK"), default=None,
                         help="a shorter path: the drag and the way back in these many substeps (the scene: 14 14)")
-    parser.add_argument("--rtol", type=float, default=None, help="the solves' rtol (the scene: 1e-9)")
+    parser.add_argument("--rtol", type=_rtol, default=None, help="the solves' rtol in (0, 1) (the scene: 1e-9)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()

@@ -76,7 +76,7 @@ from benchmarks.verification_two_body import (  # noqa: E402
     CORE_DELTA,
     hertz_core,
 )
-from benchmarks.verification_rolling import CARTER_RUNS, carter_rows  # noqa: E402
+from benchmarks.verification_rolling import CARTER_LEVELS, CARTER_RUNS, carter_rows  # noqa: E402
 from fenics_coulomb import ContactProblem, Plane, Sphere  # noqa: E402
 
 __all__ = ["TAN_ALPHA", "FRICTIONS", "INCLINE_SCENE", "INCLINE_TWO_BODY_SCENE", "SLOPE_LEVELS", "incline",
@@ -447,6 +447,20 @@ def _agreement(a: dict[str, Any], b: dict[str, Any] | None, keys: tuple[str, ...
     """Largest relative difference of ``keys`` between the two-rank and the one-rank results."""
     assert b is not None
     return max(abs(a[k] - b[k]) / max(abs(b[k]), 1e-300) for k in keys)
+
+
+def _carter_run(text: str) -> tuple[float, int]:
+    """``--carter-runs`` CREEP:LEVEL: a finite creep in (0, 0.1] and a level of CARTER_LEVELS (argparse refuses
+    anything else with one line, on every rank, before any MPI call)."""
+    creep, _, level = text.partition(":")
+    try:
+        value, lvl = float(creep), int(level)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: want CREEP:LEVEL, e.g. 0.01:11") from None
+    if not (np.isfinite(value) and 0.0 < value <= 0.1) or lvl not in CARTER_LEVELS:
+        raise argparse.ArgumentTypeError(f"{text!r}: the creep must lie in (0, 0.1] and the level be one of "
+                                         f"{sorted(CARTER_LEVELS)}")
+    return value, lvl
 
 
 def _machine() -> str:
@@ -845,8 +859,8 @@ column "1 vs 2 ranks" gives the largest relative difference of the reported valu
 (coarse meshes, each with its own bound) is `tests/problems/test_verification.py`.
 
 Machine: {machine}.
-Load (`uptime`) before: `{load_before}`; after: `{load_after}` (the machine was shared: wall times are
-inflated accordingly).
+Load (`uptime`) before: `{load_before}`; after: `{load_after}` (on a shared machine the wall times grow with
+the load).
 
 **The whole table in one command** (2026-11-26, main 1050428, every case on 2 ranks, the first level of each also on
 one rank): **1 370 s (22.8 min)** with nothing else on the machine (load 0.35 at the start, 2.0 at the end): the
@@ -1549,7 +1563,7 @@ def main(argv: list[str] | None = None) -> int:
                              "only case 5's, into verification_incline_two_bodies.csv and incline_two_bodies_rows.md; "
                              "carter: only case 8's, into verification_carter.csv and carter_rows.md "
                              "(each to be merged into the table)")
-    parser.add_argument("--carter-runs", nargs="*", metavar="CREEP:LEVEL",
+    parser.add_argument("--carter-runs", nargs="*", metavar="CREEP:LEVEL", type=_carter_run,
                         help="carter: these runs instead of CARTER_RUNS (e.g. 0.01:11)")
     parser.add_argument("--carter-no-second-start", action="store_true",
                         help="carter: without the second start's roll")
@@ -1567,8 +1581,7 @@ def main(argv: list[str] | None = None) -> int:
         elif args.cases == "incline-two-bodies":
             rows = incline_two_body_rows(comm)
         elif args.cases == "carter":
-            runs = tuple((float(c), int(lvl)) for c, lvl in (x.split(":") for x in args.carter_runs)) \
-                if args.carter_runs else CARTER_RUNS
+            runs = tuple(args.carter_runs) if args.carter_runs else CARTER_RUNS
             rows = carter_rows(comm, runs, second_start=not args.carter_no_second_start)
         elif args.cases == "hertz-two-bodies":
             rows = collect_two_body(comm, HERTZ2_TABLE_LEVELS, ())
