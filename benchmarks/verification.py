@@ -1071,7 +1071,7 @@ the block's grid 0.85 h₀, so the two grids do not coincide) and graded tetrahe
 symmetry plane x2 = 0 in both bodies (the tangential load along x1 keeps that symmetry). Both bodies E = 70,
 ν = 0.3 (Dundurs' β = 0: the normal and the tangential problems of two half-spaces uncouple, the condition of the
 closed form), μ = 0.3, dual mortar with the block's flat top as the slave (§9: a flat slave keeps its symmetry-plane
-nodes), finite sliding, GAMG, residual reduction 1e-12. Pressed δ = a²/R, then the flat face moved along x1:
+nodes), finite sliding, GAMG, residual reduction 1e-13. Pressed δ = a²/R, then the flat face moved along x1:
 three loads aimed at Q/μP = 0.2, 0.5, 0.8 (by Mindlin's compliance × 1.05; Q is measured), then back to
 displacements aimed at Q/μP = 0.3 and −0.4 (Mindlin–Deresiewicz from the last load). **Every force and
 displacement is measured from the pressed state** (Q = Q_step − Q_press, δ the flat face's x1 move): the press
@@ -1203,32 +1203,27 @@ same level: the ranks' MPI waits poll while the other rank is descheduled. Chang
 one-rank run now sleeps on a non-blocking barrier (`_serial`, for every case); its CPU time stayed flat (233 s)
 over the one-rank run's 228 s, where a blocking barrier polls: rank 0 sleeping 10 s, the waiting rank used 6.6 CPU s
 in `comm.barrier()` and 0.01 s in the new wait (load 5.4). Proposed, not done:
-(i) the 1 vs 2 ranks comparison of case 6 on the fast test's level (h₀ = a/4, `test_one_rank_agrees`, 6.6e-9)
+(i) the 1 vs 2 ranks comparison of case 6 on the fast test's level (h₀ = a/4, `test_one_rank_agrees`, 3.6e-9)
 instead of level 1 saves the one-rank level-1 run (228 s wall, 117 CPU s, 8 % of case 6); (ii) OpenMPI's
 `mpi_yield_when_idle` for the table's runs on a shared machine (the polling is 3/4 of the 2-rank CPU time measured
 here); (iii) level 2 is 59 % of case 6's wall time, 46 min at load 6–12; on the idle machine case 6 took 61 s +
 203 s and the whole table 22.8 min (the header).
 
-**1 vs 2 ranks: 8.8e-8 at h₀ = a/6 (was 1.0e-6), 6.6e-9 at a/4: 1e-8 not reached on the table's level.** The
-column is the largest relative difference over P, a, δ'(0) and per step Q/μP, both stick radii, the slip part (over
-δ_M), F₂/Q and the stick and closed node counts (`_mindlin_differences`; mindlin_raw.json keeps each). At h₀ = a/6:
-the slip parts 4.7e-8 to 8.8e-8, δ'(0) 8.2e-8 (the former probe's: 1.0e-6), Q/μP 2.7e-8 at the first load and
-1.5e-9 to 6.5e-9 at the others, the fitted c 3.3e-9 at Q/μP = 0.2 and ≤ 1.4e-16 at the others, F₂/Q ≤ 1.9e-9, P
-1.1e-9; a, the separating radius and every step's stick and closed counts agree exactly (0): the same nodes stick
-on 1 and 2 ranks, so the discrete quantities do not differ at all, and the golden-section fit returns the same c
-to round-off where its data agree. What is left is the solver's tolerance, not an amplification: Q/μP at
-the 0.2 load itself differs by 2.7e-8 (Q by 2e-9 of P), and the stuck probe divides by Q/μP ≈ 0.033, about 30
-times less than the former probe did. On one rank at h₀ = a/4 the results at residual reduction 1e-12 and 1e-13
-differ by as much as 1 and 2 ranks do at 1e-12 (δ'(0) 8.1e-9, the slip parts 5.3e-9 and 5.6e-9, Q/μP 1.7e-9 and
-8.4e-10, P 4.3e-11; 1 vs 2 ranks at 1e-12: 6.6e-9, 6.1e-9, 9.8e-10, 4.7e-10); 1e-13 converged there (Newton steps
-21, 20 and 10 for the stuck probe against 19, 27, 10; 12.8 against 11.1 CPU s), 1e-14 did not (100 Newton steps).
-But 1e-13 alone does not reach 1e-8 where 1e-12 misses it: 1 vs 2 ranks at 1e-13 (h₀ = a/4, loads 0.2 and 0.5, 89 s
-on 2 ranks at load 4.6) P 1.2e-11 and Q/μP 7e-11 (40 and 14 times better), but δ'(0) 3.6e-9 and the slip parts
-3.1e-9 and 2.8e-9 only twice better: δ'(0) has a floor of its own near 3e-9 at that level, not found in the time
-(the stuck model's history is the pressed displacement interpolated onto its own space, and at that level two rim
-nodes change pairing under the stuck probe). Scaled to h₀ = a/6 (8.8e-8 at 1e-12), 1e-13 would give about 4e-8.
-The table's rows are at 1e-12 (`MINDLIN_SETTINGS`; the environment variable `MINDLIN_RTOL` for studies); open:
-the floor of δ'(0) at 1e-13, then the rows at 1e-13 (case 6 takes 45–60 min at load 6–12).
+**1 vs 2 ranks: 4.3e-9 at h₀ = a/6 with residual reduction 1e-13 (8.8e-8 at 1e-12, 1.0e-6 with the former
+probe).** The column is the largest relative difference over P, a, δ'(0) and per step Q/μP, both stick radii, the
+slip part (over δ_M), F₂/Q and the stick and closed node counts (`_mindlin_differences`; mindlin_raw.json keeps
+each). At 1e-13 and h₀ = a/6: the slip parts 2.0e-9 to 4.3e-9, δ'(0) 4.0e-9, the fitted c 1.2e-9 at Q/μP = 0.2,
+Q/μP ≤ 5.4e-10; a, the separating radius and every step's stick and closed counts agree exactly (0): the same nodes
+stick on 1 and 2 ranks. At 1e-12 the same level gave the slip parts 4.7e-8 to 8.8e-8, δ'(0) 8.2e-8 and Q/μP 2.7e-8
+at the first load (Q by 2e-9 of P): what was left was the solver's tolerance, which the stuck probe, dividing by
+Q/μP ≈ 0.033, magnifies 30 times. Measured before the change (h₀ = a/4, growth 0.5, the levels' coarsest, 2 ranks
+at load 1–2): at 1e-12 6.6e-8 (δ'(0) 6.5e-8, slip parts to 6.6e-8), at 1e-13 2.5e-9 (δ'(0) 1.9e-9), the rows' values
+unchanged to 1e-8 of themselves; and a larger stuck probe rejected: aimed at Q/μP = 0.3 it brought 1 vs 2 ranks to
+8.5e-9 at 1e-12 with no closed node slipping, but δ'(0) came out 2.0 % below the one at 0.03 and P changed by
+−0.25 %: no longer the bonded slope. 1e-13 costs nothing measurable: level 1 took 55 s on 2 ranks (61 s at 1e-12),
+level 2 166 s (203 s), on the idle machine; the compliance errors moved by ≤ 4e-8 of δ_M, the stick radii by ≤ 2e-9
+(`MINDLIN_SETTINGS`; the environment variable `MINDLIN_RTOL` for studies). (On the fast test's level, h₀ = a/4 with
+growth 1.0, 1e-13 left a floor near 3e-9 in δ'(0): two rim nodes change pairing under the stuck probe there.)
 
 The fast test (tests/problems/test_mindlin_core.py, h₀ = a/4, growth 1.0, 4 851 unknowns; 62 s on one rank at load
 10.4 with the small probe beside the stuck one): at Q/μP = 0.568 the fit −6.0 %, the separating radius −4.8 %, F₂/Q
@@ -1236,7 +1231,8 @@ The fast test (tests/problems/test_mindlin_core.py, h₀ = a/4, growth 1.0, 4 85
 the resolution (c within ±h₀/2, the centroid within h₀/4, F₂/Q and the compliance within 5 %), not these numbers;
 the stuck probe (converged, no closed node slipping, Q at least 10 times the small probe's and below 0.1 μP, the
 small probe's secant within 3 % of it: −0.9 % at this level); and, on 2 ranks (`compares_ranks`), the case on rank
-0 alone against the 2-rank run: every quantity of the agreement column within 1e-8 (measured 6.6e-9, δ'(0)).
+0 alone against the 2-rank run: every quantity of the agreement column within 1e-8 (measured 3.6e-9, δ'(0); 6.6e-9
+at 1e-12).
 
 The former rows of this case (an unstructured hemisphere of radius R = 4, `cattaneo_mindlin`: c/a −7.5 % / −2.7 %
 at Q/μP ≈ 0.37 / 0.83 with h = a/5.7, within its ±h/2) are replaced; that model remains in

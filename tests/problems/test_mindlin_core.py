@@ -9,8 +9,9 @@ probe's Q came out negative (measured absolutely, the press's own F₁ exceeded 
 
 δ'(0), the finite bodies' initial compliance, comes from the stuck probe (``stuck_compliance``: friction 10 on the
 pressed state, Q/μP ≈ 0.036, every closed node stuck); the former small probe (Q/μP ≈ 0.002, its secant) runs beside
-it here (``secant_probe``). On 1 and 2 ranks δ'(0) agrees to 6.6e-9 (the small probe's: 2.2e-7, its Q 15 times
-smaller), the slip part to 6.1e-9, Q/μP to 9.8e-10, P to 4.7e-10 (rtol 1e-12).
+it here (``secant_probe``). On 1 and 2 ranks δ'(0) agrees to 3.6e-9 (the small probe's: 1.8e-8, its Q 15 times
+smaller), the slip part to 2.7e-9, Q/μP to 2.8e-11, P to 1.2e-11 (rtol 1e-13; at 1e-12: 6.6e-9, 6.1e-9, 9.8e-10,
+4.7e-10).
 
 Measured at this level (2 ranks): Q/μP = 0.568, c/a from Cattaneo's traction fitted 0.7105 against 0.7558
 (−6.0 %), from the stick/slip nodes −4.8 %; F₂/Q = 1.1 %; the stick zone's centroid 0.018 a; the slip part of δ
