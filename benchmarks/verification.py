@@ -862,14 +862,18 @@ Machine: {machine}.
 Load (`uptime`) before: `{load_before}`; after: `{load_after}` (on a shared machine the wall times grow with
 the load).
 
-**The whole table in one command** (2026-11-26, main 1050428, every case on 2 ranks, the first level of each also on
-one rank): **1 370 s (22.8 min)** with nothing else on the machine (load 0.35 at the start, 2.0 at the end): the
-inclines and the patch test seconds, Hertz ≈ 1 min, Lubkin ≈ 5 min, the shrink fit ≈ 1 min, case 6 (Mindlin) 61 s +
-203 s for its two levels, case 9 ≈ 5 min, case 8 (Carter) 141 s + 224 s + 106 s for its second start. Every value
-equals the separate runs' of the loaded machine (the three rows that moved: a node-to-surface patch value in its
-8th digit, Lubkin's 1 vs 2 ranks 5.9e-10 → 8.5e-10, case 8's 1 vs 2 ranks now over the whole roll, 4.3e-10). The
-loaded runs' wall and CPU times quoted in §6 and §8 (case 6 46 min, case 8 "too slow on two ranks") measured the
-load: a rank waiting in a collective polls while its partner waits for a core.
+**The whole table in one command** (2026-11-26, main 5225900, every case on 2 ranks, the first level of each also on
+one rank): **1 340 s (22.3 min)** (load 1.2 at the start, 2.0 at the end): the inclines and the patch test seconds,
+Hertz ≈ 1.5 min, Lubkin ≈ 5 min, the shrink fit ≈ 1 min, case 6 (Mindlin) 105 s + 169 s for its two levels, case 9
+≈ 5 min, case 8 (Carter) 116 s + 203 s + 122 s for its second start. A type check (mypy, one core) ran beside the
+first 4 minutes: Hertz's level 3 took 52 s against 33 s alone, Lubkin's level 1 30 s against 17 s, and case 6's level
+1 105 s against 55 s in its own run just before (level 2: 169 s against 166 s). Against the previous run of the
+table (1050428, 1 370 s on the idle machine): case 6 now at residual reduction 1e-13 (§6: its 1 vs 2 ranks 8.8e-8
+→ 4.3e-9, its compliance errors moved by ≤ 4e-8 of δ_M); case 8's values moved by ≤ 1.2e-9 of themselves (1 vs 2
+ranks 4.3e-10 → 1.2e-9), because its direct solver does not repeat bit for bit on two ranks (MUMPS, docs/cluster.md
+"Reproducible parallel runs"); every other value is the same to the last digit. Earlier loaded runs' wall and CPU
+times quoted in §6 and §8 (case 6 46 min, case 8 "too slow on two ranks") measured the load: a rank waiting in a
+collective polls while its partner waits for a core.
 
 ## The table
 
@@ -1206,8 +1210,8 @@ in `comm.barrier()` and 0.01 s in the new wait (load 5.4). Proposed, not done:
 (i) the 1 vs 2 ranks comparison of case 6 on the fast test's level (h₀ = a/4, `test_one_rank_agrees`, 3.6e-9)
 instead of level 1 saves the one-rank level-1 run (228 s wall, 117 CPU s, 8 % of case 6); (ii) OpenMPI's
 `mpi_yield_when_idle` for the table's runs on a shared machine (the polling is 3/4 of the 2-rank CPU time measured
-here); (iii) level 2 is 59 % of case 6's wall time, 46 min at load 6–12; on the idle machine case 6 took 61 s +
-203 s and the whole table 22.8 min (the header).
+here); (iii) level 2 is 59 % of case 6's wall time, 46 min at load 6–12; on the idle machine case 6 took 55 s +
+166 s at residual reduction 1e-13 and the whole table 22.3 min (the header).
 
 **1 vs 2 ranks: 4.3e-9 at h₀ = a/6 with residual reduction 1e-13 (8.8e-8 at 1e-12, 1.0e-6 with the former
 probe).** The column is the largest relative difference over P, a, δ'(0) and per step Q/μP, both stick radii, the
