@@ -62,9 +62,7 @@ def corner_determinants(cell_type: str, X: Array) -> Array:
 
 def _diameters(X: Array) -> Array:
     """Each cell's largest vertex distance (its diameter), from the vertex coordinates (cells, vertices, 3): one
-    vertex pair at a time (28 for hexahedra), each an array of the cells' squared distances. All pairs at once
-    made a (cells, pairs, 3) temporary, 670 bytes a hexahedron, and took 0.25 s instead of 0.05 s on 64 000
-    hexahedra the first time (the same bits)."""
+    vertex pair at a time (28 for hexahedra), so that no (cells, pairs, 3) temporary is made."""
     best = np.zeros(X.shape[0])
     for i, j in zip(*np.triu_indices(X.shape[1], 1), strict=True):
         d = X[:, i] - X[:, j]

@@ -164,7 +164,7 @@ class SurfaceIndex:
 def surface_index(file: str, source: Source, side: str) -> SurfaceIndex:
     """The :class:`SurfaceIndex` of a surface file as read (``source``) with its solid ``side`` (cached: every
     moved or rotated copy of an obstacle shares it)."""
-    from scipy.spatial import cKDTree  # imported where used: scipy is 0.17 s of `import fenics_coulomb`'s 0.9 s
+    from scipy.spatial import cKDTree  # scipy only where used (fenics_coulomb/__init__.py)
 
     X, V = read_triangles(file, source)
     sign = np.full(X.shape[0], 1.0 if side == "outward" else -1.0)
@@ -333,7 +333,7 @@ def surface_core(file: str, source: Source, side: str) -> Array:
         return np.zeros((0, 3))
     # the depth: the distance to the nearest grid point outside (within a grid step of the distance to the
     # triangles), padded so the box's border counts as outside
-    from scipy.ndimage import distance_transform_edt  # imported where used (scipy: 0.17 s of the import)
+    from scipy.ndimage import distance_transform_edt  # scipy only where used (fenics_coulomb/__init__.py)
 
     depth = distance_transform_edt(np.pad(inside, 1), sampling=step)[1:-1, 1:-1, 1:-1]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)

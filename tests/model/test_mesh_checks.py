@@ -41,3 +41,20 @@ def test_corner_determinants_of_distorted_hexahedra_and_tetrahedra():
     dt = corner_determinants("tetrahedron", T)
     assert dt.shape == (200, 1)
     assert np.allclose(dt[:, 0], np.linalg.det(np.swapaxes(T[:, 1:] - T[:, :1], 1, 2)), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.serial  # rank-local (docs/testing.md)
+def test_diameters_are_the_largest_vertex_distance():
+    """The cell diameter that scales the degeneracy bound, against every vertex pair by np.linalg.norm (a loop per
+    cell): equal to round-off, for distorted hexahedra and tetrahedra, and 0 for a cell collapsed to a point."""
+    from fenics_coulomb.model.mesh_checks import _diameters
+
+    rng = np.random.default_rng(11)
+    for vertices in (8, 4):
+        X = rng.standard_normal((300, vertices, 3)) * rng.uniform(1e-3, 1e3, (300, 1, 1))
+        X[0] = 1.5  # every vertex at one point
+        reference = np.array([max(np.linalg.norm(c[i] - c[j]) for i in range(vertices) for j in range(i))
+                              for c in X])
+        h = _diameters(X)
+        assert h[0] == 0.0
+        assert np.allclose(h, reference, rtol=1e-14, atol=0.0)
