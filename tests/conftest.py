@@ -18,6 +18,7 @@ from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.scenes.cuboid import paper_tractions  # noqa: F401  (re-exported for the tests)
+from one_rank import References, compute_references, registered
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -36,6 +37,15 @@ def _collective_cleanup() -> Iterator[None]:
     yield
     gc.collect()
     MPI.COMM_WORLD.barrier()
+
+
+@pytest.fixture(scope="session")
+def one_rank(request: pytest.FixtureRequest) -> References:
+    """The one-rank references (tests/one_rank.py) registered by the modules of the session's tests that ask for
+    this fixture, computed side by side on the ranks the first time a test asks (collective)."""
+    modules = {item.module.__name__ for item in request.session.items
+               if "one_rank" in getattr(item, "fixturenames", ()) and getattr(item, "module", None) is not None}
+    return compute_references(MPI.COMM_WORLD, registered(modules))
 
 
 @pytest.fixture

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from benchmarks.sliding_drag import DragPatch, drag_patch
+from one_rank import one_rank_reference
 
 
 @pytest.fixture(scope="module")
@@ -77,14 +78,15 @@ def test_without_the_load_outside_the_footprint_the_pressure_is_not_uniform():
     assert r["pressure_spread"] > 1e-2 and abs(r["P"] / r["P_exact"] - 1) > 1e-2
 
 
+@one_rank_reference(cost=1.0)
+def drag_alone():
+    return drag_patch(MPI.COMM_SELF, "mortar", 1)[-1]
+
+
 @pytest.mark.compares_ranks
-def test_the_drag_is_the_same_on_one_and_two_ranks(mortar_drag):
-    """The slid state's forces do not depend on the partition (rank 0 alone against the communicator's run)."""
-    comm = MPI.COMM_WORLD
-    single = None
-    if comm.rank == 0:
-        single = drag_patch(MPI.COMM_SELF, "mortar", 1)[-1]
-    single = comm.bcast(single, root=0)
+def test_the_drag_is_the_same_on_one_and_two_ranks(mortar_drag, one_rank):
+    """The slid state's forces do not depend on the partition (one rank alone against the communicator's run)."""
+    single = one_rank[drag_alone]
     r = mortar_drag[1]
     for key in ("P", "Q", "sum_t"):
         assert single[key] == pytest.approx(r[key], rel=1e-9)

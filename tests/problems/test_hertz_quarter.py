@@ -31,6 +31,7 @@ import numpy as np
 import pytest
 
 from benchmarks.hertz_quarter import axis_displacement, axis_shear, hertz_force, hertz_from_force, indent_quarter
+from one_rank import one_rank_reference
 
 
 @pytest.fixture(scope="module")
@@ -93,14 +94,18 @@ def test_contact_radius_pressure_and_force(solved):
     assert r["held"] > 0 and r["closed"] > 100
 
 
+@one_rank_reference(cost=6.3)
+def quarter_alone():
+    r = indent_quarter(MPI.COMM_SELF, 0)
+    return {k: r[k] for k in KEYS}
+
+
 @pytest.mark.compares_ranks
-def test_one_rank_agrees(solved):
-    """On several ranks: the same case solved on rank 0 alone (MPI.COMM_SELF) gives the same numbers to 1e-8 (the
-    mesh is made on rank 0 either way; the contact boundary is the core's top only, so the solver's round-off
+def test_one_rank_agrees(solved, one_rank):
+    """On several ranks: the same case solved on one rank alone (MPI.COMM_SELF) gives the same numbers to 1e-8 (the
+    mesh is made on one rank either way; the contact boundary is the core's top only, so the solver's round-off
     floor is the contact's own: 2e-10 measured)."""
-    comm = MPI.COMM_WORLD
-    one = indent_quarter(MPI.COMM_SELF, 0) if comm.rank == 0 else None
-    one = comm.bcast(one if one is None else {k: one[k] for k in KEYS})
+    one = one_rank[quarter_alone]
     for key in KEYS:
         assert solved[key] == pytest.approx(one[key], rel=1e-8), key
 

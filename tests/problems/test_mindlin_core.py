@@ -28,6 +28,7 @@ import pytest
 
 from benchmarks.verification import _mindlin_differences
 from benchmarks.verification_mindlin import PROBE_LOAD, cattaneo_traction, fit_stick_radius, mindlin_core
+from one_rank import one_rank_reference
 
 LEVEL = (1 / 4, 1.0, 1.2)
 H0 = LEVEL[0]  # in units of a
@@ -75,13 +76,16 @@ def test_stuck_probe(case):
     assert abs(case["compliance0_probe"] / case["compliance0"] - 1) <= 0.03
 
 
+@one_rank_reference(cost=8.3)
+def mindlin_alone():
+    return mindlin_core(MPI.COMM_SELF, LEVEL, loads=(0.5,), unloads=(), secant_probe=True)
+
+
 @pytest.mark.compares_ranks
-def test_one_rank_agrees(case):
-    """The same case on rank 0 alone (MPI.COMM_SELF) agrees to 1e-8 in P, a, δ'(0) and per step Q/μP, both stick
+def test_one_rank_agrees(case, one_rank):
+    """The same case on one rank alone (MPI.COMM_SELF) agrees to 1e-8 in P, a, δ'(0) and per step Q/μP, both stick
     radii, the slip part, the side force and the node counts (the small probe's secant, a record, left out)."""
-    comm = MPI.COMM_WORLD
-    one = mindlin_core(MPI.COMM_SELF, LEVEL, loads=(0.5,), unloads=(), secant_probe=True) if comm.rank == 0 else None
-    one = comm.bcast(one)
+    one = one_rank[mindlin_alone]
     diffs = _mindlin_differences(case, one)
     diffs.pop("compliance0_probe", None)
     assert max(diffs.values()) <= 1e-8, sorted(diffs.items(), key=lambda kv: -kv[1])[:3]

@@ -15,6 +15,7 @@ from mpi4py import MPI
 import pytest
 
 from benchmarks.verification_two_body import hertz_core, mindlin_compliance, mindlin_slip, unloading_slip
+from one_rank import one_rank_reference
 
 LEVEL = 0
 KEYS = ("P", "radius", "pressure", "pressure_off")
@@ -47,11 +48,15 @@ def test_hertz_two_bodies(hertz):
     assert abs(r["err_pressure_off"]) <= 0.02
 
 
+@one_rank_reference(cost=20.0)
+def hertz_alone():
+    r = hertz_core(MPI.COMM_SELF, LEVEL)
+    return {k: r[k] for k in KEYS}
+
+
 @pytest.mark.compares_ranks
-def test_one_rank_agrees(hertz):
-    """The same case on rank 0 alone (MPI.COMM_SELF) agrees to 1e-8."""
-    comm = MPI.COMM_WORLD
-    one = hertz_core(MPI.COMM_SELF, LEVEL) if comm.rank == 0 else None
-    one = comm.bcast({k: one[k] for k in KEYS} if one is not None else None)
+def test_one_rank_agrees(hertz, one_rank):
+    """The same case on one rank alone (MPI.COMM_SELF) agrees to 1e-8."""
+    one = one_rank[hertz_alone]
     for key in KEYS:
         assert hertz[key] == pytest.approx(one[key], rel=1e-8), key

@@ -20,6 +20,7 @@ import pytest
 import math
 
 from benchmarks.verification_rolling import MU, STEADY_STEPS, hertz_half_width, remaining, roll
+from one_rank import one_rank_reference
 
 CREEP = 0.01
 
@@ -41,12 +42,16 @@ def test_short_roll_from_the_preload(rolled):
     assert abs(r["stick_width"] - r["stick_width_ref"]) <= 2 * h
 
 
+@one_rank_reference(cost=5.6)
+def roll_alone():
+    r = roll(MPI.COMM_SELF, CREEP, level=-1, max_steps=10, cycle=0.0)
+    return {k: r[k] for k in ("P", "Q")}
+
+
 @pytest.mark.compares_ranks
-def test_one_rank_agrees(rolled):
-    """The same roll on rank 0 alone (MPI.COMM_SELF): P and Q to 1e-8."""
-    comm = MPI.COMM_WORLD
-    one = roll(MPI.COMM_SELF, CREEP, level=-1, max_steps=10, cycle=0.0) if comm.rank == 0 else None
-    one = comm.bcast(None if one is None else {k: one[k] for k in ("P", "Q")})
+def test_one_rank_agrees(rolled, one_rank):
+    """The same roll on one rank alone (MPI.COMM_SELF): P and Q to 1e-8."""
+    one = one_rank[roll_alone]
     for key in ("P", "Q"):
         assert rolled[key] == pytest.approx(one[key], rel=1e-8), key
 
