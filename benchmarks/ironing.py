@@ -1,7 +1,7 @@
 """Ironing, small strain: an elastic hemisphere pressed into an elastic block and dragged over five contact radii
 and back, with the contact geometry following the hemisphere (finite sliding).
 
-    container/run mpirun -n 2 python3 benchmarks/ironing.py [--out docs/sliding] [--sliding finite]
+    container/run mpirun -n 2 python3 benchmarks/ironing.py [--out docs/sliding] [--sliding finite] [--contact H]
 
 The scene is docs/sliding/ironing.toml (the hemisphere of demos/scenes/two_bodies.toml: E 210 on a block of E 70,
 both ν 0.3, F = 0.3, dual mortar; the flat face pressed 0.02, then dragged 0.7 along x₁ in 14 substeps and back
@@ -11,13 +11,16 @@ stick and slip counts and the geometry updates. While every contact node slips, 
 node by node, so Q = F·P exactly when the tractions are parallel; the steady drag must keep P and a (the slave
 mesh moves with the hemisphere, so its contact nodes do too).
 
-Writes ``ironing.csv``, ``ironing.md`` and ``ironing.png`` into ``--out``.
+With ``--contact H`` the same scene runs on a mesh made with element size H at the contact (the scene's own:
+0.12, about 7 contact nodes; docs/sliding/fine-0.06 and fine-0.04 hold the refined runs). Writes ``ironing.csv``,
+``ironing.md`` and ``ironing.png`` into ``--out``.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -86,7 +89,7 @@ def run(comm: MPI.Comm, sliding: str = "finite", scene_path: Path = SCENE, subst
 
 
 def write(out: Path, rows: list[dict[str, Any]], friction: float, seconds: float, comm: MPI.Comm,
-          sliding: str) -> None:
+          sliding: str, option: str = "") -> None:
     """ironing.csv, ironing.md and ironing.png (rank 0)."""
     if comm.rank != 0:
         return
@@ -108,16 +111,18 @@ def write(out: Path, rows: list[dict[str, Any]], friction: float, seconds: float
                      f"{r['cone']:.8f} | {r['a']:.4f} | {r['stick']} / {r['slip']} | {r['updates']} | "
                      f"{r['newton']} |")
     title = f"Ironing: a hemisphere dragged over five contact radii and back ({sliding} sliding)"
+    scene_link = os.path.relpath(SCENE, out.resolve())
+    where = f" on a mesh with element size {option.split()[-1]} at the contact" if option else ""
     (out / "ironing.md").write_text(f"""# {title}
 
-`container/run mpirun -n {comm.size} python3 benchmarks/ironing.py` ({comm.size} ranks, load average
-{os.getloadavg()[0]:.1f}, {seconds:.0f} s): the scene [ironing.toml](ironing.toml) (its header has the set-up).
+`container/run mpirun -n {comm.size} python3 benchmarks/ironing.py{option}` ({comm.size} ranks, load average
+{os.getloadavg()[0]:.1f}, {seconds:.0f} s): the scene [ironing.toml]({scene_link}) (its header has the set-up){where}.
 P, Q: the normal and tangential parts of the force on the hemisphere from the block; a = √(area/π) with the
 area Σ D_j over the closed slave nodes; "Σ abs t / (F Σ p)" = 1 when every node's traction is on the cone.
 
 Pressed: P = {pressed['P']:.6f}, a = {pressed['a']:.4f}. Over the {len(steady)} solves of the drag where every
 contact node slips: Q/P within {ratio_dev:.2e} of F = {friction:g}, P within {100 * P_dev:.3f} % of the pressed
-value, a within {a_dev:.4f} of it (the slave's contact size is 0.12).
+value, a within {a_dev:.4f} of it (the element size at the contact: {option.split()[-1] if option else "0.12"}).
 
 {chr(10).join(table)}
 
@@ -144,6 +149,33 @@ value, a within {a_dev:.4f} of it (the slave's contact size is 0.12).
     fig.suptitle("Ironing: hemisphere on block, F = 0.3, dual mortar, finite sliding")
     fig.tight_layout()
     fig.savefig(out / "ironing.png", dpi=110)
+
+
+def refined_scene(comm: MPI.Comm, contact: float, directory: Path) -> Path:
+    """docs/sliding/ironing.toml on a mesh with element size ``contact`` at the contact, made on rank 0 in
+    ``directory`` (the same on every rank); the scene file's path (collective)."""
+    scene = directory / "ironing.toml"
+    if comm.rank == 0:
+        from meshes.hemisphere_on_block import build
+
+        mesh = directory / "hemisphere_ironing.msh"
+        build(contact, mesh, size=0.6, refined=1.0)
+        text = SCENE.read_text()
+        assert 'mesh = "../../meshes/hemisphere_ironing.msh"' in text
+        scene.write_text(text.replace('mesh = "../../meshes/hemisphere_ironing.msh"', f"mesh = {str(mesh)!r}"))
+    comm.barrier()
+    return scene
+
+
+def _size(text: str) -> float:
+    """An element size: a number in (0, 1) (argparse refuses anything else, on every rank, before any MPI call)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"element size {value!r}: must lie in (0, 1)")
+    return value
 
 
 def _positive_int(text: str) -> int:
@@ -175,14 +207,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--substeps", type=_positive_int, nargs=2, metavar=("DRAG", "BACK"), default=None,
                         help="a shorter path: the drag and the way back in these many substeps (the scene: 14 14)")
     parser.add_argument("--rtol", type=_rtol, default=None, help="the solves' rtol in (0, 1) (the scene: 1e-9)")
+    parser.add_argument("--contact", type=_size, default=None, metavar="H",
+                        help="the scene on a mesh made with element size H at the contact (meshes/"
+                             "hemisphere_on_block.py --contact H --size 0.6 --refined 1.0, in a temporary directory; "
+                             "the scene's own mesh has H = 0.12)")
     args = parser.parse_args(argv)
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
-    rows = run(comm, args.sliding, substeps=None if args.substeps is None else tuple(args.substeps),
-               rtol=args.rtol)
+    with tempfile.TemporaryDirectory(prefix="ironing-") as tmp:
+        scene = SCENE if args.contact is None else refined_scene(comm, args.contact, Path(comm.bcast(tmp)))
+        rows = run(comm, args.sliding, scene_path=scene,
+                   substeps=None if args.substeps is None else tuple(args.substeps), rtol=args.rtol)
     seconds = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     friction = float(Scene.from_toml(str(SCENE)).contact_pairs[0].friction)
-    write(Path(args.out), rows, friction, seconds, comm, args.sliding)
+    option = "" if args.contact is None else f" --contact {args.contact:g}"
+    write(Path(args.out), rows, friction, seconds, comm, args.sliding, option)
     return 0
 
 

@@ -82,6 +82,8 @@ class SolveResult:
             configuration and the problem solved again (0: the first geometry held).
         largest_slide: Small sliding: the largest slide of a contact node against its partner in partner sizes and
             that node (:func:`fenics_coulomb.model.sliding.largest_slide`); empty for finite sliding.
+        free_penetration: Contact pairs: the free slave nodes (over a master surface, but no contact nodes) that
+            penetrate it, ``{"nodes": count, "depth": deepest −g}``; empty when none does.
     """
 
     u: Array
@@ -114,6 +116,7 @@ class SolveResult:
     master_force: Array | None = None
     geometry_updates: int = 0
     largest_slide: dict[str, Any] = field(default_factory=dict)
+    free_penetration: dict[str, Any] = field(default_factory=dict)
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes (collective)."""
@@ -146,4 +149,5 @@ class SolveResult:
             "ranks": comm.size,
             "geometry_updates": self.geometry_updates,
             **({"small_sliding": dict(self.largest_slide)} if self.largest_slide else {}),
+            **({"free_slave_penetration": dict(self.free_penetration)} if self.free_penetration else {}),
         }

@@ -347,6 +347,8 @@ class StepRecord:
     obstacle_rotations: dict[str, Any] = field(default_factory=dict)
     #: Finite sliding: the geometry updates of this solve (:mod:`fenics_coulomb.model.sliding`).
     geometry_updates: int = 0
+    #: Contact pairs: the free slave nodes that penetrate the master, {"nodes", "depth"}; empty when none does.
+    free_slave_penetration: dict[str, Any] = field(default_factory=dict)
     #: Per obstacle (its name) and contact pair ("pair NAME"): normal and tangential force, peak pressure, contact
     #: area, nodes in contact, open/stick/slip nodes (:func:`contact_groups`).
     groups: dict[str, dict[str, Any]] = field(default_factory=dict)
@@ -363,6 +365,7 @@ class StepRecord:
             "obstacle_displacements": self.obstacle_displacements, "obstacle_rotations": self.obstacle_rotations,
             "groups": self.groups, "wall_time_s": self.wall_time_s,
             "residual_history": self.residual_history,
+            **({"free_slave_penetration": dict(self.free_slave_penetration)} if self.free_slave_penetration else {}),
         }
 
 
@@ -468,7 +471,8 @@ def run_path(
             obstacle_displacements={name: list(d) for name, d in zip(labels, deltas, strict=True)},
             obstacle_rotations={name: _plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
             wall_time_s=wall, residual_history=[float(r) for r in step_result.residual_history],
-            geometry_updates=int(step_result.geometry_updates), groups=contact_groups(model, step_result))
+            geometry_updates=int(step_result.geometry_updates), groups=contact_groups(model, step_result),
+            free_slave_penetration=dict(step_result.free_penetration))
         records.append(record)
         if solve.substeps == 1:
             where = f"step {solve.step}/{last_step} (load factor {solve.load_factor:.4g})"

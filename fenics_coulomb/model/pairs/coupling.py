@@ -336,12 +336,16 @@ class PairCoupling(Coupling):
         result.displacement = self.physical(result.displacement)
         result.master_force = self.master_forces(result.contact_force, model.contact.local_dofs)
         penetrating = self.free_slave_penetrations(model, result.displacement)
-        if penetrating and model.comm.rank == 0:
-            logger.warning("%d free slave node(s) (beyond the search distance, with a Dirichlet component, or "
-                           "a mortar node not fully covered by the master surface) penetrate the master "
-                           "surface: enlarge the pairs' search_distance, and make the smaller surface the "
-                           "slave (mortar drops the slave nodes whose facets reach past the master's border)",
-                           penetrating)
+        result.free_penetration = {}
+        if penetrating:
+            depth = self.free_slave_depth(model, result.displacement)
+            result.free_penetration = {"nodes": penetrating, "depth": depth}
+            if model.comm.rank == 0:
+                logger.warning("%d free slave node(s) (beyond the search distance, with a Dirichlet component, or "
+                               "a mortar node not fully covered by the master surface) penetrate the master "
+                               "surface, by up to %.3g: enlarge the pairs' search_distance, and make the smaller "
+                               "surface the slave (mortar drops the slave nodes whose facets reach past the "
+                               "master's border)", penetrating, depth)
 
     def _free_gaps(self, model: ContactModel, u: Array) -> Array:
         """The linearized gaps g + n·(u_s − Σ_j φ_j u_j) of the owned free slave nodes (over a master surface, but
