@@ -57,8 +57,14 @@ def run(comm: MPI.Comm, sliding: str = "finite", scene_path: Path = SCENE, subst
     def record(solve: Any, step: Any, result: Any) -> None:
         model = problem.model
         closed = result.states != OPEN
-        force = comm.allreduce(np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3).sum(axis=0),
-                               op=MPI.SUM)
+        f = np.asarray(result.contact_force, dtype=np.float64).reshape(-1, 3)
+        force = comm.allreduce(f.sum(axis=0), op=MPI.SUM)
+        # the resultant's parts carried by the nodal normal forces (f·n) n and by the tangential tractions: Coulomb's
+        # law holds node by node in each node's frame, the ratio of the resultants mixes both through the tilts
+        assert f.shape[0] == model.contact.size
+        n = model.contact.frames[:, :, 2]
+        normal_part = comm.allreduce((np.einsum("ij,ij->i", f, n)[:, None] * n).sum(axis=0), op=MPI.SUM)
+        tangential_part = force - normal_part
         area = comm.allreduce(float(np.sum(model.pairing.area[closed[:model.pairing.area.size]])), op=MPI.SUM)
         p = np.maximum(np.asarray(result.normal_force, dtype=np.float64), 0.0)
         t = np.linalg.norm(np.asarray(result.tangential_force, dtype=np.float64).reshape(-1, 2), axis=1)
@@ -68,6 +74,8 @@ def run(comm: MPI.Comm, sliding: str = "finite", scene_path: Path = SCENE, subst
         rows.append({"solve": solve.index, "step": solve.step, "drag": drag, "P": float(force[2]),
                      "Q": float(np.hypot(force[0], force[1])), "Qx": float(force[0]),
                      "ratio": float(np.hypot(force[0], force[1]) / force[2]) if force[2] > 0 else 0.0,
+                     "Pn": float(normal_part[2]), "Pt": float(tangential_part[2]), "Qn": float(normal_part[0]),
+                     "Qt": float(tangential_part[0]),
                      "cone": sum_t / (friction * sum_p) if sum_p > 0 else 0.0, "area": area,
                      "a": float(np.sqrt(area / np.pi)), "stick": step.counts["stick"], "slip": step.counts["slip"],
                      "updates": step.geometry_updates, "newton": step.newton_iterations})
@@ -104,12 +112,13 @@ def write(out: Path, rows: list[dict[str, Any]], friction: float, seconds: float
     ratio_dev = max(abs(r["ratio"] / friction - 1.0) for r in steady) if steady else float("nan")
     P_dev = max(abs(r["P"] / pressed["P"] - 1.0) for r in steady) if steady else float("nan")
     a_dev = max(abs(r["a"] - pressed["a"]) for r in steady) if steady else float("nan")
-    table = ["| solve | drag x₁ | P | Q/P | Σ abs t / (F Σ p) | a | stick / slip | updates | Newton |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    split_dev = max(abs(abs(r["Qt"] / r["Pn"]) / friction - 1.0) for r in steady) if steady else float("nan")
+    table = ["| solve | drag x₁ | P | Q/P | Σ abs t / (F Σ p) | abs Qₜ / Pₙ | Qₙ, Pₜ | a | stick / slip | updates | "
+             "Newton |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         table.append(f"| {r['solve']} | {r['drag']:+.3f} | {r['P']:.6f} | {r['ratio']:.6f} | "
-                     f"{r['cone']:.8f} | {r['a']:.4f} | {r['stick']} / {r['slip']} | {r['updates']} | "
-                     f"{r['newton']} |")
+                     f"{r['cone']:.8f} | {abs(r['Qt'] / r['Pn']):.6f} | {r['Qn']:+.2e}, {r['Pt']:+.2e} | "
+                     f"{r['a']:.4f} | {r['stick']} / {r['slip']} | {r['updates']} | {r['newton']} |")
     title = f"Ironing: a hemisphere dragged over five contact radii and back ({sliding} sliding)"
     scene_link = os.path.relpath(SCENE, out.resolve())
     where = f" on a mesh with element size {option.split()[-1]} at the contact" if option else ""
@@ -119,9 +128,13 @@ def write(out: Path, rows: list[dict[str, Any]], friction: float, seconds: float
 {os.getloadavg()[0]:.1f}, {seconds:.0f} s): the scene [ironing.toml]({scene_link}) (its header has the set-up){where}.
 P, Q: the normal and tangential parts of the force on the hemisphere from the block; a = √(area/π) with the
 area Σ D_j over the closed slave nodes; "Σ abs t / (F Σ p)" = 1 when every node's traction is on the cone.
+The resultant split by what carries it: Pₙ, Qₙ the vertical and x₁ parts of the nodal normal forces (f·n)n, Pₜ, Qₜ
+those of the tangential tractions (P = Pₙ + Pₜ, Q₁ = Qₙ + Qₜ): each node's normal n is tilted on the curved slave,
+so a normal force has an x₁ part and a tangential traction a vertical one.
 
 Pressed: P = {pressed['P']:.6f}, a = {pressed['a']:.4f}. Over the {len(steady)} solves of the drag where every
-contact node slips: Q/P within {ratio_dev:.2e} of F = {friction:g}, P within {100 * P_dev:.3f} % of the pressed
+contact node slips: Q/P within {ratio_dev:.2e} of F = {friction:g} (relative; abs Qₜ/Pₙ within {split_dev:.2e}),
+P within {100 * P_dev:.3f} % of the pressed
 value, a within {a_dev:.4f} of it (the element size at the contact: {option.split()[-1] if option else "0.12"}).
 
 {chr(10).join(table)}
