@@ -23,6 +23,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from mpi4py import MPI
@@ -180,17 +181,6 @@ def refined_scene(comm: MPI.Comm, contact: float, directory: Path) -> Path:
     return scene
 
 
-def _size(text: str) -> float:
-    """An element size: a number in (0, 1) (argparse refuses anything else, on every rank, before any MPI call)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(f"element size {value!r}: must lie in (0, 1)")
-    return value
-
-
 def _positive_int(text: str) -> int:
     """A substep count: an integer ≥ 1 (argparse refuses anything else, on every rank, before any MPI call)."""
     try:
@@ -202,15 +192,20 @@ def _positive_int(text: str) -> int:
     return value
 
 
-def _rtol(text: str) -> float:
-    """A residual reduction in (0, 1)."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(f"rtol {value!r}: must lie in (0, 1)")
-    return value
+def _in_unit_interval(name: str) -> Callable[[str], float]:
+    """An argparse type: a number in (0, 1) called ``name`` in the refusal (argparse refuses anything else, on every
+    rank, before any MPI call)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not 0.0 < value < 1.0:
+            raise argparse.ArgumentTypeError(f"{name} {value!r}: must lie in (0, 1)")
+        return value
+
+    return parse
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -219,8 +214,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sliding", default="finite", choices=["finite", "small"])
     parser.add_argument("--substeps", type=_positive_int, nargs=2, metavar=("DRAG", "BACK"), default=None,
                         help="a shorter path: the drag and the way back in these many substeps (the scene: 14 14)")
-    parser.add_argument("--rtol", type=_rtol, default=None, help="the solves' rtol in (0, 1) (the scene: 1e-9)")
-    parser.add_argument("--contact", type=_size, default=None, metavar="H",
+    parser.add_argument("--rtol", type=_in_unit_interval("rtol"), default=None,
+                        help="the solves' rtol in (0, 1) (the scene: 1e-9)")
+    parser.add_argument("--contact", type=_in_unit_interval("element size"), default=None, metavar="H",
                         help="the scene on a mesh made with element size H at the contact (meshes/"
                              "hemisphere_on_block.py --contact H --size 0.6 --refined 1.0, in a temporary directory; "
                              "the scene's own mesh has H = 0.12)")
