@@ -150,3 +150,16 @@ def test_the_slide_off_demo_scene(mpi_tmp_path):
     assert hanging[0] is None and all(h is not None and h["nodes"] >= 1 and 1e-4 < h["depth"] < 0.01
                                       for h in hanging[3:])
     assert runs["finite"]["free_slave_penetration"] == hanging[-1]
+    # independently, from solution.h5 alone: the slave nodes at X + u over the lower top, against that surface at
+    # X + u interpolated linearly in (x1, x2) — the deepest is a freed border node, and its depth the recorded one
+    import h5py
+    from scipy.interpolate import griddata
+
+    with h5py.File(mpi_tmp_path / "finite" / "solution.h5", "r") as h5:
+        X = h5["Mesh/mesh/geometry"][:]
+        last = max(h5["Function/displacement"], key=float)
+        x = X + h5[f"Function/displacement/{last}"][:]
+    slave, master = np.isclose(X[:, 2], 0.502), np.isclose(X[:, 2], 0.5)
+    over = slave & (x[:, 0] > 0) & (x[:, 0] < 2) & (x[:, 1] > 0) & (x[:, 1] < 1)
+    depth = griddata(x[master, :2], x[master, 2], x[over, :2], method="linear") - x[over, 2]
+    assert np.nanmax(depth) == pytest.approx(hanging[-1]["depth"], rel=1e-3)

@@ -335,10 +335,9 @@ class PairCoupling(Coupling):
         result.relative_displacement = result.displacement
         result.displacement = self.physical(result.displacement)
         result.master_force = self.master_forces(result.contact_force, model.contact.local_dofs)
-        penetrating = self.free_slave_penetrations(model, result.displacement)
+        penetrating, depth = self._free_penetration(model, result.displacement)
         result.free_penetration = {}
         if penetrating:
-            depth = self.free_slave_depth(model, result.displacement)
             result.free_penetration = {"nodes": penetrating, "depth": depth}
             if model.comm.rank == 0:
                 logger.warning("%d free slave node(s) (beyond the search distance, with a Dirichlet component, or "
@@ -392,14 +391,19 @@ class PairCoupling(Coupling):
                 "its rigid motion (support it, or load it onto its partner)"))
         return "; ".join(parts)
 
+    def _free_penetration(self, model: ContactModel, u: Array, tol: float = 1e-8) -> tuple[int, float]:
+        """(the number of free slave nodes whose gap is below −tol × the mesh size, the deepest penetration
+        max(−g, 0)), both over all ranks, from one evaluation of the gaps (collective)."""
+        gap = self._free_gaps(model, u)
+        count = int(model.comm.allreduce(int(np.sum(gap < -tol * model.mesh_size)), op=MPI.SUM))
+        return count, float(model.comm.allreduce(float(np.max(-gap, initial=0.0)), op=MPI.MAX))
+
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
         """The number of free slave nodes whose gap is below −tol × the mesh size, on all ranks (collective)."""
-        gap = self._free_gaps(model, u)
-        return int(model.comm.allreduce(int(np.sum(gap < -tol * model.mesh_size)), op=MPI.SUM))
+        return self._free_penetration(model, u, tol)[0]
 
     def free_slave_depth(self, model: ContactModel, u: Array) -> float:
-        gap = self._free_gaps(model, u)
-        return float(model.comm.allreduce(float(np.max(-gap, initial=0.0)), op=MPI.MAX))
+        return self._free_penetration(model, u)[1]
 
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""
