@@ -29,12 +29,15 @@ lint:
 # shard's output is printed when it ends; any failing shard fails the pass. SHARDS=1 is one process. Tests marked
 # compares_ranks (a run on all ranks against one rank alone: on one rank they compare it with itself, or start
 # their own mpirun) run in the 2-rank pass only.
+# Tests marked multirank (they start a job of several ranks) run alone, the other shards waiting between their
+# tests (--cores-lock, tests/cores.py): beside a busy shard such a job's ranks wait for cores in busy-polling
+# collectives. A test that starts such a job without the mark fails.
 SHARDS ?= 2
 
 test-serial:
 	@logs=$$(mktemp -d); pids=""; \
 	for i in $$(seq 1 $(SHARDS)); do \
-	  $(RUN) python3 -m pytest -q --color=no -p no:cacheprovider --shard $$i/$(SHARDS) -m "not compares_ranks" tests $(PYTEST_ARGS) \
+	  $(RUN) python3 -m pytest -q --color=no -p no:cacheprovider --shard $$i/$(SHARDS) --cores-lock $$logs/cores.lock -m "not compares_ranks" tests $(PYTEST_ARGS) \
 	    > $$logs/$$i.log 2>&1 & pids="$$pids $$!"; \
 	done; \
 	status=0; i=0; for pid in $$pids; do \

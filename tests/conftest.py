@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import gc
 import shutil
+import subprocess
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
@@ -18,6 +20,7 @@ from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.scenes.cuboid import paper_tractions  # noqa: F401  (re-exported for the tests)
+from cores import CoresLock, ranks_of
 from one_rank import References, compute_references, registered
 
 
@@ -167,6 +170,51 @@ def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption("--shard", default=None, metavar="I/N",
                      help="run only shard I of N (1-based) of the collected tests: whole test modules, the same "
                           "split in every process given the same arguments")
+    parser.addoption("--cores-lock", default=None, metavar="FILE",
+                     help="the lock file the shards side by side share (tests/cores.py): a test marked multirank "
+                          "runs alone, and a test that starts a job of several ranks without the mark fails")
+
+
+_CORES_LOCK = pytest.StashKey["CoresLock"]()
+_RUNNING = pytest.StashKey["list[pytest.Item]"]()
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """With ``--cores-lock``: open the shards' lock and refuse, from here on, a job of several ranks started by a
+    test not marked multirank (it would wait for cores the other shards hold)."""
+    path = config.getoption("--cores-lock")
+    if not path:
+        return
+    config.stash[_CORES_LOCK] = CoresLock(Path(path))
+    running: list[pytest.Item] = []
+    config.stash[_RUNNING] = running
+    original = subprocess.Popen.__init__
+
+    def checked(self: subprocess.Popen, args: Any, *rest: Any, **kwargs: Any) -> None:
+        ranks = ranks_of(args)
+        if ranks > 1 and running and running[-1].get_closest_marker("multirank") is None:
+            raise RuntimeError(f"{running[-1].nodeid} starts a job of {ranks} ranks but is not marked multirank: "
+                               "beside the other shards its ranks would wait for cores (tests/cores.py)")
+        original(self, args, *rest, **kwargs)
+
+    subprocess.Popen.__init__ = checked  # type: ignore[method-assign]
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> Iterator[None]:
+    """With ``--cores-lock``: hold the cores for the test's setup, call and teardown — alone when it is marked
+    multirank (tests/cores.py)."""
+    lock = item.config.stash.get(_CORES_LOCK, None)
+    if lock is None:
+        yield
+        return
+    running = item.config.stash[_RUNNING]
+    with lock.hold(alone=item.get_closest_marker("multirank") is not None):
+        running.append(item)
+        try:
+            yield
+        finally:
+            running.pop()
 
 
 #: Each module's measured share of the serial pass: CPU seconds of its tests (the pytest process and the children it

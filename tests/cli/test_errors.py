@@ -341,6 +341,7 @@ def _own_lines(stderr: str) -> list[str]:
 
 
 @pytest.mark.serial
+@pytest.mark.multirank
 @pytest.mark.parametrize(
     "args, fragment",
     [(["--lev", "abc"], "argument --lev: invalid int value: 'abc'"),
@@ -359,12 +360,14 @@ def test_real_command_bad_input(args, fragment, tmp_path):
 
 
 @pytest.mark.serial
+@pytest.mark.multirank
 def test_help_prints_once(tmp_path):
     proc = _mpirun("-m", "fenics_coulomb", "--help", cwd=tmp_path)
     assert proc.returncode == 0 and proc.stdout.count("usage:") == 1
 
 
 @pytest.mark.serial
+@pytest.mark.multirank
 def test_python_spelling_of_the_usage_line(tmp_path):
     """The design's usage line `mpirun -n 2 python demos/cuboid.py` works (python, not only python3)."""
     proc = _mpirun("demos/cuboid.py", "--lev", "0", "--no-plots", "--quiet", "--out", str(tmp_path / "o"),

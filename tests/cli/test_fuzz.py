@@ -21,7 +21,8 @@ def earlier(tmp_path_factory):
     return fuzz.earlier_results(tmp_path_factory.mktemp("earlier"))
 
 
-@pytest.mark.parametrize("case", CASES + SIGNALS, ids=lambda c: c.name)
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.name, marks=[pytest.mark.multirank] if c.ranks > 1 else [])
+                                  for c in CASES + SIGNALS])
 def test_fuzz_case(case, earlier, tmp_path):
     status, problems = fuzz.run_case(case, tmp_path, earlier)
     assert not problems, (case.argv, status, problems)

@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = pytest.mark.serial
+pytestmark = [pytest.mark.serial, pytest.mark.multirank]
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from launching import command_env, rank_pids, session_processes, start_in_newton  # noqa: E402

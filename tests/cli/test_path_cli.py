@@ -304,6 +304,7 @@ def test_bad_path_flags_exit_2(mpi_tmp_path, capsys):
 
 
 @pytest.mark.serial
+@pytest.mark.multirank
 def test_real_command_two_ranks_equals_one(demo_path_run, tmp_path):
     """`mpirun -n 2 python3 -m fenics_coulomb --scene demos/scenes/d3_L2_path.toml` (the real command, from a
     directory outside the repository) gives the path of 1 rank (1e-8 at every step)."""

@@ -340,6 +340,7 @@ def test_api_arguments_are_validated():
 
 # -- class 8: the launcher stays quiet ---------------------------------------------------------------------
 @pytest.mark.serial
+@pytest.mark.multirank
 def test_mpirun_prints_only_our_line_on_bad_input(tmp_path):
     """OpenMPI printed its "exited with non-zero status" block (and sometimes a PMIX_ERR_UNREACH line) after our
     line whenever rank 0 ended non-zero: the ranks now finalize together, the others end 0 and rank 0 alone with

@@ -86,6 +86,7 @@ def check_block(block: dict, data: dict[str, np.ndarray]) -> None:
                                                                  rel=1e-15, abs=1e-300)
 
 
+@pytest.mark.multirank  # the first to ask starts two_rank_run
 def test_default_reader_shows_all_fields_on_the_deformed_body(two_rank_run, tmp_path):
     """File ▸ Open ▸ Apply ▸ Warp By Vector ▸ colour by contact_state, on the output of a 2-rank run."""
     summary = json.loads((two_rank_run / "summary.json").read_text())
@@ -119,6 +120,7 @@ def test_default_reader_shows_all_fields_on_the_deformed_body(two_rank_run, tmp_
     assert len(np.unique(np.round(image[body] * 255).astype(int), axis=0)) > 20
 
 
+@pytest.mark.multirank  # the first to ask starts two_rank_run
 @pytest.mark.parametrize("reader", ["XDMFReader", "Xdmf3ReaderS"])
 def test_other_readers(two_rank_run, reader):
     """The legacy XDMF reader (which crashes on an https XInclude namespace) and Xdmf3ReaderS read the same."""
@@ -127,6 +129,7 @@ def test_other_readers(two_rank_run, reader):
     check_block(block, h5_fields(two_rank_run))
 
 
+@pytest.mark.multirank  # the first to ask starts two_rank_run
 def test_one_rank_equals_two_ranks(two_rank_run, tmp_path):
     """The same scene on 1 rank writes the same mesh and fields, up to the vertex numbering."""
     one = tmp_path / "one"

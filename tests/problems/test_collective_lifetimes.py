@@ -48,6 +48,7 @@ def test_no_function_of_a_solve_creates_a_petsc_vector(mpi_tmp_path: Path, monke
 
 
 @pytest.mark.serial
+@pytest.mark.multirank
 def test_results_freed_unevenly_do_not_deadlock_the_next_solve(tmp_path: Path) -> None:
     """Two problems on one function space on 2 ranks, the first one's results freed by the collector on rank 0
     only (tests/problems/uneven_collection.py): the second solve completes."""

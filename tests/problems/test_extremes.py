@@ -172,6 +172,7 @@ def test_non_finite_linear_solve_exits_3(mpi_tmp_path, capsys):
 
 
 @pytest.mark.serial
+@pytest.mark.multirank
 def test_exception_on_one_rank_ends_all_ranks(tmp_path):
     """An unexpected exception on rank 1 of 2 ends both ranks with the message (no hang)."""
     script = tmp_path / "fail.py"

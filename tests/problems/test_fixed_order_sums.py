@@ -15,6 +15,7 @@ from launching import ROOT, command_env
 
 
 @pytest.mark.serial  # starts its own 3-rank job
+@pytest.mark.multirank
 def test_three_ranks_sum_in_a_fixed_order() -> None:
     cmd = ["mpirun", "--oversubscribe", "-n", "3", sys.executable,
            str(ROOT / "tests" / "problems" / "fixed_order_sums.py")]

@@ -24,7 +24,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 RTOL = "1e-12"
 
-pytestmark = pytest.mark.serial  # starts its own mpirun jobs
+pytestmark = [pytest.mark.serial, pytest.mark.multirank]  # starts its own mpirun jobs
 
 
 def run_cli(args: list[str], ranks: int, out: Path) -> Path:
