@@ -15,6 +15,11 @@
 # measure under load). Writes `docs/sliding/cost.md`.
 #
 #     python3 benchmarks/sliding_cost.py [--out docs/sliding] [--scenes NAME ...] [--table cost.md]
+#     python3 benchmarks/sliding_cost.py --robustness [--cases NAME ...] [--table robustness.md]
+#
+# `--robustness` measures the cases of benchmarks/robustness.py instead (the engineers' meshes: graded, slivers,
+# thin, nearly incompressible, a roller, two bodies; their meshes made in a temporary directory, each run with the
+# defaults as docs/robustness does).
 
 from __future__ import annotations
 
@@ -66,13 +71,12 @@ class SolveClock:
         ContactProblem.solve = self._solve  # type: ignore[method-assign]
 
 
-def measure(comm: MPI.Comm, scene: str, sliding: str, out: Path) -> dict[str, Any]:
-    """Solve ``scene`` in one sliding mode: Newton and Krylov iterations, geometry updates, the time in
-    ``ContactProblem.solve`` (wall and CPU, the largest over the ranks) and the command's wall time."""
+def measure(comm: MPI.Comm, scene: Path, sliding: str, out: Path) -> dict[str, Any]:
+    """Solve the scene file ``scene`` in one sliding mode: Newton and Krylov iterations, geometry updates, the
+    time in ``ContactProblem.solve`` (wall and CPU, the largest over the ranks) and the command's wall time."""
     t0 = time.perf_counter()
     with SolveClock() as clock:
-        status = main(["--scene", str(ROOT / "demos" / "scenes" / f"{scene}.toml"), "--sliding", sliding, "--out",
-                       str(out), "--quiet", "--no-plots"])
+        status = main(["--scene", str(scene), "--sliding", sliding, "--out", str(out), "--quiet", "--no-plots"])
     command = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
     summary = json.loads((out / "summary.json").read_text())
     row: dict[str, Any] = {"status": status, "command_s": command,
@@ -93,12 +97,13 @@ def measure(comm: MPI.Comm, scene: str, sliding: str, out: Path) -> dict[str, An
     return row
 
 
-def table(comm: MPI.Comm, scenes: list[str], work: Path) -> list[dict[str, Any]]:
-    """Both modes of every scene, back to back, the first mode alternating from scene to scene."""
+def table(comm: MPI.Comm, scenes: dict[str, Path], work: Path) -> list[dict[str, Any]]:
+    """Both modes of every scene (name: scene file), back to back, the first mode alternating from scene to
+    scene."""
     rows = []
-    for k, scene in enumerate(scenes):
+    for k, (scene, path) in enumerate(scenes.items()):
         modes = ("finite", "small") if k % 2 == 0 else ("small", "finite")
-        result = {m: measure(comm, scene, m, work / f"{scene}_{m}") for m in modes}
+        result = {m: measure(comm, path, m, work / f"{scene}_{m}") for m in modes}
         rows.append({"scene": scene, **{f"{m}_{key}": v for m in modes for key, v in result[m].items()}})
         if comm.rank == 0:
             f, s = result["finite"], result["small"]
@@ -108,12 +113,26 @@ def table(comm: MPI.Comm, scenes: list[str], work: Path) -> list[dict[str, Any]]
     return rows
 
 
-def write(rows: list[dict[str, Any]], path: Path, comm: MPI.Comm) -> None:
+def robustness_scenes(names: list[str] | None, work: Path, comm: MPI.Comm) -> dict[str, Path]:
+    """The scene files of benchmarks/robustness.py's cases (all, or ``names``), their meshes made in ``work`` on
+    rank 0."""
+    from benchmarks.robustness import CASES, prepare
+
+    cases = [c for c in CASES if names is None or c.name in names]
+    unknown = sorted(set(names or ()) - {c.name for c in cases})
+    if unknown:
+        raise SystemExit(f"sliding_cost: no robustness case {', '.join(unknown)} (cases: "
+                         f"{', '.join(c.name for c in CASES)})")
+    scenes = {c.name: prepare(c, work / c.name)[0]["auto"] for c in cases} if comm.rank == 0 else None
+    return comm.bcast(scenes, root=0)
+
+
+def write(rows: list[dict[str, Any]], path: Path, comm: MPI.Comm, command: str = "") -> None:
     """The Markdown table (rank 0)."""
     if comm.rank != 0:
         return
     load = os.getloadavg()[0]
-    lines = [f"Measured with `python3 benchmarks/sliding_cost.py` on {comm.size} rank(s), load average "
+    lines = [f"Measured with `python3 benchmarks/sliding_cost.py{command}` on {comm.size} rank(s), load average "
              f"{load:.1f} at the end (2-core machine), {time.strftime('%Y-%m-%d %H:%M')}. Newton and Krylov iterations "
              "over every geometry of every solve; solve time = the wall and CPU time inside `ContactProblem.solve` "
              "summed over the solves (geometry updates included; model set-up and output excluded).", "",
@@ -137,9 +156,18 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--out", default=str(ROOT / "docs" / "sliding"))
     parser.add_argument("--scenes", nargs="*", default=SCENES)
-    parser.add_argument("--table", default="cost.md", help="the table's file name in --out")
+    parser.add_argument("--robustness", action="store_true",
+                        help="measure benchmarks/robustness.py's cases instead of the demo scenes")
+    parser.add_argument("--cases", nargs="*", default=None, help="with --robustness: these cases only")
+    parser.add_argument("--table", default=None, help="the table's file name in --out (default cost.md, with "
+                                                      "--robustness robustness.md)")
     args = parser.parse_args()
     comm = MPI.COMM_WORLD
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(comm.bcast(tmp if comm.rank == 0 else None))
-        write(table(comm, args.scenes, work), Path(args.out) / args.table, comm)
+        if args.robustness:
+            scenes = robustness_scenes(args.cases, work / "meshes", comm)
+        else:
+            scenes = {name: ROOT / "demos" / "scenes" / f"{name}.toml" for name in args.scenes}
+        table_name = args.table or ("robustness.md" if args.robustness else "cost.md")
+        write(table(comm, scenes, work), Path(args.out) / table_name, comm, " --robustness" * args.robustness)
