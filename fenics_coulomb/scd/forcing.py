@@ -2,17 +2,15 @@ r"""Forcing terms of the inexact Newton method: the tolerance of each linear sol
 
 from __future__ import annotations
 
-__all__ = ["TERMINAL_SAFETY", "TERMINAL_MIN", "TERMINAL_LOCAL", "terminal_forcing", "forcing_term"]
+__all__ = ["TERMINAL_SAFETY", "TERMINAL_MIN", "terminal_forcing", "forcing_term"]
 
 #: The last step's tolerance aims at this fraction of the stopping target (:func:`terminal_forcing`).
 TERMINAL_SAFETY = 0.5
 #: ... and is never tightened below this (the target is then more than one tightened step away).
 TERMINAL_MIN = 0.002
-#: ... and only once the iteration is near the solution: the last step cut ‖ŷ‖ at least by this factor.
-TERMINAL_LOCAL = 0.5
 
 
-def terminal_forcing(tol: float, residual: float, target: float, previous: float | None = None) -> float:
+def terminal_forcing(tol: float, residual: float, target: float) -> float:
     r"""The fixed rule's tolerance ``tol``, tightened in the step that can reach the stopping target.
 
     Near the solution the inexact Newton iteration converges linearly at the rate of its forcing terms: a step
@@ -21,21 +19,12 @@ def terminal_forcing(tol: float, residual: float, target: float, previous: float
     a GMRES solve a little tighter instead of another Newton step (matrix update, solve and line search).
     Otherwise ``tol``.
 
-    "Near the solution" is what the last step shows: one that cut ‖ŷ‖ by less than TERMINAL_LOCAL (a damped step
-    while the contact states settle) says the next one will not reach the target however exactly it is solved, so
-    its tolerance stays ``tol``. Without this a loose target (rtol 1e-4: the first solve of a finite-sliding step)
-    tightened every step of a slow approach: the ν = 0.49 case of docs/robustness took 15 Newton steps either way,
-    with 362 Krylov iterations at rtol 1e-4 against 270 at rtol 1e-8.
-
     Args:
         tol: The fixed forcing term.
         residual: ‖ŷ⁽ᵏ⁾‖.
         target: The residual norm that ends the iteration.
-        previous: ‖ŷ⁽ᵏ⁻¹⁾‖, None in the first step (no evidence either way: the rule applies).
     """
     if residual <= 0.0 or target <= 0.0:
-        return tol
-    if previous is not None and residual > TERMINAL_LOCAL * previous:
         return tol
     eta = TERMINAL_SAFETY * target / residual
     return eta if TERMINAL_MIN <= eta < tol else tol

@@ -259,8 +259,7 @@ class SCDNewtonSolver(NewtonLinearSolves):
     def forcing(self, history: list[float], eta: float, rule: StoppingRule) -> float:
         """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term."""
         if not self.settings.adaptive_tol:
-            previous = history[-2] if len(history) > 1 else None
-            return terminal_forcing(self.tol, history[-1], rule.threshold, previous)
+            return terminal_forcing(self.tol, history[-1], rule.threshold)
         return forcing_term(self.tol, history, eta, rule.threshold)
 
     def newton_direction(self, it: Iterate, eta: float) -> Direction:

@@ -337,21 +337,19 @@ def test_forcing_term(tol, history, eta_prev, target, expected):
 
 @pytest.mark.serial
 @pytest.mark.parametrize(
-    "residual, target, previous, expected",
+    "residual, target, expected",
     [
-        (1e-6, 1e-8, None, 0.5 * 1e-8 / 1e-6),  # first step: one step to η = 0.5·target/‖ŷ‖ reaches the target
-        (1e-6, 1e-8, 1e-5, 0.5 * 1e-8 / 1e-6),  # the last step cut ‖ŷ‖ tenfold: near the solution, tightened
-        (1e-6, 1e-8, 2e-6, 0.5 * 1e-8 / 1e-6),  # cut by exactly half: still tightened
-        (1e-6, 1e-8, 1.9e-6, 0.1),  # cut by less than half (a damped step while the states settle): tol
-        (1e-5, 1e-8, 1e-4, 0.1),  # η = 5e-4 below TERMINAL_MIN: more than one step away, tol
-        (1e-8, 5e-8, 1e-7, 0.1),  # η = 2.5 >= tol: the fixed step reaches the target anyway
-        (0.0, 1e-8, 1e-7, 0.1),  # no residual left: tol
+        (1e-6, 1e-8, 0.5 * 1e-8 / 1e-6),  # one step to η = 0.5·target/‖ŷ‖ reaches the target: tightened
+        (4e-7, 1e-8, 0.5 * 1e-8 / 4e-7),
+        (1e-5, 1e-8, 0.1),  # η = 5e-4 below TERMINAL_MIN: more than one step away, tol
+        (1e-8, 5e-8, 0.1),  # η = 2.5 >= tol: the fixed step reaches the target anyway
+        (0.0, 1e-8, 0.1),  # no residual left: tol
     ],
 )
-def test_terminal_forcing(residual, target, previous, expected):
-    """The fixed rule tightened in the step that can reach the target, once the last step showed the iteration near
-    the solution (forcing.terminal_forcing), case by case at tol = 0.1."""
-    assert terminal_forcing(0.1, residual, target, previous) == pytest.approx(expected, rel=1e-12)
+def test_terminal_forcing(residual, target, expected):
+    """The fixed rule tightened in the step that can reach the target (forcing.terminal_forcing), case by case at
+    tol = 0.1."""
+    assert terminal_forcing(0.1, residual, target) == pytest.approx(expected, rel=1e-12)
 
 
 def test_adaptive_forcing_reaches_the_linear_solves(problem_factory):
@@ -385,8 +383,7 @@ def test_adaptive_forcing_reaches_the_linear_solves(problem_factory):
             for k in range(1, result.iterations):
                 assert etas[k] == pytest.approx(forcing_term(0.1, history[: k + 1], etas[k - 1], target), rel=1e-14)
         else:  # the fixed tol, tightened only in the step that can reach the target (forcing.terminal_forcing)
-            assert np.array_equal(etas, [terminal_forcing(0.1, y, result.target, p)
-                                         for p, y in zip([None, *history[:-2]], history[:-1])])
+            assert np.array_equal(etas, [terminal_forcing(0.1, y, result.target) for y in history[:-1]])
             assert etas[0] == 0.1 and np.sum(etas < 0.1) <= 2
 
 
