@@ -228,7 +228,9 @@ SHARD_DEFAULT = 0.74
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Keep the modules of shard I of N: every module whole and in its own order (module-level state — a shared
     random generator, cached meshes, module-scoped fixtures — evolves as in an unsharded run), the modules given
-    out heaviest first (:data:`SHARD_WEIGHTS`), each to the shard with the least weight so far."""
+    out heaviest first (:data:`SHARD_WEIGHTS`), each to the shard with the least weight so far. With
+    ``--cores-lock`` a module of multirank tests only weighs nothing (it runs alone, the other shards waiting), and
+    every module with a multirank test runs first in its shard."""
     shard = config.getoption("--shard")
     if not shard:
         return
@@ -244,7 +246,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     modules: dict[str, list[pytest.Item]] = {}
     for item in items:
         modules.setdefault(item.path.relative_to(config.rootpath).as_posix(), []).append(item)
-    weight = {name: float(measured.get(name, SHARD_DEFAULT * len(tests))) for name, tests in modules.items()}
+    # a module whose every test runs alone (multirank, with --cores-lock) lengthens every shard alike: not split
+    alone = {name for name, tests in modules.items()
+             if config.getoption("--cores-lock") and all(t.get_closest_marker("multirank") for t in tests)}
+    weight = {name: 0.0 if name in alone else float(measured.get(name, SHARD_DEFAULT * len(tests)))
+              for name, tests in modules.items()}
     loads, kept = [0.0] * count, set()
     for name in sorted(modules, key=lambda m: (-weight[m], m)):
         target = loads.index(min(loads))
@@ -254,3 +260,8 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     inside = [item.path.relative_to(config.rootpath).as_posix() in kept for item in items]
     config.hook.pytest_deselected(items=[item for item, keep in zip(items, inside) if not keep])
     items[:] = [item for item, keep in zip(items, inside) if keep]
+    if config.getoption("--cores-lock"):
+        # the modules with multirank tests first (each whole, in its own order): the shards wait for each other's
+        # while both still have work, and their other work, split evenly, ends together
+        early = {name for name, tests in modules.items() if any(t.get_closest_marker("multirank") for t in tests)}
+        items.sort(key=lambda item: item.path.relative_to(config.rootpath).as_posix() not in early)
