@@ -162,6 +162,10 @@ if __name__ == "__main__":
     parser.add_argument("--table", default=None, help="the table's file name in --out (default cost.md, with "
                                                       "--robustness robustness.md)")
     args = parser.parse_args()
+    if args.cases is not None and not args.robustness:
+        parser.error("--cases selects robustness cases: give it with --robustness (the demo scenes: --scenes)")
+    if args.robustness and args.scenes != SCENES:
+        parser.error("--scenes selects demo scenes: not with --robustness (its cases: --cases)")
     comm = MPI.COMM_WORLD
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(comm.bcast(tmp if comm.rank == 0 else None))

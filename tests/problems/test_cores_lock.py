@@ -4,6 +4,7 @@ the mark."""
 
 from __future__ import annotations
 
+import fcntl
 import os
 import subprocess
 import sys
@@ -61,10 +62,20 @@ def test_a_multirank_test_runs_alone_and_before_later_shared_requests(tmp_path):
     assert first_in.wait(10)
     threads.append(threading.Thread(target=holder, args=(1, True, None)))
     threads[1].start()
-    time.sleep(0.3)  # the exclusive request is waiting
+    # the exclusive request is waiting once it holds the turn (a probe cannot take it): no timing assumed
+    with open(f"{path}.turn", "a+") as probe:
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                fcntl.flock(probe, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                break
+            fcntl.flock(probe, fcntl.LOCK_UN)
+            assert time.monotonic() < deadline, "the exclusive request never asked"
+            time.sleep(0.01)
     threads.append(threading.Thread(target=holder, args=(2, False, None)))
     threads[2].start()
-    time.sleep(0.3)
+    time.sleep(0.3)  # were the later shared request let in before the exclusive one, it would be in by now
     assert order == ["in 0"], order  # neither the exclusive nor the later shared request entered
     release.set()
     for t in threads:
