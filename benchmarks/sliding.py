@@ -72,7 +72,8 @@ class SlidingBlocks:
 
     def __init__(self, comm: MPI.Comm, x0: float, *, method: str = "mortar", cell: str = "tetrahedron",
                  n_lower: tuple[int, int, int] = (10, 5, 2), n_upper: tuple[int, int, int] = (8, 4, 3),
-                 friction: float = 0.0, sliding: str = "finite", rtol: float = 1e-9, prefix: str = "sliding_"):
+                 friction: float = 0.0, sliding: str = "finite", rtol: float = 1e-9, prefix: str = "sliding_",
+                 settings: dict[str, Any] | None = None):
         self.x0 = x0
         blocks = two_blocks(comm, lower=(2.0, 1.0, 0.5), n_lower=n_lower, upper_origin=(x0, 0.25),
                             upper=(1.0, 0.5, 0.5), n_upper=n_upper, gap=GAP, cell_type=cell)
@@ -86,7 +87,8 @@ class SlidingBlocks:
         self.pair = ContactPair(ft, slave=TAGS["upper_bottom"], master=TAGS["lower_top"], friction=friction,
                                 method=method)
         self.problem = ContactProblem(elasticity(V, blocks.cell_tags), None, bcs, contact_pairs=[self.pair],
-                                      settings={"rtol": rtol}, petsc_options_prefix=prefix, sliding=sliding)
+                                      settings={"rtol": rtol, **(settings or {})}, petsc_options_prefix=prefix,
+                                      sliding=sliding)
         upper = blocks.cell_tags.find(BODIES["upper"])
         self.upper_blocks = np.unique(V.dofmap.list[upper])
 

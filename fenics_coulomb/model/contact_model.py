@@ -303,6 +303,16 @@ class ContactModel:
         """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""
         return self.coupling.near_nullspace(self.V)
 
+    def variables(self) -> PETSc.Mat | None:
+        """M of the physical displacement u = M z in the solver's unknown z at the current geometry (None: u = z,
+        one body)."""
+        return self.coupling.variables()
+
+    def physical_stiffness(self) -> PETSc.Mat | None:
+        """The bodies' stiffness B in u with the supports of the unknown, Ã ≈ Mᵀ B M, the same for every geometry
+        (None for one body; owned by the model; collective the first time)."""
+        return self.coupling.physical_stiffness(self)
+
     @property
     def A_free(self) -> PETSc.Mat | None:
         """Two bodies: the stiffness without boundary conditions (None for one body)."""

@@ -148,6 +148,16 @@ class Coupling:
         """z = M⁻¹ u on the owned DOFs (collective)."""
         raise NotImplementedError
 
+    def variables(self) -> PETSc.Mat | None:
+        """M of u = M z at the current geometry (None: M = I, one body)."""
+        return None
+
+    def physical_stiffness(self, model: ContactModel) -> PETSc.Mat | None:
+        """The stiffness of the bodies in the physical displacement u with the supports' rows and columns of the
+        solver's unknown (s I), independent of the geometry: Ã ≈ Mᵀ B M (None for one body, where Ã = A; built once,
+        owned by the coupling; collective)."""
+        return None
+
     def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
         """The rigid-body modes in the solver's unknown, for GAMG (the caller destroys it)."""
         raise NotImplementedError

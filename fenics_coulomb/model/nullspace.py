@@ -35,5 +35,5 @@ def rigid_body_modes(V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
     b[5][dofs[1]] = -x2
     dolfinx.la.orthonormalize(basis)
     vecs = [PETSc.Vec().createWithArray(v[:length], bsize=bs, comm=V.mesh.comm) for v in b]
-    return PETSc.NullSpace().create(vectors=vecs)
+    return PETSc.NullSpace().create(vectors=vecs, comm=V.mesh.comm)
 

@@ -12,7 +12,8 @@
 * the checks of a finished solve: a failed or non-finite one, and ``KSP_LIMIT_STEPS`` consecutive ones that
   reach ksp_max_it;
 * finite sliding's geometry updates: the KSP made anew for the preconditioners that read the Newton matrix, GAMG's
-  hierarchy on A kept until ``HIERARCHY_REFRESH`` says it no longer preconditions the new Ã.
+  hierarchy kept (it is set up on A, or for pairs on the geometry-independent physical stiffness,
+  :mod:`fenics_coulomb.scd.physical_preconditioner`).
 
 The driver (start, Newton loop, line search, result) is :mod:`fenics_coulomb.scd.newton`.
 """
@@ -35,6 +36,7 @@ import numpy.typing as npt
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.scd.galerkin import GalerkinCoarsening
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
+from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 from fenics_coulomb.scd.preconditioner import (
     AUTO_STALL_ITS,
     DETERMINISTIC_PTAP,
@@ -49,7 +51,7 @@ if TYPE_CHECKING:
     from fenics_coulomb.scd.steps import NewtonStep
     from fenics_coulomb.settings import SolverSettings
 
-__all__ = ["KSP_LIMIT_STEPS", "HIERARCHY_REFRESH", "NewtonLinearSolves"]
+__all__ = ["KSP_LIMIT_STEPS", "NewtonLinearSolves"]
 
 logger = logging.getLogger(__name__)
 
@@ -58,13 +60,6 @@ logger = logging.getLogger(__name__)
 #: that stay that inexact do not converge, they only cost ksp_max_it iterations per step (GAMG with
 #: --gamma-scale 1, d3/L2 lev 8: 2000 GMRES iterations in every step, 780 s for 9 steps and still running).
 KSP_LIMIT_STEPS = 3
-#: Finite sliding keeps GAMG's hierarchy across geometry updates (it was built on the Ã of an earlier geometry, which
-#: differs from the new one in the contact coupling only) until a linear solve needs more than this many times the
-#: Krylov iterations per decade of the first solve on it; then the next update sets it up on the new Ã
-#: (:meth:`~fenics_coulomb.scd.newton.SCDNewtonSolver.rebind`). slide_off, 1 rank: a set-up at every update 205 Krylov
-#: iterations in 2.0 s CPU, never again 488 in 1.14 s, factor 1.5: 226 in 1.16 s, 2: 264 in 1.01 s, 3: 285 in 1.16 s
-#: (loaded machine).
-HIERARCHY_REFRESH = 2.0
 
 Array = npt.NDArray[np.float64]
 
@@ -98,7 +93,8 @@ class NewtonLinearSolves:
     _default_options: dict[str, object]
     _nullspace: PETSc.NullSpace | None
     _galerkin: GalerkinCoarsening | None
-    _hierarchy_rates: list[float]
+    #: Pairs with GAMG: the preconditioner set up in the physical displacement (None otherwise).
+    _physical: PhysicalGAMG | None
     _ladder: list[str]
     _blocks: tuple[Array, Array] | None
     _max_it: int
@@ -110,8 +106,9 @@ class NewtonLinearSolves:
 
     def _rebind_ksp(self) -> None:
         """The KSP after a geometry update (:meth:`~fenics_coulomb.scd.newton.SCDNewtonSolver.rebind`): made anew
-        for the Galerkin coarse products and the preconditioners of M; GAMG on A set up again on the new Ã when
-        :meth:`_refresh_hierarchy` says so, else its hierarchy reused."""
+        for the Galerkin coarse products and the preconditioners of M; GAMG's hierarchy kept, as it does not
+        depend on the geometry (one body: it is A's; pairs: B's, :mod:`fenics_coulomb.scd.physical_preconditioner`,
+        which reads the new change of variables at each application)."""
         if self._galerkin is not None or self.pc != "gamg":
             # the Galerkin coarse products and the preconditioners of M start from a KSP of their own
             self.ksp.destroy()
@@ -119,44 +116,28 @@ class NewtonLinearSolves:
                 self._nullspace.destroy()
             self._create_ksp()
             self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
-        elif self._refresh_hierarchy():
-            self._hierarchy_rates = []
-            if self._nullspace is not None:
-                self._nullspace.destroy()
-            self._nullspace = self.model.near_nullspace()
-            self.A.setNearNullSpace(self._nullspace)
-            self.ksp.getPC().setReusePreconditioner(False)
-            self.ksp.setOperators(self.M, self.A)  # GAMG is set up on the new Ã at the next linear solve
-            if self.comm.rank == 0:
-                logger.debug("finite sliding: GAMG's hierarchy set up again on the new stiffness")
-        else:  # the hierarchy of an earlier Ã (kept alive by the KSP, or the same Mat with new values)
+        else:
+            self.ksp.setOperators(self.M, self.A)
             self.ksp.getPC().setReusePreconditioner(True)
-
-    def _refresh_hierarchy(self) -> bool:
-        """Whether GAMG's hierarchy is to be built again on the current Ã at a geometry update: when no linear
-        solve has used the one built last (its set-up costs nothing yet), or when a linear solve since needed more
-        than HIERARCHY_REFRESH times the Krylov iterations per decade of reduction of the first solve after the
-        set-up (the hierarchy of an earlier geometry no longer preconditions the new one well)."""
-        rates = self._hierarchy_rates
-        return not rates or max(rates) > HIERARCHY_REFRESH * max(rates[0], 1.0)
-
-    def _record_rate(self, its: int, rtol: float) -> None:
-        """Keep the Krylov iterations per decade of reduction of a linear solve (:meth:`_refresh_hierarchy`)."""
-        decades = max(1.0, -math.log10(rtol)) if rtol > 0.0 else 16.0
-        self._hierarchy_rates.append(its / decades)
 
     def _create_ksp(self) -> None:
         """Create the KSP of the Newton matrix for ``self.pc`` under the solver's prefix and options."""
         settings = self.settings
-        self._hierarchy_rates = []
         self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name,
                                                                   settings.poisson_ratio).items()
                                  if k not in self._user_options}
+        if self.pc == "gamg" and not settings.galerkin_coarse and self._physical is None:
+            B = self.model.physical_stiffness()
+            if B is not None:
+                self._physical = PhysicalGAMG(B, self.model.variables, self.model.V, self.prefix)
+        physical = self._physical if self.pc == "gamg" else None
         self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
                                                settings.tol, settings.gmres_restart, settings.ksp_max_it,
-                                               self.model.near_nullspace)
+                                               self.model.near_nullspace, physical)
         with self.petsc_options():
             self.ksp.setFromOptions()
+            if physical is not None:
+                physical.set_from_options()
         if self._galerkin is not None:
             self._galerkin.destroy()
             self._galerkin = None

@@ -41,6 +41,7 @@ from fenics_coulomb.scd.forcing import forcing_term, terminal_forcing
 from fenics_coulomb.scd.galerkin import GalerkinCoarsening
 from fenics_coulomb.scd.linear_solves import NewtonLinearSolves
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
+from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 from fenics_coulomb.scd.node_gamma import node_gamma
 from fenics_coulomb.scd.power_method import power_iteration
 from fenics_coulomb.scd.preconditioner import auto_ladder, check_option_value, resolve_pc
@@ -141,8 +142,8 @@ class SCDNewtonSolver(NewtonLinearSolves):
                                  "e.g. 'ksp_monitor'")
             check_option_value(f"{prefix}{key}", value)
         self._galerkin: GalerkinCoarsening | None = None
-        #: Krylov iterations per decade of the linear solves since GAMG's hierarchy was set up (the first: fresh).
-        self._hierarchy_rates: list[float] = []
+        #: Pairs with GAMG: the preconditioner in the physical displacement (:mod:`.physical_preconditioner`).
+        self._physical: PhysicalGAMG | None = None
         self._create_ksp()
         #: The fixed forcing term: settings.tol, or the options' ksp_rtol.
         self.tol = float(self.ksp.getTolerances()[0])
@@ -165,9 +166,9 @@ class SCDNewtonSolver(NewtonLinearSolves):
         """Take over the model's new Ã and contact nodes after a geometry update of finite sliding (collective).
 
         γ (from the new Ã), the contact rows, the per-node γᵢ and the Newton operator follow the model; the KSP,
-        the shell operator and the work vectors stay. GAMG on A keeps its hierarchy (:meth:`_refresh_hierarchy`
-        decides when to build it again on the current Ã); every other preconditioner reads the Newton matrix and is
-        set up again at the next linear solve anyway.
+        the shell operator and the work vectors stay. GAMG keeps its hierarchy, which does not depend on the geometry
+        (on A for one body, on the physical stiffness B for pairs); every other preconditioner reads the Newton
+        matrix and is set up again at the next linear solve anyway.
         """
         model, settings = self.model, self.settings
         t0 = time.perf_counter()
@@ -292,7 +293,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
         its = self._solve_newton_system(eta)
         while self._escalate():
             its += self._solve_newton_system(eta)
-        self._record_rate(int(self.ksp.getIterationNumber()), eta)
         self.timings["ksp"] = self.timings.get("ksp", 0.0) + time.perf_counter() - t0
         b_norm = self.b.norm()
         # GMRES with right preconditioning monitors the true (unpreconditioned) residual norm
@@ -464,7 +464,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
         its = self._solve_linear_system()
         while self._escalate():
             its += self._solve_linear_system()
-        self._record_rate(int(self.ksp.getIterationNumber()), self.settings.reduction)
         reason = int(self.ksp.getConvergedReason())
         b_norm = model.load.norm()
         linear_residual = float(self.ksp.getResidualNorm()) / b_norm if b_norm > 0.0 else 0.0
@@ -495,3 +494,5 @@ class SCDNewtonSolver(NewtonLinearSolves):
             obj.destroy()
         if self._nullspace is not None:
             self._nullspace.destroy()
+        if self._physical is not None:
+            self._physical.destroy()

@@ -19,6 +19,7 @@ import dolfinx.la
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.nullspace import rigid_body_modes
 from fenics_coulomb.model.reproducible import FIXED_ORDER_PTAP, MIN_RANKS
+from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 
 __all__ = ["AUTO_GAMG_UNKNOWNS", "AUTO_ILU_MAX_RANKS", "AUTO_STALL_ITS", "AUTO_LU_MAX_UNKNOWNS",
            "DETERMINISTIC_PTAP", "DETERMINISTIC_PTAP_MIN_RANKS", "GAMG_SMOOTHER_SWEEPS",
@@ -185,13 +186,16 @@ def create_ksp(
     restart: int,
     max_it: int,
     near_nullspace: Callable[[], PETSc.NullSpace] | None = None,
+    physical: PhysicalGAMG | None = None,
 ) -> tuple[PETSc.KSP, PETSc.NullSpace | None]:
     """Create the KSP of the Newton matrix M (stiffness A) with the preconditioner ``pc_name``.
 
     ``gamg`` preconditions with A, which never changes: PETSc sets the AMG hierarchy up at the first solve
     and reuses it for every Newton matrix (only the contact rows differ from A). ``gamg-newton`` builds it on
     M every step. Both get the rigid-body near-nullspace of V, or ``near_nullspace()`` (e.g. the modes of two
-    bodies in the variables of :mod:`fenics_coulomb.model.pairs.two_body`). Call ``ksp.setFromOptions()`` afterwards.
+    bodies in the variables of :mod:`fenics_coulomb.model.pairs.two_body`). ``gamg`` with ``physical`` (contact
+    pairs) is GAMG on the bodies' physical stiffness between the changes of variables, a ``python`` PC
+    (:mod:`fenics_coulomb.scd.physical_preconditioner`; the caller owns it). Call ``ksp.setFromOptions()`` afterwards.
 
     Returns:
         The KSP and the near-nullspace it uses (the caller destroys both), or None.
@@ -213,6 +217,9 @@ def create_ksp(
         pc.setType("lu")
         if parallel:
             pc.setFactorSolverType("mumps")
+    elif pc_name == "gamg" and physical is not None:
+        pc.setType("python")
+        pc.setPythonContext(physical)
     elif pc_name in ("gamg", "gamg-newton"):
         pc.setType("gamg")
         nullspace = near_nullspace() if near_nullspace is not None else rigid_body_modes(V)

@@ -95,18 +95,19 @@ def test_a_plane_needs_no_geometry_update_and_runs_bit_for_bit():
 
 def test_slide_is_the_same_on_one_and_two_ranks_and_on_a_rerun():
     """Both runs of the slid static press give the same bits; its result does not depend on the partition (to
-    1e-10: the geometry iteration stops within 8·rtol·|u|, so rtol 1e-11 here)."""
+    1e-10: the geometry iteration stops within 8·rtol·|u|, so rtol 1e-12 here; at 1e-11 the two partitions ended
+    1.4e-10 apart with GAMG on B, 2026-11-26)."""
     comm = MPI.COMM_WORLD
     states = []
     for _ in range(2):
-        blocks = SlidingBlocks(comm, 0.5, method="mortar", prefix="slide_rerun_", rtol=1e-11, **SMALL)
+        blocks = SlidingBlocks(comm, 0.5, method="mortar", prefix="slide_rerun_", rtol=1e-12, **SMALL)
         blocks.solve(SLIDE)
         states.append(blocks.state(SLIDE))
         blocks.destroy()
     assert np.array_equal(states[0], states[1])
     single = None
     if comm.rank == 0:
-        blocks = SlidingBlocks(MPI.COMM_SELF, 0.5, method="mortar", prefix="slide_self_", rtol=1e-11, **SMALL)
+        blocks = SlidingBlocks(MPI.COMM_SELF, 0.5, method="mortar", prefix="slide_self_", rtol=1e-12, **SMALL)
         blocks.solve(SLIDE)
         single = blocks.state(SLIDE)
         blocks.destroy()

@@ -1,6 +1,7 @@
 """Finite sliding's geometry updates keep the solver (docs/sliding/cost.md): the KSP, the shell Newton operator and
-GAMG's hierarchy stay across the updates of a solve and the steps of a path, Ã = Mᵀ A_free M is overwritten in place
-when the coupling's pattern stays, and the answers are those of a new hierarchy at every update. On 1 and 2 ranks."""
+GAMG's hierarchy (set up once, in the physical displacement: scd/physical_preconditioner.py) stay across the
+updates of a solve and the steps of a path, Ã = Mᵀ A_free M is overwritten in place when the coupling's pattern
+stays, and the answers are those of a direct solver. On 1 and 2 ranks."""
 
 from __future__ import annotations
 
@@ -12,26 +13,26 @@ import pytest
 from benchmarks.sliding import SlidingBlocks
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import owned_values
-from fenics_coulomb.scd import linear_solves, newton
+from fenics_coulomb.scd.newton import SCDNewtonSolver
+from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 
 SMALL = {"n_lower": (8, 4, 2), "n_upper": (6, 3, 2)}
 SHIFTS = (0.0, 0.1, 0.2, 0.3)
 RTOL = 1e-9
-DECIDE = newton.SCDNewtonSolver._refresh_hierarchy
 CONFIGURE = ContactModel.configure
 
 
-def slide(refresh: float, monkeypatch: pytest.MonkeyPatch) -> dict:
-    """Press, then slide 0.3 in three steps with the hierarchy refreshed by the factor ``refresh``: the final state,
-    the pair force, whether the solver's PETSc objects stayed, and each update's refresh decision."""
-    monkeypatch.setattr(linear_solves, "HIERARCHY_REFRESH", refresh)
-    decisions: list[bool] = []
+def hierarchy(solver: SCDNewtonSolver) -> tuple[int, ...]:
+    """The ids of GAMG's interpolations (new objects whenever GAMG is set up again)."""
+    physical = solver._physical
+    assert isinstance(physical, PhysicalGAMG) and solver.ksp.getPC().getType() == "python"
+    gamg = physical.gamg
+    return tuple(gamg.getMGInterpolation(level).getId() for level in range(1, gamg.getMGLevels()))
 
-    def record(solver: newton.SCDNewtonSolver) -> bool:
-        decisions.append(DECIDE(solver))
-        return decisions[-1]
 
-    monkeypatch.setattr(newton.SCDNewtonSolver, "_refresh_hierarchy", record)
+def slide(pc: str, monkeypatch: pytest.MonkeyPatch) -> dict:
+    """Press, then slide 0.3 in three steps with the preconditioner ``pc``: the final state, the pair force,
+    whether the solver's PETSc objects stayed, GAMG's interpolations after the press and at the end."""
     paired: list[bool] = []  # per configuration: whether the pairing of X + u came with it (no new pairing)
 
     def configure(model: ContactModel, u: object, pairing: object = None) -> bool:
@@ -39,39 +40,39 @@ def slide(refresh: float, monkeypatch: pytest.MonkeyPatch) -> dict:
         return CONFIGURE(model, u, pairing)
 
     monkeypatch.setattr(ContactModel, "configure", configure)
-    blocks = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=RTOL, prefix=f"updates{int(refresh)}_", **SMALL)
+    blocks = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=RTOL, prefix=f"updates_{pc}_", settings={"pc": pc}, **SMALL)
     solver = blocks.problem.solver
     handles = (solver.ksp.handle, solver.M.handle, solver.u.handle)
-    rows = [blocks.solve(shift) for shift in SHIFTS]
+    rows = [blocks.solve(SHIFTS[0])]
+    pressed = hierarchy(solver) if pc == "gamg" else ()
+    rows += [blocks.solve(shift) for shift in SHIFTS[1:]]
     kept = blocks.problem.solver is solver and (solver.ksp.handle, solver.M.handle, solver.u.handle) == handles
-    out = {"state": blocks.state(SHIFTS[-1]), "force": rows[-1]["force"], "kept": kept, "decisions": decisions,
-           "updates": sum(r["updates"] for r in rows), "nodes": rows[-1]["nodes"], "blocks": blocks,
-           "paired": paired}
+    out = {"state": blocks.state(SHIFTS[-1]), "force": rows[-1]["force"], "kept": kept, "pressed": pressed,
+           "end": hierarchy(solver) if pc == "gamg" else (), "updates": sum(r["updates"] for r in rows),
+           "nodes": rows[-1]["nodes"], "blocks": blocks, "paired": paired}
     return out
 
 
-def test_the_solver_stays_and_answers_as_a_new_hierarchy_at_every_update(monkeypatch):
-    reused = slide(linear_solves.HIERARCHY_REFRESH, monkeypatch)
-    fresh = slide(0.0, monkeypatch)  # every update sets GAMG up on the new Ã (the earlier behaviour)
+def test_the_solver_and_its_hierarchy_stay_and_answer_as_a_direct_solver(monkeypatch):
+    gamg = slide("gamg", monkeypatch)
+    direct = slide("lu", monkeypatch)
     try:
-        assert reused["kept"] and fresh["kept"]
-        # measured: 19 updates (and 3 step starts), the hierarchy of the press kept for the whole slide; u within
-        # 2.2e-9, the force within 3.1e-9
-        assert reused["updates"] >= 2 and len(reused["decisions"]) >= reused["updates"]
-        assert not all(reused["decisions"])  # some update kept the hierarchy of an earlier geometry
-        assert all(fresh["decisions"])
-        assert reused["nodes"] == fresh["nodes"]
+        assert gamg["kept"]
+        assert gamg["updates"] >= 2
+        # GAMG set up once: the interpolations of the press are those at the end of the slide
+        assert len(gamg["pressed"]) >= 1 and gamg["end"] == gamg["pressed"]
+        assert gamg["nodes"] == direct["nodes"]
         # every configuration, the steps' first ones included, adopted a pairing the geometry check had computed
-        assert len(reused["paired"]) > reused["updates"] and all(reused["paired"])
+        assert len(gamg["paired"]) > gamg["updates"] and all(gamg["paired"])
         # both are solutions to the geometry's accuracy ε = 8·rtol·|u|∞ (model/sliding.py): within 2ε of each other
-        u_scale = float(np.abs(fresh["state"][:, 3:]).max())
-        assert np.abs(reused["state"] - fresh["state"]).max() <= 2 * 8 * RTOL * max(u_scale, SHIFTS[-1])
-        assert np.abs(reused["force"] - fresh["force"]).max() <= 1e-6 * abs(fresh["force"][2])
+        u_scale = float(np.abs(direct["state"][:, 3:]).max())
+        assert np.abs(gamg["state"] - direct["state"]).max() <= 2 * 8 * RTOL * max(u_scale, SHIFTS[-1])
+        assert np.abs(gamg["force"] - direct["force"]).max() <= 1e-6 * abs(direct["force"][2])
 
         # Ã overwritten in place (PtAP's numeric phase) has the bits of Ã built anew: the slid model configured again
         # in its own configuration keeps its coupling's pattern; the other model is configured there from X
-        model, other = reused["blocks"].problem.model, fresh["blocks"].problem.model
-        u = owned_values(reused["blocks"].problem.u)
+        model, other = gamg["blocks"].problem.model, direct["blocks"].problem.model
+        u = owned_values(gamg["blocks"].problem.u)
         A = model.A
         model.configure(u)
         assert model.coupling.reused and model.A is A
@@ -81,8 +82,8 @@ def test_the_solver_stays_and_answers_as_a_new_hierarchy_at_every_update(monkeyp
         mine, theirs = model.A.getValuesCSR(), other.A.getValuesCSR()
         assert all(np.array_equal(a, b) for a, b in zip(mine, theirs, strict=True))
     finally:
-        reused["blocks"].destroy()
-        fresh["blocks"].destroy()
+        gamg["blocks"].destroy()
+        direct["blocks"].destroy()
 
 
 @pytest.mark.parametrize("changes, decisions", [

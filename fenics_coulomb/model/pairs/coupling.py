@@ -75,6 +75,7 @@ class PairCoupling(Coupling):
         self.pairs = list(pairs)
         self.M: PETSc.Mat | None = None
         self.A_free: PETSc.Mat | None = None
+        self._physical_stiffness: PETSc.Mat | None = None
         self._paired: npt.NDArray[np.bool_] = np.zeros(0, dtype=bool)
         self._obstacle_map: ContactMap | None = None
         self._obstacle_friction: Array = np.zeros(0)
@@ -288,6 +289,22 @@ class PairCoupling(Coupling):
         return stencil_change(model, self.pairing, pairing, held, self._paired, u, z, previous, tolerance, pressed)
 
     # -- the change of variables ---------------------------------------------------------------------------
+    def variables(self) -> PETSc.Mat | None:
+        return self.M
+
+    def physical_stiffness(self, model: ContactModel) -> PETSc.Mat:
+        """B: A_free with the Dirichlet rows and columns of s I. It couples no body to another, so the rigid modes
+        of the whole mesh are those of every body, and it does not change with the pairing (Ã = Mᵀ B M wherever no
+        master DOF of a stencil is supported)."""
+        assert self.A_free is not None, "build() first"
+        if self._physical_stiffness is None:
+            B = self.A_free.duplicate(copy=True)
+            B.setOptionsPrefix(f"{model.prefix}B_")
+            r0 = model.V.dofmap.index_map.local_range[0]
+            B.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=model.dirichlet_diagonal)
+            self._physical_stiffness = B
+        return self._physical_stiffness
+
     def physical(self, z: Array) -> Array:
         assert self.M is not None
         x, y = self.M.createVecs()
@@ -452,7 +469,7 @@ class PairCoupling(Coupling):
                                   for forces, stats in zip(pair_forces(model, result), per_pair, strict=False)]}
 
     def destroy(self) -> None:
-        for obj in (self.M, self.A_free, self._free_coupling):
+        for obj in (self.M, self.A_free, self._free_coupling, self._physical_stiffness):
             if obj is not None:
                 obj.destroy()
-        self.M = self.A_free = self._free_coupling = None
+        self.M = self.A_free = self._free_coupling = self._physical_stiffness = None
