@@ -262,7 +262,8 @@ def run_linear(scene: Path, ranks: int) -> dict[str, Any]:
 
 # -- the linear reference (run under mpirun) ----------------------------------------------------------------
 def linear(scene_path: Path) -> int:
-    """Solve A x = b once on the scene's model with CG + GAMG and CG + BoomerAMG; print the best as JSON.
+    """Solve A x = b once on the scene's model with CG + GAMG and CG + BoomerAMG (and, for contact pairs, CG + the
+    solver's GAMG on the physical stiffness, scd/physical_preconditioner.py); print the best as JSON.
 
     b is the scene's load when it has one, else A w for a smooth w (the obstacle scenes load through contact
     alone); the near-nullspace is the model's rigid-body modes. Time: KSP setup + solve (max over ranks)."""
@@ -271,6 +272,7 @@ def linear(scene_path: Path) -> int:
 
     from fenics_coulomb.scenes.builder import build_problem
     from fenics_coulomb.scenes.scene import Scene
+    from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
     from fenics_coulomb.scd.preconditioner import HYPRE_ELASTICITY
 
     comm = MPI.COMM_WORLD
@@ -288,8 +290,12 @@ def linear(scene_path: Path) -> int:
     A.setNearNullSpace(nullspace)
     options = PETSc.Options()
     best: dict[str, Any] | None = None
-    for pc, extra in (("gamg", {}), ("hypre", {k: v for k, v in HYPRE_ELASTICITY.items()})):
-        prefix = f"linear_{pc}_"
+    B = model.physical_stiffness()
+    candidates = [("gamg", {}), ("hypre", {k: v for k, v in HYPRE_ELASTICITY.items()})]
+    if B is not None:
+        candidates.append(("physical-gamg", {}))
+    for pc, extra in candidates:
+        prefix = f"linear_{pc.replace('-', '_')}_"
         for key, value in extra.items():
             options[f"{prefix}{key}"] = value
         x = A.createVecRight()
@@ -297,7 +303,15 @@ def linear(scene_path: Path) -> int:
         ksp.setOptionsPrefix(prefix)
         ksp.setOperators(A)
         ksp.setType("cg")
-        ksp.getPC().setType(pc)
+        physical = None
+        if pc == "physical-gamg":
+            assert B is not None
+            physical = PhysicalGAMG(B, model.variables, model.V, prefix)
+            ksp.getPC().setType("python")
+            ksp.getPC().setPythonContext(physical)
+            physical.set_from_options()
+        else:
+            ksp.getPC().setType(pc)
         if pc == "hypre":
             ksp.getPC().setHYPREType("boomeramg")
         ksp.setTolerances(rtol=1e-8, max_it=5000)
@@ -313,6 +327,8 @@ def linear(scene_path: Path) -> int:
             best = result
         ksp.destroy()
         x.destroy()
+        if physical is not None:
+            physical.destroy()
         for key in extra:
             options.delValue(f"{prefix}{key}")
     b.destroy()
