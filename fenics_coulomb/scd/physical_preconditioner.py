@@ -5,7 +5,10 @@ relative to the master point beneath it, :mod:`fenics_coulomb.model.pairs.two_bo
 stiffness is Ã = Mᵀ A_free M with the supports' rows and columns of s I. Let B be A_free with the same supports:
 then Ã = Mᵀ B M wherever no master DOF of a stencil is supported, and
 
-    Ã⁻¹ = M⁻¹ B⁻¹ M⁻ᵀ,     M⁻¹ = I − Φ = 2I − M     (Φ maps master DOFs to slave DOFs only: Φ² = 0).
+    Ã⁻¹ = M⁻¹ B⁻¹ M⁻ᵀ,     M⁻¹ = I − Φ = 2I − M
+
+(Φ maps master DOFs to slave DOFs, and no contact node is a vertex of a master facet a contact node uses — the
+pairing checks it —, so Φ² = 0; slave contact nodes are never supported, :mod:`fenics_coulomb.model.pairs.two_body`).
 
 So GAMG on B, applied between the two changes of variables, preconditions Ã as well as GAMG preconditions a
 single elastic body, and two properties of B make it the better matrix to coarsen:
