@@ -191,7 +191,8 @@ def incline(comm: MPI.Comm, friction: float, level: int = 0) -> dict[str, Any]:
             "weight": weight, "wall": time.perf_counter() - t0}
 
 
-def incline_scene(comm: MPI.Comm, friction: float, level: int = 0, two_bodies: bool = False) -> dict[str, Any]:
+def incline_scene(comm: MPI.Comm, friction: float, level: int = 0, two_bodies: bool = False,
+                  pc: str | None = None) -> dict[str, Any]:
     """The incline of :func:`incline` as a scene: docs/verification/incline.toml through ``build_problem`` (the
     command line's path), with the friction coefficient ``friction`` and, above level 0, the gmsh mesh of
     meshes/incline.py at ``INCLINE_LEVELS[level]`` (written by rank 0 into a temporary directory). The push is
@@ -199,8 +200,8 @@ def incline_scene(comm: MPI.Comm, friction: float, level: int = 0, two_bodies: b
     contact, is no contact node), u2 is held by rollers on the faces x2 = 0, B (their bottom edges stay contact
     nodes). ``two_bodies``: docs/verification/incline_two_bodies.toml instead, the slope an elastic block
     (meshes/incline_on_slope.py, the slope's cells ``SLOPE_LEVELS[level]``; the block rests on it by contact
-    alone along the normal). Returns what :func:`incline` returns (``hold``: the rollers' reaction over the
-    weight)."""
+    alone along the normal). ``pc``: the solver's preconditioner (None: the scene's). Returns what :func:`incline`
+    returns (``hold``: the rollers' reaction over the weight)."""
     import dataclasses
     import tempfile
 
@@ -230,6 +231,8 @@ def incline_scene(comm: MPI.Comm, friction: float, level: int = 0, two_bodies: b
     else:
         scene = dataclasses.replace(scene, body=body,
                                     friction=dataclasses.replace(scene.friction, coefficient=friction))
+    if pc is not None:
+        scene = dataclasses.replace(scene, solver=dataclasses.replace(scene.solver, pc=pc))
     built = build_problem(scene, comm, petsc_options_prefix="incline_scene_")
     with built.problem as problem:
         _, result = problem.solve()

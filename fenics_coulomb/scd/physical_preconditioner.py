@@ -22,6 +22,10 @@ single elastic body, and two properties of B make it the better matrix to coarse
   with them M and Ã; B, and GAMG's hierarchy on it, are set up once for the whole solve or load path. Only M,
   read from the model at each application, follows the pairing.
 
+A body held by contact alone leaves B singular (the Newton matrix holds its free motions through the contact rows,
+which B does not have); the coupling raises B's diagonal on such a body by ``HELD_BODY_SHIFT`` of itself
+(:mod:`fenics_coulomb.model.pairs.coupling`): GAMG's coarsest factorization broke down without it.
+
 Measured (2026-11-26, benchmarks/sliding_cost.py's robustness case "two-bodies", 19 500 unknowns, tetrahedra, the
 defaults, 1 rank): small sliding 7 Newton / 78 Krylov iterations in 1.9 s with GAMG on Ã, 8 / 48 in 0.5 s with this
 preconditioner; finite sliding 8 / 105 in 4.1 s (two GAMG set-ups, 1.07 s each) against 9 / 49 in 1.3 s. On

@@ -50,6 +50,13 @@ logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
+#: The relative raise of the diagonal of the preconditioner's stiffness B on a body held by contact alone (its B is
+#: singular; :meth:`PairCoupling.physical_stiffness`). docs/verification/incline_two_bodies.toml with --pc gamg: 0
+#: and 1e-10 break down (DIVERGED_BREAKDOWN in GAMG's coarsest LU, in Newton steps 5 and 17), 1e-8 and 1e-6 converge
+#: in 9 Newton / 77 Krylov iterations; supported bodies are not shifted. Well below the smallest eigenvalue of an
+#: elastic body's stiffness relative to its diagonal, O((h/L)²), on any mesh up to a thousand cells across.
+HELD_BODY_SHIFT = 1e-6
+
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
     """Whether two matrices of one layout have the same nonzero pattern on every rank (collective)."""
@@ -295,13 +302,24 @@ class PairCoupling(Coupling):
     def physical_stiffness(self, model: ContactModel) -> PETSc.Mat:
         """B: A_free with the Dirichlet rows and columns of s I. It couples no body to another, so the rigid modes
         of the whole mesh are those of every body, and it does not change with the pairing (Ã = Mᵀ B M wherever no
-        master DOF of a stencil is supported)."""
-        assert self.A_free is not None, "build() first"
+        master DOF of a stencil is supported). A body held by contact alone leaves B singular (the Newton matrix
+        holds its free motions through the contact rows, which B does not have): its diagonal is raised by
+        HELD_BODY_SHIFT of itself, which GAMG's coarsest factorization needs."""
+        assert self.A_free is not None and self.body_of_block is not None, "build() first"
         if self._physical_stiffness is None:
             B = self.A_free.duplicate(copy=True)
             B.setOptionsPrefix(f"{model.prefix}B_")
             r0 = model.V.dofmap.index_map.local_range[0]
             B.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=model.dirichlet_diagonal)
+            held = [h.body for h in self.held_by_contact]
+            if held:  # the same list on every rank
+                n = model.V.dofmap.index_map.size_local
+                rows = np.repeat(np.isin(self.body_of_block[:n], held), 3)
+                rows[model.dirichlet_rows] = False
+                diagonal = B.getDiagonal()
+                diagonal.array[rows] *= 1.0 + HELD_BODY_SHIFT
+                B.setDiagonal(diagonal, addv=PETSc.InsertMode.INSERT_VALUES)
+                diagonal.destroy()
             self._physical_stiffness = B
         return self._physical_stiffness
 
