@@ -168,6 +168,9 @@ class NewtonLinearSolves:
         self.ksp.destroy()
         if self._nullspace is not None:
             self._nullspace.destroy()
+        if self._physical is not None:  # GAMG on B is left behind for good: its hierarchy goes now
+            self._physical.destroy()
+            self._physical = None
         if self.operator.matrix_free and self.pc not in MATRIX_FREE_PCS:
             self.operator.destroy()
             self.operator = NewtonOperator(self.A, self.rows, self.cdofs, False, self.prefix)

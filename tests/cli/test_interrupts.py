@@ -132,10 +132,14 @@ def test_interrupt_on_every_solver_path(tmp_path, earlier_set, path, target, sig
     _interrupt_after(tmp_path, earlier_set, path, target, signum)
 
 
+@pytest.mark.parametrize("scene, options", [
+    ("stl_roller_rolling", []),  # one body, an STL obstacle: GAMG on A
+    ("slide_off", ["--pc", "gamg", "--tol", "1e-12"]),  # a pair: GAMG on B inside the python PC (M⁻¹ B⁻¹ M⁻ᵀ)
+], ids=["obstacle", "pair"])
 @SIGNALS
-def test_interrupt_during_the_geometry_iteration(tmp_path, earlier_set, target, signum):
+def test_interrupt_during_the_geometry_iteration(tmp_path, earlier_set, scene, options, target, signum):
     """Finite sliding: a signal right after a geometry update (the ranks re-pair, re-place and solve again) ends
     every rank with 128 + the signal and keeps the earlier result set (-v: a load path's updates are logged)."""
-    scene = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "stl_roller_rolling.toml"
-    _interrupt_after(tmp_path, earlier_set, ["--scene", str(scene), "-v"], target, signum,
+    path = Path(__file__).resolve().parents[2] / "demos" / "scenes" / f"{scene}.toml"
+    _interrupt_after(tmp_path, earlier_set, ["--scene", str(path), *options, "-v"], target, signum,
                      marker="finite sliding: geometry update")

@@ -70,3 +70,25 @@ def test_physical_preconditioner_with_an_exact_inverse_inverts_the_pair_stiffnes
         if physical is not None:
             physical.destroy()
         blocks.destroy()
+
+
+def test_a_pair_escalates_from_gamg_on_b_and_releases_it():
+    """pc = auto on the tetrahedral blocks starts with GAMG on B; with ksp_max_it = 2 it counts as stagnated, the
+    ladder hands the solve to BoomerAMG (and LU where needed), the context of GAMG on B is destroyed at once, and
+    the answer is the direct solver's."""
+    blocks = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=1e-10, prefix="physical_ladder_", n_lower=(8, 4, 2),
+                           n_upper=(6, 3, 2), settings={"pc": "auto", "ksp_max_it": 2, "max_it": 80})
+    direct = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=1e-10, prefix="physical_direct_", n_lower=(8, 4, 2),
+                           n_upper=(6, 3, 2), settings={"pc": "lu"})
+    try:
+        solver = blocks.problem.solver
+        assert isinstance(solver._physical, PhysicalGAMG)
+        row, reference = blocks.solve(0.2), direct.solve(0.2)
+        result = row["result"]
+        assert [h["from"] for h in result.pc_history][:1] == ["gamg"] and result.pc in ("hypre", "lu")
+        assert solver._physical is None
+        assert row["nodes"] == reference["nodes"]
+        assert np.abs(row["force"] - reference["force"]).max() <= 1e-6 * abs(reference["force"][2])
+    finally:
+        blocks.destroy()
+        direct.destroy()
