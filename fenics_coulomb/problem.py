@@ -48,7 +48,7 @@ from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN
-from fenics_coulomb.settings import SolverSettings
+from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
 from fenics_coulomb.sliding_solve import SlidingSolve
 from fenics_coulomb.start_rule import auto_start, interpolate_displacement
 
@@ -179,7 +179,11 @@ class ContactProblem(SlidingSolve):
         contact forces and loads, each relative (:func:`fenics_coulomb.model.checks.physics_residuals`). The
         solve itself checks all but the balance (``result.checks``) and does not converge when one fails."""
         unknown = result.relative_displacement if result.relative_displacement is not None else result.displacement
-        return physics_residuals(self.model, unknown)
+        return physics_residuals(self.model, unknown, accuracy=self._accuracy(result))
+
+    def _accuracy(self, result: SolveResult | None = None) -> float:
+        """The relative displacement accuracy of a solve to its rtol (ERROR_PER_RTOL·rtol, docs/tradeoff)."""
+        return ERROR_PER_RTOL * ((result.rtol if result is not None else None) or self.settings.reduction)
 
     def report(self, result: SolveResult, reactions: Mapping[str, Any] | None = None) -> ContactReport:
         """Forces and contact nodes of ``result``, the same on every rank (collective).
@@ -423,7 +427,8 @@ class ContactProblem(SlidingSolve):
             return solver.solve(start, reduction)
         except SolverError as err:
             if err.result is not None:
-                err.result.checks = physics_residuals(model, err.result.displacement, balance=False)
+                err.result.checks = physics_residuals(model, err.result.displacement, balance=False,
+                                                      accuracy=self._accuracy(err.result))
                 self._finish(err.result)
             why = model.coupling.lost_support(model, None if err.result is None else
                                               np.asarray(err.result.states) != OPEN)
@@ -434,7 +439,8 @@ class ContactProblem(SlidingSolve):
     def _verify(self, result: SolveResult) -> None:
         """Let the physics checks decide a converged solve (collective): the residuals are kept in the result,
         and a failure (:func:`~fenics_coulomb.model.checks.physics_failure`) makes it a SolverError "physics_check"."""
-        result.checks = physics_residuals(self.model, result.displacement, balance=False)
+        result.checks = physics_residuals(self.model, result.displacement, balance=False,
+                                          accuracy=self._accuracy(result))
         failure = physics_failure(result.checks, result.rtol or self.settings.reduction)
         if result.converged and failure:
             result.converged, result.reason = False, "physics_check"

@@ -72,6 +72,9 @@ class SlidingSolve:
         def _log(self, message: str) -> None:
             """A line on rank 0."""
 
+        def _accuracy(self, result: SolveResult | None = None) -> float:
+            """The relative displacement accuracy of a solve."""
+
     def _measure_slide(self, result: SolveResult) -> None:
         """Small sliding says when it breaks: the largest slide of a contact node against its partner in units of
         the partner's size (:func:`~fenics_coulomb.model.sliding.largest_slide`), kept in the result and a
@@ -143,7 +146,7 @@ class SlidingSolve:
             if step.action == "fail":
                 result.geometry_updates = iteration.updates
                 result.converged, result.reason = False, "geometry"
-                result.checks = physics_residuals(model, z, balance=False)
+                result.checks = physics_residuals(model, z, balance=False, accuracy=self._accuracy(result))
                 self._finish(result)
                 raise SolverError(step.message, "geometry", result)
             if step.action == "update":

@@ -125,8 +125,8 @@ def test_the_physics_checks_decide_a_converged_solve(mpi_tmp_path, capsys, monke
 
     real = problem_module.physics_residuals
 
-    def broken(model, displacement, balance=True):
-        checks = real(model, displacement, balance)
+    def broken(model, displacement, balance=True, **kwargs):
+        checks = real(model, displacement, balance, **kwargs)
         checks["equilibrium"] = 0.875
         return checks
 
