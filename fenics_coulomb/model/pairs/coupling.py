@@ -36,7 +36,7 @@ from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
-from fenics_coulomb.model.reproducible import assemble_matrix, fixed_order_products
+from fenics_coulomb.model.reproducible import TripleProduct, assemble_matrix
 from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies,
                                                  coupling_matrix)
 
@@ -88,6 +88,7 @@ class PairCoupling(Coupling):
         self._obstacle_friction: Array = np.zeros(0)
         self._excluded: npt.NDArray[np.int32] = np.zeros(0, np.int32)
         self._free_coupling: PETSc.Mat | None = None
+        self._product = TripleProduct()
         self.reused = False
 
     # -- construction ------------------------------------------------------------------------------------
@@ -230,15 +231,15 @@ class PairCoupling(Coupling):
             self._free_coupling = None
 
     def stiffness(self, model: ContactModel, prefix: str, reuse: PETSc.Mat | None = None) -> PETSc.Mat:
-        """Ã = Mᵀ A_free M (PtAP) with the Dirichlet rows and columns of the identity; ``reuse``: the Ã of M's
-        previous values, overwritten in place (PtAP's numeric phase only, the same bits)."""
+        """Ã = Mᵀ A_free M (:class:`~fenics_coulomb.model.reproducible.TripleProduct`) with the Dirichlet rows and
+        columns of the identity; ``reuse``: the Ã of M's previous values, overwritten in place (the products'
+        numeric phases only, the same bits)."""
         assert self.A_free is not None and self.M is not None, "build() first"
-        with fixed_order_products(model.comm):
-            if reuse is not None:
-                A = self.A_free.ptap(self.M, result=reuse)
-            else:
-                A = self.A_free.ptap(self.M)
-                A.setOptionsPrefix(f"{prefix}A_")
+        if reuse is not None:
+            A = self._product(self.A_free, self.M, result=reuse)
+        else:
+            A = self._product(self.A_free, self.M)
+            A.setOptionsPrefix(f"{prefix}A_")
         r0 = model.V.dofmap.index_map.local_range[0]
         A.zeroRowsColumns((model.dirichlet_rows + 3 * r0).astype(PETSc.IntType), diag=1.0)
         return A
@@ -491,3 +492,4 @@ class PairCoupling(Coupling):
             if obj is not None:
                 obj.destroy()
         self.M = self.A_free = self._free_coupling = self._physical_stiffness = None
+        self._product.destroy()
