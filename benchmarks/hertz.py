@@ -137,7 +137,7 @@ def block_mesh(comm: MPI.Comm, h0: float, a: float = np.sqrt(R_INDENTER * DEPTH)
 
     W = width * a
     if comm.rank == 0:
-        gmsh.initialize()
+        gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("block")
         gmsh.model.occ.addBox(-W, -W, -W, 2 * W, 2 * W, W)

@@ -106,7 +106,7 @@ def make_mesh(kind: str, size: float, work: Path) -> Path:
 def cell_count(path: Path) -> int:
     import gmsh
 
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.merge(str(path))
     count = sum(len(tags) for dim, tag in gmsh.model.getEntities(3)

@@ -124,7 +124,7 @@ def _two_bodies(path: Path) -> Any:
 
 def _gmsh_info(path: Path) -> dict[str, Any]:
     import gmsh
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.open(str(path))

@@ -60,7 +60,7 @@ TOP, SYMMETRY, CURVED = 1, 2, 3
 def half_roller(comm: MPI.Comm, h: float) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
     """Mesh the half-roller with tetrahedra of size ``h`` on rank 0 and distribute it."""
     if comm.rank == 0:
-        gmsh.initialize()
+        gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("half_roller")
         cylinder = gmsh.model.occ.addCylinder(0.0, 0.0, TOP_Z, 0.0, LENGTH, 0.0, R)

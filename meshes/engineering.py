@@ -55,7 +55,7 @@ class MeshInfo:
 
 
 def _start(name: str) -> None:
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add(name)
 

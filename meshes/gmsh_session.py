@@ -14,7 +14,7 @@ __all__ = ["add_physical_surfaces", "gmsh_session", "radial_size_field", "write_
 @contextmanager
 def gmsh_session(name: str) -> Iterator[None]:
     """gmsh initialized, quiet, with a new model ``name``; finalized on leaving (also on an error)."""
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add(name)

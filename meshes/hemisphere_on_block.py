@@ -45,7 +45,7 @@ def build(contact: float, path: Path | None = None, size: float = 0.3, radius: f
         growth: Growth of the element size per unit distance beyond that ball (None: (size − contact)/R).
     """
     R = radius
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("hemisphere_on_block")

@@ -25,7 +25,7 @@ TAGS = {"left": 1, "right": 2, "top": 3, "bottom": 4}
 
 def build(size: float, path: Path) -> None:
     zc = R + CLEARANCE
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("roller")
     occ = gmsh.model.occ

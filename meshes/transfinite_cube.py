@@ -20,7 +20,7 @@ def write_cube(path: str | Path, arrangement: str = "Left") -> Path:
     tetrahedra's faces)."""
     import gmsh
 
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         box = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)

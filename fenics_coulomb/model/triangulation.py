@@ -73,7 +73,8 @@ def _read_msh(path: Path) -> Array:
 
     own = not gmsh.isInitialized()
     if own:
-        gmsh.initialize(["-noenv"], readConfigFiles=False)
+        # not interruptible: gmsh would leave SIGINT at SIG_DFL (fenics_coulomb/scenes/meshes.py)
+        gmsh.initialize(["-noenv"], readConfigFiles=False, interruptible=False)
     terminal = gmsh.option.getNumber("General.Terminal")
     previous = gmsh.model.getCurrent() if not own else ""
     try:

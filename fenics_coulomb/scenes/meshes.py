@@ -117,7 +117,10 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
 
     message = ""
     if comm.rank == 0:
-        gmsh.initialize()
+        # not interruptible: gmsh's default sets SIGINT to SIG_DFL and its finalize() does not restore the
+        # previous handler (gmsh 4.13 keeps it in a local variable): Ctrl-C would kill rank 0 without the
+        # launcher's message and without keeping the earlier results
+        gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
         try:
             gmsh.merge(path)

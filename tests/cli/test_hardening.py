@@ -369,7 +369,7 @@ def test_surface_from_msh_leaves_the_callers_gmsh_session(tmp_path):
     """Surface("x.msh") finalized the caller's gmsh session (and replaced its model)."""
     import gmsh
 
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.add("mine")
@@ -389,7 +389,7 @@ def _gmsh_block(path: Path, gaps: bool) -> None:
     """A block [0, 1] x [0, 1] x [0, 0.5] as MSH 2.2 (bottom 1, top 2, volume 1); ``gaps``: node numbers doubled."""
     import gmsh
 
-    gmsh.initialize()
+    gmsh.initialize(interruptible=False)
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         gmsh.model.occ.addBox(0, 0, 0, 1, 1, 0.5)
