@@ -89,10 +89,15 @@ class SlidingSolve:
                            "sliding = \"finite\"", ", ".join(f"{c:.6g}" for c in where), ratio)
 
     def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Pairing | None = None) -> None:
-        """Evaluate the contact geometry in X + u; hand the solver the model's new Ã when it changed (collective)."""
+        """Evaluate the contact geometry in X + u (a converged solve's u: paired to its displacement error); hand
+        the solver the model's new Ã when it changed (collective)."""
         if u is not None and pairing is not None:
             self._remember_pairing(u, pairing)
-        if self.model.configure(u, pairing):
+        resolution = 0.0
+        if u is not None and pairing is None:
+            scale = self.model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
+            resolution = ERROR_PER_RTOL * self.settings.reduction * scale
+        if self.model.configure(u, pairing, resolution):
             self.solver.rebind()
             self.p = self.model.p
 

@@ -276,12 +276,13 @@ class ContactModel:
         f.x.scatter_forward()
         return np.array(f.x.array, dtype=np.float64)
 
-    def pair_in(self, u: npt.ArrayLike | None) -> Pairing | None:
+    def pair_in(self, u: npt.ArrayLike | None, resolution: float = 0.0) -> Pairing | None:
         """The pairing of the configuration X + u (``u`` the physical displacement of the owned DOFs; None:
-        the reference configuration), or None without contact pairs (collective)."""
-        return self.coupling.pair_in(self, u)
+        the reference configuration) known to ``resolution`` (its own displacement error, a length), or None
+        without contact pairs (collective)."""
+        return self.coupling.pair_in(self, u, resolution)
 
-    def configure(self, u: npt.ArrayLike | None, pairing: Pairing | None = None) -> bool:
+    def configure(self, u: npt.ArrayLike | None, pairing: Pairing | None = None, resolution: float = 0.0) -> bool:
         """Evaluate the contact geometry in the configuration X + u from now on (finite sliding; collective).
 
         The obstacles' gaps, normals and frames follow at the next :meth:`place`; contact pairs are paired again
@@ -291,13 +292,14 @@ class ContactModel:
         Args:
             u: The physical displacement of the owned DOFs; None for the reference configuration.
             pairing: The pairing of X + u, when known.
+            resolution: The displacement error of ``u`` (a length; 0: exact) the pairing is made to.
 
         Returns:
             Whether Ã and the contact nodes were rebuilt (contact pairs): a solver built on the old ones must be
             rebuilt.
         """
         self.configuration = None if u is None else self.ghosted(u)
-        return self.coupling.configure(self, u, pairing)
+        return self.coupling.configure(self, u, pairing, resolution)
 
     def near_nullspace(self) -> PETSc.NullSpace:
         """The near-nullspace for GAMG: the rigid modes of V, or (I − Φ) r_b per body for two bodies."""

@@ -124,18 +124,21 @@ class Coupling:
         """Set the gaps of the coupling's own contact nodes in ``model.contact`` (linearized about the model's
         configuration; collective)."""
 
-    def pair_in(self, model: ContactModel, u: npt.ArrayLike | None) -> Pairing | None:
-        """The pairing of X + u (None: the reference configuration), or None for one body (collective)."""
+    def pair_in(self, model: ContactModel, u: npt.ArrayLike | None, resolution: float = 0.0) -> Pairing | None:
+        """The pairing of X + u (None: the reference configuration) known to ``resolution`` (the configuration's
+        own displacement error), or None for one body (collective)."""
         return None
 
-    def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None) -> bool:
-        """Rebuild the coupling's geometry in X + u (``pairing`` when known); whether A and the contact nodes
-        changed (collective)."""
+    def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None,
+                  resolution: float = 0.0) -> bool:
+        """Rebuild the coupling's geometry in X + u (``pairing`` when known, else paired to ``resolution``);
+        whether A and the contact nodes changed (collective)."""
         return False
 
     def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
-                       pressed: npt.NDArray[np.bool_]) -> StencilChange:
-        """How the coupling's contact nodes change in X + u (collective; see :class:`StencilChange`)."""
+                       pressed: npt.NDArray[np.bool_], resolution: float = 0.0) -> StencilChange:
+        """How the coupling's contact nodes change in X + u, paired to ``resolution`` (collective; see
+        :class:`StencilChange`)."""
         size = model.contact.size
         return StencilChange(np.zeros(size, dtype=bool), np.zeros(size), np.zeros((0, 3)))
 

@@ -35,9 +35,9 @@ def slide(pc: str, monkeypatch: pytest.MonkeyPatch) -> dict:
     whether the solver's PETSc objects stayed, GAMG's interpolations after the press and at the end."""
     paired: list[bool] = []  # per configuration: whether the pairing of X + u came with it (no new pairing)
 
-    def configure(model: ContactModel, u: object, pairing: object = None) -> bool:
+    def configure(model: ContactModel, u: object, pairing: object = None, resolution: float = 0.0) -> bool:
         paired.append(pairing is not None)
-        return CONFIGURE(model, u, pairing)
+        return CONFIGURE(model, u, pairing, resolution)
 
     monkeypatch.setattr(ContactModel, "configure", configure)
     blocks = SlidingBlocks(MPI.COMM_WORLD, 0.5, rtol=RTOL, prefix=f"updates_{pc}_", settings={"pc": pc}, **SMALL)

@@ -277,23 +277,25 @@ class PairCoupling(Coupling):
             gap = gap - np.einsum("ij,ij->i", cmap.frames[self._paired][:, :, 2], w[cmap.local_dofs[self._paired]])
         cmap.gap[self._paired] = gap
 
-    def pair_in(self, model: ContactModel, u: npt.ArrayLike | None) -> Pairing:
+    def pair_in(self, model: ContactModel, u: npt.ArrayLike | None, resolution: float = 0.0) -> Pairing:
         """The pairing of X + u (``u`` the physical displacement of the owned DOFs; None: X), the obstacles' nodes
         merged (collective)."""
         if u is None:
             return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded), None)
         ug = model.ghosted(u)
         x = model.V.tabulate_dof_coordinates() + ug.reshape(-1, 3)
-        return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded, coordinates=x), ug)
+        return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded, coordinates=x,
+                                                resolution=resolution), ug)
 
-    def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None) -> bool:
-        self._adopt(model, pairing if pairing is not None else self.pair_in(model, u))
+    def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None,
+                  resolution: float = 0.0) -> bool:
+        self._adopt(model, pairing if pairing is not None else self.pair_in(model, u, resolution))
         return True
 
     def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
-                       pressed: npt.NDArray[np.bool_]) -> StencilChange:
+                       pressed: npt.NDArray[np.bool_], resolution: float = 0.0) -> StencilChange:
         assert self.pairing is not None
-        pairing, held = self.held_pairing(model, self.pair_in(model, u))  # as configure would make it
+        pairing, held = self.held_pairing(model, self.pair_in(model, u, resolution))  # as configure would make it
         return stencil_change(model, self.pairing, pairing, held, self._paired, u, z, previous, tolerance, pressed)
 
     # -- the change of variables ---------------------------------------------------------------------------

@@ -77,7 +77,8 @@ def _diagonal(comm: MPI.Comm, points: Array) -> tuple[Array, Array]:
 
 
 def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
-                  excluded: npt.NDArray[np.int32], coordinates: Array | None = None) -> Pairing:
+                  excluded: npt.NDArray[np.int32], coordinates: Array | None = None,
+                  resolution: float = 0.0) -> Pairing:
     """Pair the slave nodes of every contact pair with their master surfaces (see the module docstring).
 
     Collective.
@@ -90,6 +91,8 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         coordinates: The configuration to pair in: the position X + u of every local DOF block (owned and
             ghost), shape (number of blocks, 3); None for the reference configuration X. Only the reference
             configuration is checked for overlapping bodies (a deformed one is an iterate of finite sliding).
+        resolution: The configuration's own displacement error (a length; 0 for the reference configuration):
+            geometric decisions finer than it are not made (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
 
     Returns:
         The owned contact nodes of all pairs.
@@ -169,7 +172,8 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         stencils = pair_method(pair.method)(PairInput(
             comm=comm, label=pair.label, x=X_dofs, owned_slave=owned_slave,
             global_slave=imap.local_to_global(owned_slave).astype(np.int64), nodes=nodes, master=master,
-            size=facet_sizes(master), rank=facet_ranks(master), search=search, gather_slave=slave))
+            size=facet_sizes(master), rank=facet_ranks(master), search=search, gather_slave=slave,
+            resolution=resolution))
         g, contact, others, ro = stencils.gap, stencils.contact, stencils.others, stencils.projected
         # the other owned slave nodes over M (Dirichlet ones, beyond the search distance, mortar nodes not fully
         # covered): checked for penetration after a solve, with their node-to-surface projection

@@ -103,6 +103,15 @@ quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex
   more than the strip stays uncovered. The
   credit applies to facets below a covered fraction of 1 and never raises one above 1.
 
+  A deformed configuration X + u is known only to the displacement error ε of the solve that gave u (finite
+  sliding: ERROR_PER_RTOL × its reduction × |u|∞, a loose intermediate solve's too): two borders meant to coincide
+  lie up to 2ε apart by that error alone. The strip's width is therefore at least 2ε (still at most
+  ALIGNED_TOL · r_e): a decision finer than the configuration is not made. Measured: the block of
+  docs/verification/incline_two_bodies.toml on a 3× finer mesh (ν = 0: the exact u₂ is 0), GAMG's first loose
+  solve (reduction 3.2e-4) left u₂ errors that uncovered strips 4e-8 – 3e-7 wide (2.9e-6 – 1.7e-5 of the facets)
+  along the borders y = 0 and y = 1 where both bodies end; the geometry iteration dropped 12 nodes, then 48, and
+  settled on 108 contact nodes with 35 free nodes penetrating by 3 % of the push, where LU keeps all 156.
+
 Candidate master facets of a slave facet e: those facing it (n_m · n_c < 0 at the facets' centres, so the
 far side of a curved or thin master is never counted twice) whose centre lies within 2 r_e + r_m of p_e, the
 closest master point to e's centre (r the largest centre–vertex distance of a facet): every master facet
@@ -353,7 +362,8 @@ def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Arra
 
 
 def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tuple[Array, npt.NDArray[np.int64], Array],
-                 nodes: npt.NDArray[np.int64], vertex_closest: tuple[npt.NDArray[np.int64], Array]) -> MortarNodes:
+                 nodes: npt.NDArray[np.int64], vertex_closest: tuple[npt.NDArray[np.int64], Array],
+                 resolution: float = 0.0) -> MortarNodes:
     """The mortar data of the slave nodes ``nodes`` (global blocks) of one pair (see the module docstring).
 
     Args:
@@ -364,6 +374,9 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         vertex_closest: The closest master points (the node-to-surface projection) of the vertices of every slave
             facet at ``nodes``: their global blocks (sorted) and the points; a facet's anchor p_e (the candidate
             search) is the mean of its vertices' points.
+        resolution: The configuration's own displacement error (a length; 0 for the reference configuration): a
+            facet's uncovered border strip up to 2 × resolution wide is credited as covered (see "Coverage at
+            aligned borders").
 
     Raises:
         InputError: A projected quadrilateral that is not convex (the facet named by its centre).
@@ -502,7 +515,8 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     if parts["tilt"]:
         np.maximum.at(master_tilt, np.concatenate(parts["e"]), np.concatenate(parts["tilt"]))
     separation = np.abs(_dot(X - closest, nc[:, None])).max(axis=1)
-    width = np.minimum(separation * np.minimum(master_tilt + tilt, 1.0), ALIGNED_TOL * s_radius)
+    width = np.minimum(np.maximum(separation * np.minimum(master_tilt + tilt, 1.0), 2.0 * resolution),
+                       ALIGNED_TOL * s_radius)
     slack = width * polygon_perimeter(s_poly)
     fraction = np.where(fraction < 1.0, np.minimum(fraction + slack / np.maximum(s_area, np.finfo(float).tiny), 1.0),
                         fraction)

@@ -42,6 +42,9 @@ class PairInput:
             :func:`~fenics_coulomb.model.pairs.projection.project`).
         search: The search distance: the largest |g| of a contact node.
         gather_slave: The slave surface, gathered on every rank (collective; computed once, on the first call).
+        resolution: The configuration's own displacement error (a length; 0 for the reference configuration):
+            geometric decisions finer than it are not made (dual mortar: an uncovered border strip up to twice as
+            wide counts as covered, :func:`~fenics_coulomb.model.pairs.segmentation.mortar_nodes`).
     """
 
     comm: MPI.Comm
@@ -55,6 +58,7 @@ class PairInput:
     rank: npt.NDArray[np.intp]
     search: float
     gather_slave: Callable[[], Surface]
+    resolution: float = 0.0
 
 
 @dataclass
