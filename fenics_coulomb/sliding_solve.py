@@ -140,7 +140,9 @@ class SlidingSolve:
         while True:
             z = np.array(result.displacement, dtype=np.float64)
             u = model.physical(z)
-            step = iteration.after(u, z, reduction, result.iterations, result.states != OPEN)
+            ratio = result.residual_history[0] / result.target if result.residual_history and result.target > 0 \
+                else 0.0
+            step = iteration.after(u, z, reduction, result.iterations, result.states != OPEN, ratio)
             if step.change is not None:
                 logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
                              step.change.new_signature[:8], step.action)
