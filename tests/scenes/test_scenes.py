@@ -250,6 +250,7 @@ def test_shipped_demo_scenes_solve(name, mpi_tmp_path):
     assert scale > 0 and np.linalg.norm(total) <= 1e-6 * scale, total
     for pair in pairs:
         assert pair["balance"] < 1e-6
+    assert summary["rtol"] == summary["settings"]["rtol"]  # not a solve's carried past it (finite sliding)
     bound = PHYSICS_PER_RTOL * summary["rtol"]
     for key, value in summary["physics_checks"].items():
         if key != "contact_resultant":
