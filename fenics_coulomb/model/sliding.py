@@ -203,7 +203,7 @@ def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
 
 
 def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float,
-                    active: npt.NDArray[np.bool_] | None = None, resolution: float = 0.0) -> GeometryChange:
+                    active: npt.NDArray[np.bool_] | None = None, error: float = 0.0) -> GeometryChange:
     """Compare the contact geometry of X + u with the linearization the solve used (collective).
 
     Args:
@@ -215,8 +215,8 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         active: Per contact node of the model, whether the solution presses it (not open); None: every node.
             An open node whose gap in the new geometry is ≥ −ε is satisfied by the solution whatever its
             partner: its changes do not count (see the module docstring, "Open nodes").
-        resolution: The displacement error of ``u`` itself (a length: the solve's own, a loose one's too), the
-            resolution of the pairing of X + u (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
+        error: The relative displacement error of ``u`` itself (its solve's, a loose one's too): the pairing of
+            X + u is made to error·‖u‖_∞ (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
     """
     comm = model.comm
     cmap = model.contact
@@ -242,7 +242,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         dt = _tangential(n, v) - _tangential(n_old, v)
         delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt)), 0.0)
     r0 = model.V.dofmap.index_map.local_range[0]
-    pairs = model.coupling.stencil_change(model, u, z, previous, tolerance, pressed, resolution)  # its own nodes
+    pairs = model.coupling.stencil_change(model, u, z, previous, tolerance, pressed, error * scale)  # its own nodes
     moved[paired] = pairs.moved[paired]
     delta[paired] = pairs.delta[paired]
     gained_at = pairs.gained_at
@@ -362,9 +362,8 @@ class GeometryIteration:
             self.reduction = rtol
             return Step("continue", None, f"the start meets the loose reduction {reduction:.3g}: solved on to rtol "
                                           f"{rtol:g}")
-        scale = model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
         change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
-                                 self.error_per_rtol * reduction * scale)
+                                 self.error_per_rtol * reduction)
         self._solved.append((change.old_signature, u, reduction))
         if change.settled:
             if reduction <= rtol:
@@ -405,6 +404,7 @@ class GeometryIteration:
             return Step("fail", change, f"finite sliding: the contact geometry did not settle after "
                                         f"{self.updates} updates ({change.describe()})")
         if not change.changed:
+            scale = model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
             wanted = LOOSE_FACTOR * change.discrepancy / (self.error_per_rtol * scale) if scale > 0 else rtol
             self.reduction = min(self.reduction, rtol if wanted <= 10.0 * rtol else wanted)
         if 2 * self.updates >= MAX_GEOMETRY_UPDATES:
