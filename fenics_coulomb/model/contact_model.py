@@ -315,6 +315,11 @@ class ContactModel:
         (None for one body; owned by the model; collective the first time)."""
         return self.coupling.physical_stiffness(self)
 
+    def gamg_stiffness(self) -> PETSc.Mat:
+        """The matrix GAMG on the stiffness builds its hierarchy from: A, or a copy of it made non-singular for a
+        body held by contact alone (owned by the coupling; collective the first time)."""
+        return self.coupling.gamg_stiffness(self)
+
     @property
     def A_free(self) -> PETSc.Mat | None:
         """Two bodies: the stiffness without boundary conditions (None for one body)."""

@@ -20,6 +20,7 @@ coupling, M = I + Φ, is :class:`fenics_coulomb.model.pairs.coupling.PairCouplin
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -36,7 +37,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap
-from fenics_coulomb.model.nullspace import rigid_body_modes
+from fenics_coulomb.model.nullspace import HELD_BODY_SHIFT, free_rigid_motions, rigid_body_modes, shift_diagonal
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle
 from fenics_coulomb.model.reproducible import assemble_matrix
@@ -47,6 +48,8 @@ if TYPE_CHECKING:
     from fenics_coulomb.scd.records import SolveResult
 
 __all__ = ["Coupling", "IdentityCoupling", "StencilChange"]
+
+logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 Boundary = tuple[dolfinx.mesh.MeshTags, Sequence[int]]
@@ -161,6 +164,11 @@ class Coupling:
         owned by the coupling; collective)."""
         return None
 
+    def gamg_stiffness(self, model: ContactModel) -> PETSc.Mat:
+        """The matrix GAMG on the stiffness builds its hierarchy from: the solver's stiffness (owned by the model or
+        the coupling; collective)."""
+        return model.A
+
     def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
         """The rigid-body modes in the solver's unknown, for GAMG (the caller destroys it)."""
         raise NotImplementedError
@@ -231,7 +239,13 @@ class Coupling:
 
 class IdentityCoupling(Coupling):
     """One body (M = I): A with the Dirichlet rows and columns of the identity, l̃ by DOLFINx's lifting, the contact
-    nodes of the contact boundary against the obstacles."""
+    nodes of the contact boundary against the obstacles. A body whose supports leave rigid motions free (held by
+    contact alone) gives GAMG A with its diagonal raised by HELD_BODY_SHIFT (:meth:`gamg_stiffness`)."""
+
+    def __init__(self) -> None:
+        #: The number of rigid motions the supports leave free (known after :meth:`build`).
+        self.free_motions = 0
+        self._gamg_stiffness: PETSc.Mat | None = None
 
     def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
                  ) -> tuple[Any, list[int], Boundary | None]:
@@ -265,6 +279,10 @@ class IdentityCoupling(Coupling):
                                           model.obstacles, held=model.held)
         check_not_overlapping(model.obstacles, model.contact.coordinates, comm=model.comm)
         model.friction = model.friction_at_nodes(friction)
+        body = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts, dtype=np.int64)
+        self.free_motions = int(free_rigid_motions(model.V, body, 1, model.dirichlet_rows).free.sum())
+        if self.free_motions and model.comm.rank == 0:
+            logger.info("%d rigid motion(s) left free by the supports are held by contact alone", self.free_motions)
 
     def stiffness(self, model: ContactModel, prefix: str) -> PETSc.Mat:
         A = assemble_matrix(model.a, bcs=model.bcs)
@@ -287,8 +305,28 @@ class IdentityCoupling(Coupling):
     def relative(self, u: Array) -> Array:
         return np.array(u, dtype=np.float64)
 
+    def gamg_stiffness(self, model: ContactModel) -> PETSc.Mat:
+        """A, or for a body its supports do not hold (A singular: the contact rows hold it in the Newton matrix, GAMG's
+        coarsest factorization breaks down on A) a copy of A with the free rows' diagonal raised by HELD_BODY_SHIFT
+        (built once)."""
+        if not self.free_motions:
+            return model.A
+        if self._gamg_stiffness is None:
+            P = model.A.duplicate(copy=True)
+            P.setOptionsPrefix(f"{model.prefix}A_gamg_")
+            rows = np.ones(P.getLocalSize()[0], dtype=bool)
+            rows[model.dirichlet_rows] = False
+            shift_diagonal(P, rows, HELD_BODY_SHIFT)
+            self._gamg_stiffness = P
+        return self._gamg_stiffness
+
     def near_nullspace(self, V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
         return rigid_body_modes(V)
+
+    def destroy(self) -> None:
+        if self._gamg_stiffness is not None:
+            self._gamg_stiffness.destroy()
+            self._gamg_stiffness = None
 
     def balance_sum(self, model: ContactModel, residual: Array, contact_force: Array,
                     clamped_blocks: npt.NDArray[np.int32]) -> Array:

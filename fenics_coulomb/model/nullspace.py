@@ -1,14 +1,32 @@
-"""The rigid-body modes of a vector P1 space: the near-nullspace GAMG needs for elasticity."""
+"""The rigid-body modes of a vector P1 space: the near-nullspace GAMG needs for elasticity, the rigid motions a
+body's supports leave free, and the shift that lets GAMG factorize the stiffness of a body held by contact alone."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
 import dolfinx.la
 import numpy as np
+import numpy.typing as npt
 
-__all__ = ["rigid_body_modes"]
+__all__ = ["HELD_BODY_SHIFT", "FreeMotions", "free_rigid_motions", "rigid_body_modes", "rigid_modes_at",
+           "shift_diagonal"]
+
+Array = npt.NDArray[np.float64]
+
+#: The relative raise of the diagonal of the matrix GAMG is built on, on a body held by contact alone (its
+#: stiffness is singular: the Newton matrix holds its free rigid motions through the contact rows, which the
+#: stiffness does not have). Two bodies (docs/verification/incline_two_bodies.toml with --pc gamg): 0 and 1e-10
+#: break down (DIVERGED_BREAKDOWN in GAMG's coarsest LU, in Newton steps 5 and 17), 1e-8 and 1e-6 converge in 9
+#: Newton / 77 Krylov iterations. One body (docs/verification/incline.toml with --pc gamg): 0 breaks down in
+#: Newton step 10, 1e-6 converges (tests/problems/test_verification.py). Well below the smallest eigenvalue of an
+#: elastic body's stiffness relative to its diagonal, O((h/L)²), on any mesh up to a thousand cells across; a
+#: supported body is never shifted.
+HELD_BODY_SHIFT = 1e-6
 
 
 def rigid_body_modes(V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
@@ -37,3 +55,81 @@ def rigid_body_modes(V: dolfinx.fem.FunctionSpace) -> PETSc.NullSpace:
     vecs = [PETSc.Vec().createWithArray(v[:length], bsize=bs, comm=V.mesh.comm) for v in b]
     return PETSc.NullSpace().create(vectors=vecs, comm=V.mesh.comm)
 
+
+
+def rigid_modes_at(x: Array) -> Array:
+    """The six rigid modes at points x (m, 3) as an array (m, 3, 6): translations, then rotations about e1..e3
+    (the order of :func:`rigid_body_modes`' rotations is irrelevant here)."""
+    m = x.shape[0]
+    r = np.zeros((m, 3, 6))
+    r[:, 0, 0] = r[:, 1, 1] = r[:, 2, 2] = 1.0
+    r[:, 1, 3], r[:, 2, 3] = -x[:, 2], x[:, 1]    # rotation about e1: (0, −x3, x2)
+    r[:, 0, 4], r[:, 2, 4] = x[:, 2], -x[:, 0]    # about e2: (x3, 0, −x1)
+    r[:, 0, 5], r[:, 1, 5] = -x[:, 1], x[:, 0]    # about e3: (−x2, x1, 0)
+    return r
+
+
+@dataclass(frozen=True)
+class FreeMotions:
+    """The rigid motions the supports of each body leave free (:func:`free_rigid_motions`).
+
+    Attributes:
+        centroid: Each body's centroid in the reference configuration, shape (bodies, 3).
+        extent: Each body's largest distance of a node from its centroid, shape (bodies,).
+        eigenvectors: The eigenvectors of each body's support Gram matrix (columns, mode coefficients of
+            :func:`rigid_modes_at` at (x − centroid) / extent), shape (bodies, 6, 6).
+        free: Which of them the supports leave free, shape (bodies, 6).
+    """
+
+    centroid: Array
+    extent: Array
+    eigenvectors: Array
+    free: npt.NDArray[np.bool_]
+
+    @property
+    def supported(self) -> npt.NDArray[np.bool_]:
+        """Whether each body's supports hold all its rigid motions, shape (bodies,)."""
+        return np.asarray(~self.free.any(axis=1))
+
+
+def free_rigid_motions(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
+                       dirichlet: npt.NDArray[np.int32]) -> FreeMotions:
+    """The rigid motions the prescribed DOFs ``dirichlet`` (owned, unrolled local indices) leave free, per body
+    (``body``: the body of every local DOF block; collective, the same on every rank).
+
+    The rigid modes r of body b restricted to its prescribed DOFs give the Gram matrix G = Σ r_Dᵀ r_D (summed over
+    ranks; coordinates relative to the body's centroid, scaled by its size); its null space (eigenvalues ≤ 1e-10 ×
+    its trace) are the motions the supports leave free.
+    """
+    comm = V.mesh.comm
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    owned_body = body[:n]
+    sums = np.zeros((num_bodies, 4))
+    np.add.at(sums, owned_body, np.column_stack([x, np.ones(n)]))
+    comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+    centroid = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
+    extent: Array = np.zeros(num_bodies)
+    np.maximum.at(extent, owned_body, np.linalg.norm(x - centroid[owned_body], axis=1))
+    comm.Allreduce(MPI.IN_PLACE, extent, op=MPI.MAX)
+    extent = np.maximum(extent, np.finfo(float).tiny)
+    dirichlet = np.asarray(dirichlet)
+    blocks, comps = dirichlet // 3, dirichlet % 3
+    blocks, comps = blocks[blocks < n], comps[blocks < n]
+    b = owned_body[blocks]
+    rows = rigid_modes_at((x[blocks] - centroid[b]) / extent[b, None])[np.arange(blocks.size), comps]  # (k, 6)
+    gram = np.zeros((num_bodies, 6, 6))
+    np.add.at(gram, b, np.einsum("ka,kb->kab", rows, rows))
+    comm.Allreduce(MPI.IN_PLACE, gram, op=MPI.SUM)
+    eigenvalues, eigenvectors = np.linalg.eigh(gram)
+    floor = 1e-10 * np.maximum(np.trace(gram, axis1=1, axis2=2), 1.0)
+    return FreeMotions(centroid, extent, eigenvectors, eigenvalues <= floor[:, None])
+
+
+def shift_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.bool_], shift: float = HELD_BODY_SHIFT) -> None:
+    """Raise A's diagonal by ``shift`` of itself on the owned unrolled ``rows`` (a mask of the local rows; in place,
+    collective)."""
+    diagonal = A.getDiagonal()
+    diagonal.array[rows] *= 1.0 + shift
+    A.setDiagonal(diagonal, addv=PETSc.InsertMode.INSERT_VALUES)
+    diagonal.destroy()

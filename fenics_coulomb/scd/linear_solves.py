@@ -117,7 +117,7 @@ class NewtonLinearSolves:
             self._create_ksp()
             self.ksp.setTolerances(rtol=self.tol, max_it=self._max_it)
         else:
-            self.ksp.setOperators(self.M, self.A)
+            self.ksp.setOperators(self.M, self.model.gamg_stiffness())
             self.ksp.getPC().setReusePreconditioner(True)
 
     def _create_ksp(self) -> None:
@@ -131,7 +131,9 @@ class NewtonLinearSolves:
             if B is not None:
                 self._physical = PhysicalGAMG(B, self.model.variables, self.model.V, self.prefix)
         physical = self._physical if self.pc == "gamg" else None
-        self.ksp, self._nullspace = create_ksp(self.comm, self.M, self.A, self.model.V, self.pc, self.prefix,
+        # GAMG on the stiffness: A, or A made non-singular for a body held by contact alone
+        stiffness = self.model.gamg_stiffness() if self.pc == "gamg" and physical is None else self.A
+        self.ksp, self._nullspace = create_ksp(self.comm, self.M, stiffness, self.model.V, self.pc, self.prefix,
                                                settings.tol, settings.gmres_restart, settings.ksp_max_it,
                                                self.model.near_nullspace, physical)
         with self.petsc_options():

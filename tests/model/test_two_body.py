@@ -433,9 +433,9 @@ def test_a_body_held_by_contact_alone_that_lifts_off_is_named():
 
 def _grams(midpoints, normals):
     """G_c and G_r of check_rigid_support for facets (midpoints about the centroid, unit normals)."""
-    from fenics_coulomb.model.pairs.two_body import _modes_at
+    from fenics_coulomb.model.nullspace import rigid_modes_at
 
-    modes = _modes_at(midpoints)
+    modes = rigid_modes_at(midpoints)
     seen = np.einsum("fi,fia->fa", normals, modes)
     return np.einsum("fa,fb->ab", seen, seen), np.einsum("fia,fib->ab", modes, modes)
 

@@ -30,6 +30,7 @@ from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.coupling import Boundary, Coupling, StencilChange
 from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames
+from fenics_coulomb.model.nullspace import HELD_BODY_SHIFT, shift_diagonal
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 from fenics_coulomb.model.pairs.forces import pair_forces
@@ -50,12 +51,6 @@ logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
-#: The relative raise of the diagonal of the preconditioner's stiffness B on a body held by contact alone (its B is
-#: singular; :meth:`PairCoupling.physical_stiffness`). docs/verification/incline_two_bodies.toml with --pc gamg: 0
-#: and 1e-10 break down (DIVERGED_BREAKDOWN in GAMG's coarsest LU, in Newton steps 5 and 17), 1e-8 and 1e-6 converge
-#: in 9 Newton / 77 Krylov iterations; supported bodies are not shifted. Well below the smallest eigenvalue of an
-#: elastic body's stiffness relative to its diagonal, O((h/L)²), on any mesh up to a thousand cells across.
-HELD_BODY_SHIFT = 1e-6
 
 
 def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
@@ -319,10 +314,7 @@ class PairCoupling(Coupling):
                 n = model.V.dofmap.index_map.size_local
                 rows = np.repeat(np.isin(self.body_of_block[:n], held), 3)
                 rows[model.dirichlet_rows] = False
-                diagonal = B.getDiagonal()
-                diagonal.array[rows] *= 1.0 + HELD_BODY_SHIFT
-                B.setDiagonal(diagonal, addv=PETSc.InsertMode.INSERT_VALUES)
-                diagonal.destroy()
+                shift_diagonal(B, rows, HELD_BODY_SHIFT)
             self._physical_stiffness = B
         return self._physical_stiffness
 

@@ -63,6 +63,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import check_all
+from fenics_coulomb.model.nullspace import free_rigid_motions, rigid_modes_at
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.pairs.pair import ContactPair
@@ -123,18 +124,6 @@ def connected_bodies(V: dolfinx.fem.FunctionSpace) -> tuple[npt.NDArray[np.int64
     order = np.argsort(np.argsort(first))
     bodies = np.unique(order)
     return order[body].astype(np.int64), int(bodies.size)
-
-
-def _modes_at(x: Array) -> Array:
-    """The six rigid modes at points x (m, 3) as an array (m, 3, 6): translations, then rotations about e1..e3
-    (the order of :func:`fenics_coulomb.scd.preconditioner.rigid_body_modes`' rotations is irrelevant here)."""
-    m = x.shape[0]
-    r = np.zeros((m, 3, 6))
-    r[:, 0, 0] = r[:, 1, 1] = r[:, 2, 2] = 1.0
-    r[:, 1, 3], r[:, 2, 3] = -x[:, 2], x[:, 1]    # rotation about e1: (0, −x3, x2)
-    r[:, 0, 4], r[:, 2, 4] = x[:, 2], -x[:, 0]    # about e2: (x3, 0, −x1)
-    r[:, 0, 5], r[:, 1, 5] = -x[:, 1], x[:, 0]    # about e3: (−x2, x1, 0)
-    return r
 
 
 def _surface_normals(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], facet_tags: dolfinx.mesh.MeshTags,
@@ -224,29 +213,9 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     contact holds it only while the loads press it on: otherwise the solve fails (exit 3), as without support.
     """
     comm = V.mesh.comm
-    imap = V.dofmap.index_map
-    n = imap.size_local
-    x = V.tabulate_dof_coordinates()[:n]
-    owned_body = body[:n]
-    sums = np.zeros((num_bodies, 4))
-    np.add.at(sums, owned_body, np.column_stack([x, np.ones(n)]))
-    comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
-    centroid = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
-    extent: npt.NDArray[np.float64] = np.zeros(num_bodies)
-    np.maximum.at(extent, owned_body, np.linalg.norm(x - centroid[owned_body], axis=1))
-    comm.Allreduce(MPI.IN_PLACE, extent, op=MPI.MAX)
-    extent = np.maximum(extent, np.finfo(float).tiny)
-    blocks, comps = dirichlet // 3, dirichlet % 3
-    blocks, comps = blocks[blocks < n], comps[blocks < n]
-    b = owned_body[blocks]
-    rows = _modes_at((x[blocks] - centroid[b]) / extent[b, None])[np.arange(blocks.size), comps]  # (k, 6)
-    gram = np.zeros((num_bodies, 6, 6))
-    np.add.at(gram, b, np.einsum("ka,kb->kab", rows, rows))
-    comm.Allreduce(MPI.IN_PLACE, gram, op=MPI.SUM)
-    eigenvalues, eigenvectors = np.linalg.eigh(gram)
-    floor = 1e-10 * np.maximum(np.trace(gram, axis1=1, axis2=2), 1.0)
-    free = eigenvalues <= floor[:, None]  # (bodies, 6): the motions each body's supports leave free
-    supported = ~free.any(axis=1)
+    motions = free_rigid_motions(V, body, num_bodies, dirichlet)
+    centroid, extent, eigenvectors, free = motions.centroid, motions.extent, motions.eigenvectors, motions.free
+    supported = motions.supported
     normal_gram = np.zeros((num_bodies, 6, 6))  # G_c per body: Σ (n·r)ᵀ(n·r) over its held contact facets
     motion_gram = np.zeros((num_bodies, 6, 6))  # Σ rᵀr over the same facets: the motions' whole size there
     held_by: list[list[int]] = [[] for _ in range(num_bodies)]  # the pairs whose contact holds each body
@@ -259,7 +228,7 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
                 continue
             holds[this].append(index)
             fb, midpoint, normal = sides[this]
-            modes = _modes_at((midpoint - centroid[fb]) / extent[fb, None])
+            modes = rigid_modes_at((midpoint - centroid[fb]) / extent[fb, None])
             seen = np.einsum("fi,fia->fa", normal, modes)
             np.add.at(normal_gram, fb, np.einsum("fa,fb->fab", seen, seen))
             np.add.at(motion_gram, fb, np.einsum("fia,fib->fab", modes, modes))
@@ -344,7 +313,7 @@ def body_rigid_modes(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], 
     imap = V.dofmap.index_map
     n = imap.size_local
     x = V.tabulate_dof_coordinates()[:n]
-    modes = _modes_at(x)
+    modes = rigid_modes_at(x)
     owned_body = body[:n]
     vectors: list[PETSc.Vec] = []
     y = M.createVecRight()
