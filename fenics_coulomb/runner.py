@@ -10,7 +10,6 @@ write → print. Each returns the exit status."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import logging
 import time
 import xml.etree.ElementTree as ET
@@ -23,7 +22,7 @@ import dolfinx.fem
 import numpy as np
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.errors import EXIT_DIVERGED
+from fenics_coulomb.errors import EXIT_DIVERGED, EXIT_INPUT
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
 from fenics_coulomb.io.writer import PathResultSet, write_result_set
@@ -33,7 +32,7 @@ from fenics_coulomb.scenes.cuboid import expected_sizes
 from fenics_coulomb.scenes.nested import (NESTED_LEVEL_STEP, nested_levels, resolve_nested, solve_coarse_levels,
                                           start_from_coarse)
 from fenics_coulomb.scenes.scene import Scene
-from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_for_accuracy
+from fenics_coulomb.settings import ERROR_PER_RTOL, START_RULES, rtol_and_accuracy, rtol_for_accuracy
 
 if TYPE_CHECKING:
     from fenics_coulomb.scd.records import SolveResult
@@ -62,9 +61,6 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         raise InputError(f"--scene {args.scene!r}: give a scene file (TOML), or leave --scene out for the defaults")
     scene = Scene.from_toml(args.scene) if args.scene else Scene()
     _check_accuracy_and_rtol(scene, args)
-    if args.rtol is not None and scene.solver.accuracy is not None:
-        scene = dataclasses.replace(scene, solver=dataclasses.replace(scene.solver, accuracy=None),
-                                    given=scene.given - {"accuracy"})  # the flag replaces the scene's accuracy
     return scene.override(
         lev=args.lev, gap=args.gap, load=args.load, load_scale=args.load_scale, young=args.young,
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
@@ -83,8 +79,7 @@ def _check_accuracy_and_rtol(scene: Scene, args: argparse.Namespace) -> None:
         raise InputError(f"--rtol {rtol:g} and --accuracy {accuracy:g}: give one (--accuracy sets the residual "
                          f"reduction itself, rtol = accuracy/{ERROR_PER_RTOL:g})")
     if {"rtol", "accuracy"} <= scene.given and scene.solver.accuracy is not None:
-        raise InputError(f"[solver] rtol = {scene.solver.rtol!r} and accuracy = {scene.solver.accuracy!r}: give one "
-                         f"(accuracy sets the residual reduction itself, rtol = accuracy/{ERROR_PER_RTOL:g})")
+        raise InputError(rtol_and_accuracy(scene.solver.rtol, scene.solver.accuracy))
     if accuracy is not None and "rtol" in scene.given:
         logger.warning("--accuracy %g replaces the scene's rtol = %g (residual reduction %.3g)", accuracy,
                        scene.solver.rtol, rtol_for_accuracy(accuracy) if accuracy > 0 else float("nan"))
@@ -217,7 +212,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
     from fenics_coulomb.io.xdmf import read_displacement
-    from fenics_coulomb.scenes.path import obstacle_labels, run_path
+    from fenics_coulomb.scenes.path import INPUT_STOP, obstacle_labels, run_path
 
     out = prepare_output(comm, args.out)
     built = build_problem(scene, comm)
@@ -262,7 +257,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
                 out.failed = bool(failure)
-                path = {"solves": len(solves), "steps": solves[-1].step, "completed": len(records) - bool(failure),
+                path = {"solves": len(solves), "steps": solves[-1].step,
+                        "completed": len(records) - bool(failure and not failure.startswith(INPUT_STOP)),
                         "start_step": start_step, "start": scene.start if start_step is not None else None,
                         "ramp_steps": getattr(args, "steps", None)}
                 assert last is not None  # at least one solve ran
@@ -274,13 +270,19 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     finally:
         problem_logger.setLevel(level)
     status = 0
-    if failure:
+    refused = failure.startswith(INPUT_STOP)
+    if refused:
+        status = EXIT_INPUT
+        logger.error("fenics-coulomb: error: %s; the path stops (the %d of %d solves before it written, all "
+                     "converged)", failure, len(records), len(todo))
+    elif failure:
         status = EXIT_DIVERGED
         logger.error("fenics-coulomb: step %g of the load path did not converge: %s; the path stops (%d of %d "
                      "solves written, the last one NOT converged)", records[-1].time, failure, len(records),
                      len(todo))
     if comm.rank == 0:
-        ending = "load path completed" if not failure else f"load path STOPPED at step {records[-1].time:g}"
+        ending = "load path completed" if not failure else \
+            f"load path STOPPED {'after' if refused else 'at'} step {records[-1].time:g}"
         print(f"{ending}: "
               f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
               f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "

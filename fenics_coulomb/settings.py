@@ -14,7 +14,8 @@ from typing import Any
 from fenics_coulomb.errors import InputError
 
 __all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERROR_PER_RTOL", "INTEGER_BOUNDS",
-           "INTEGER_REASONS", "GAMMA_SCALE_RANGE", "rtol_for_accuracy", "SolverSettings", "setting_kinds"]
+           "INTEGER_REASONS", "GAMMA_SCALE_RANGE", "check_fixed_gamma", "rtol_and_accuracy", "rtol_for_accuracy",
+           "SolverSettings", "setting_kinds"]
 
 PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
@@ -39,8 +40,26 @@ INTEGER_REASONS = {
 }
 
 
-#: The range of gamma_scale (γ = gamma_scale · λ_max(A)): beyond it γ dwarfs or vanishes against the stiffness.
+#: The range of gamma_scale (γ = gamma_scale · λ_max(A)), of gamma_node_scale (γᵢ = κ·λ_max(Aᵢᵢ)) and of a fixed
+#: gamma relative to λ_max(A) (:func:`check_fixed_gamma`): beyond it γ dwarfs or vanishes against the stiffness.
 GAMMA_SCALE_RANGE = (1e-6, 1e6)
+
+
+def check_fixed_gamma(gamma: float, lambda_max: float) -> None:
+    """InputError unless a fixed ``gamma`` lies within GAMMA_SCALE_RANGE × λ_max(A) (``lambda_max``, the power
+    method's estimate: the same on every rank). γ has the stiffness' units, so its range is the stiffness': γ = 1e300
+    overflowed the residual's norm, γ = 1e-300 broke the line search down."""
+    low, high = (bound * lambda_max for bound in GAMMA_SCALE_RANGE)
+    if not low <= gamma <= high:
+        raise InputError(f"gamma = {gamma:g}: must lie in [{GAMMA_SCALE_RANGE[0]:g}, {GAMMA_SCALE_RANGE[1]:g}] x "
+                         f"lambda_max(A) = [{low:.6g}, {high:.6g}] (the stiffness' largest eigenvalue "
+                         f"{lambda_max:.6g}; or leave gamma unset and give gamma_scale)")
+
+
+def rtol_and_accuracy(rtol: float, accuracy: float) -> str:
+    """The message refusing both ``rtol`` and ``accuracy`` (the API's and the scene's)."""
+    return (f"rtol = {rtol!r} and accuracy = {accuracy!r}: give one (accuracy sets the residual reduction itself, "
+            f"rtol = accuracy/{ERROR_PER_RTOL:g})")
 
 
 def rtol_for_accuracy(accuracy: float) -> float:
@@ -95,6 +114,8 @@ def _check(name: str, value: Any, rule: Mapping[str, Any]) -> None:
 #: The options prefix of the command line's solver: every ``-coulomb_*`` PETSc option on the command line and the
 #: default ``petsc_options_prefix`` of the scenes' problems (the Python API requires its own).
 COMMAND_PREFIX = "coulomb_"
+#: The default residual reduction (``accuracy`` may be given only with it).
+_RTOL_DEFAULT = 1e-7
 
 
 @dataclass(frozen=True)
@@ -158,7 +179,7 @@ class SolverSettings:
     variant: str = _setting("4a", "str", choices=VARIANTS)
     tol: float = _setting(0.1, "number", low=0.0, high=1.0, bounds="()",
                           text="the linear-solve tolerance must lie in (0, 1)")
-    rtol: float = _setting(1e-7, "number", low=0.0, high=1.0, bounds="()",
+    rtol: float = _setting(_RTOL_DEFAULT, "number", low=0.0, high=1.0, bounds="()",
                            text="the residual reduction must lie in (0, 1)")
     accuracy: float | None = _setting(None, "number?", low=1e-13, high=1.0, bounds="[)",
                                       text="a relative displacement error in [1e-13, 1)")
@@ -168,8 +189,9 @@ class SolverSettings:
     gamma: float | None = _setting(None, "number?", low=0.0, bounds="(", text="must be finite and > 0")
     gamma_scale: float = _setting(0.01, "number", low=GAMMA_SCALE_RANGE[0], high=GAMMA_SCALE_RANGE[1], bounds="[]",
                                   text=f"must lie in [{GAMMA_SCALE_RANGE[0]:g}, {GAMMA_SCALE_RANGE[1]:g}]")
-    gamma_node_scale: float | None = _setting(0.5, "number?", low=0.0, bounds="(",
-                                              text="must be finite and > 0 (or none)")
+    gamma_node_scale: float | None = _setting(0.5, "number?", low=GAMMA_SCALE_RANGE[0], high=GAMMA_SCALE_RANGE[1],
+                                              bounds="[]", text=f"must lie in [{GAMMA_SCALE_RANGE[0]:g}, "
+                                              f"{GAMMA_SCALE_RANGE[1]:g}] (or none)")
     gmres_restart: int = _setting(100, "int")
     ksp_max_it: int = _setting(2000, "int")
     line_search_steps: int = _setting(20, "int")
@@ -196,6 +218,8 @@ class SolverSettings:
         (the API's, a scene's ``[solver]`` and the flags')."""
         for f in fields(self):
             _check(f.name, getattr(self, f.name), f.metadata)
+        if self.accuracy is not None and self.rtol != _RTOL_DEFAULT:
+            raise InputError(rtol_and_accuracy(self.rtol, self.accuracy))
         if self.variant == "4b" and self.pc == "hypre":
             raise InputError("preconditioner 'hypre' cannot apply its transpose, which variant 4b needs")
         if self.galerkin_coarse and (self.variant != "4a" or self.pc not in ("auto", "gamg")):

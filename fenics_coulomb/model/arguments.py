@@ -14,17 +14,23 @@ import ufl
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["SLIDING", "validate_friction", "validate_arguments", "function_space"]
+__all__ = ["SLIDING", "check_sliding", "validate_friction", "validate_arguments", "function_space"]
 
 #: The sliding models: "finite" evaluates the contact geometry in the deformed configuration X + u
 #: (:meth:`ContactModel.configure`), "small" once in the reference configuration X.
 SLIDING = ("finite", "small")
 
 
+def check_sliding(sliding: object) -> None:
+    """Raise InputError unless ``sliding`` is one of SLIDING (the API's and the scene's one message)."""
+    if not isinstance(sliding, str) or sliding not in SLIDING:
+        raise InputError(f"sliding = {sliding!r}: must be one of {', '.join(map(repr, SLIDING))}")
+
+
 def validate_friction(friction: float) -> None:
-    """Raise InputError unless 0 <= F < inf."""
-    if isinstance(friction, bool) or not isinstance(friction, int | float) or not (
-            np.isfinite(friction) and friction >= 0.0):
+    """Raise InputError unless 0 <= F < inf (a Python or NumPy real number)."""
+    if isinstance(friction, bool | np.bool_) or not isinstance(friction, int | float | np.integer | np.floating) or \
+            not (np.isfinite(friction) and friction >= 0.0):
         raise InputError(f"friction coefficient F = {friction!r}: must be finite and >= 0")
 
 

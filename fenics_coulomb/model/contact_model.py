@@ -54,7 +54,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.model.arguments import SLIDING, function_space, validate_arguments, validate_friction
+from fenics_coulomb.model.arguments import check_sliding, function_space, validate_arguments, validate_friction
 from fenics_coulomb.model.contact_map import ContactMap, held_blocks, hold
 from fenics_coulomb.model.coupling import Coupling, IdentityCoupling
 from fenics_coulomb.model.forces import block_to_scalar_dofs, boundary_areas
@@ -106,8 +106,7 @@ class ContactModel:
         contact_pairs: Sequence[ContactPair] | None = None,
         sliding: str = "finite",
     ) -> None:
-        if sliding not in SLIDING:
-            raise InputError(f"sliding = {sliding!r}: must be one of {list(SLIDING)}")
+        check_sliding(sliding)
         V = function_space(a)
         msh = V.mesh
         comm = msh.comm
@@ -401,7 +400,8 @@ class ContactModel:
             previous_obstacle_displacements: δ_{k−1} per obstacle, shape (number of obstacles, 3); None for 0.
         """
         obstacles = list(obstacles)
-        self.placement.check_motion(obstacles, previous_obstacle_displacements)
+        self.placement.check_motion(obstacles, previous_obstacle_displacements,
+                                    None if self.configuration is None else (self.V, self.configuration))
         if len(obstacles) != len(self.obstacles) or any(
                 o._at_rest() != p._at_rest() for o, p in zip(obstacles, self.obstacles)):
             raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")

@@ -16,8 +16,12 @@ their sum) is <= DEGENERATE·h³ after normalization.
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+
 from mpi4py import MPI
 
+import dolfinx.fem
 import dolfinx.geometry
 import dolfinx.mesh
 import numpy as np
@@ -25,7 +29,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import check_all
 
-__all__ = ["DEGENERATE", "BodyLocator", "check_mesh"]
+__all__ = ["DEGENERATE", "BodyLocator", "check_mesh", "displaced_geometry"]
 
 #: A cell whose (smallest corner) Jacobian determinant is at most this fraction of h³ is degenerate.
 DEGENERATE = 1e-10
@@ -112,6 +116,23 @@ def check_mesh(msh: dolfinx.mesh.Mesh) -> None:
     if everyone:
         message = min(everyone)[1]
     check_all(comm, not everyone, message)
+
+
+@contextlib.contextmanager
+def displaced_geometry(V: dolfinx.fem.FunctionSpace, u: npt.NDArray[np.float64]) -> Iterator[None]:
+    """The mesh of V with its nodes at X + u for the duration (``u``: the displacement of every local DOF of the P1/Q1
+    space V, owned and ghost, unrolled), its geometry restored bit for bit afterwards (not collective)."""
+    msh = V.mesh
+    x = msh.geometry.x
+    saved = np.array(x, copy=True)
+    cells = V.dofmap.list
+    nodes = np.empty(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, dtype=np.int64)
+    nodes[cells.ravel()] = msh.geometry.dofmap[: cells.shape[0]].ravel()  # P1 on a first-order mesh: node k ↔ DOF k
+    try:
+        x[nodes] = saved[nodes] + np.asarray(u, dtype=np.float64).reshape(-1, 3)
+        yield
+    finally:
+        x[:] = saved
 
 
 class BodyLocator:

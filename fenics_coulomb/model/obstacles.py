@@ -106,10 +106,9 @@ def _rotation(value: Any, owner: str) -> Rotation | None:
         return None
     if not isinstance(value, (list, tuple)) or len(value) != 3 or isinstance(value[0], (list, tuple, bool)):
         raise InputError(f"{owner}: rotation = {_show(value)}: give [angle_deg, [ax, ay, az], [cx, cy, cz]]")
-    try:
-        angle = float(value[0])
-    except (TypeError, ValueError):
-        raise InputError(f"{owner}: rotation = {_show(value)}: the angle must be a number") from None
+    if not isinstance(value[0], (int, float, np.integer, np.floating)) or isinstance(value[0], np.bool_):
+        raise InputError(f"{owner}: rotation = {_show(value)}: the angle must be a number")
+    angle = float(value[0])
     if not math.isfinite(angle):
         raise InputError(f"{owner}: rotation angle {_show(value[0])}: must be finite")
     return (angle, _unit(value[1], "rotation axis", owner), _vector(value[2], "rotation centre", owner))

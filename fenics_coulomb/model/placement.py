@@ -10,13 +10,14 @@ from typing import Any
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.contact_map import ContactMap
-from fenics_coulomb.model.mesh_checks import BodyLocator
+from fenics_coulomb.model.mesh_checks import BodyLocator, displaced_geometry
 from fenics_coulomb.model.obstacle_checks import check_solid_side, core_path, rotation_text
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 
@@ -98,8 +99,8 @@ class ObstaclePlacement:
         self._material_cache = (obstacle, np.array(x, copy=True), np.array(point, copy=True))
         return point
 
-    def check_motion(self, obstacles: Sequence[Obstacle],
-                     previous_displacements: Any) -> None:
+    def check_motion(self, obstacles: Sequence[Obstacle], previous_displacements: Any,
+                     configuration: tuple[dolfinx.fem.FunctionSpace, npt.NDArray[np.float64]] | None = None) -> None:
         """InputError on every rank (collective) for obstacles whose placement the contact nodes cannot see:
 
         * at the first placement, an obstacle at its scene position with the whole body inside it (a plane or an
@@ -110,7 +111,9 @@ class ObstaclePlacement:
           rotation (:func:`~fenics_coulomb.model.obstacle_checks.core_path`) — from the previous placement
           (``previous_displacements``: the previous obstacles, their δ, or None for the scene position): a buried
           obstacle, or one moved or turned across the body within one step, which the contact nodes, all on one
-          side, would not see.
+          side, would not see. The body is where the contact geometry is evaluated: ``configuration`` (V and the
+          displacement u of its local DOFs: the body at X + u, finite sliding at the start of a step) or the
+          reference configuration X (None).
         """
         if self._scene_obstacles is None:
             self._scene_obstacles = [o.moved(np.zeros(3)) for o in obstacles]
@@ -127,9 +130,18 @@ class ObstaclePlacement:
         key = (tuple(obstacles), previous_key)
         if self._motion_checked is not None and _same_placements(self._motion_checked, key):
             return
-        loc = self._locator
+        if configuration is None:
+            self._check_paths(obstacles, previous_displacements, self._locator)
+        else:
+            with displaced_geometry(*configuration):
+                self._check_paths(obstacles, previous_displacements, BodyLocator(self.mesh))
+        self._motion_checked = key
+
+    def _check_paths(self, obstacles: Sequence[Obstacle], previous_displacements: Any, loc: BodyLocator) -> None:
+        """InputError (collective) for the first obstacle whose core lies in the body ``loc`` locates, or passes
+        through it from its previous placement (:meth:`check_motion`)."""
         if previous_displacements is None:
-            before = list(self._scene_obstacles)
+            before = list(self._scene_obstacles or [])
         elif len(previous_displacements) and isinstance(previous_displacements[0], Obstacle):
             before = list(previous_displacements)
         else:
@@ -157,7 +169,6 @@ class ObstaclePlacement:
                 what = (f"its {core} lies inside the body at {where} (displacement {list(now)}): "
                         "an obstacle buried in the body, or indenting it too deep")
             raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
-        self._motion_checked = key
 
     def place(self, cmap: ContactMap, rigid: npt.NDArray[np.intp], obstacles: Sequence[Obstacle],
               configuration: npt.NDArray[np.float64] | None, previous_displacement: npt.NDArray[np.float64] | None,

@@ -49,7 +49,7 @@ from fenics_coulomb.scd.records import IterationRecord, SolveResult, global_stat
 from fenics_coulomb.scd.resolvent import classify, contact_states, resolvent
 from fenics_coulomb.scd.steps import STEPS
 from fenics_coulomb.scd.stopping import StoppingRule
-from fenics_coulomb.settings import COMMAND_PREFIX, SolverSettings
+from fenics_coulomb.settings import COMMAND_PREFIX, SolverSettings, check_fixed_gamma
 
 __all__ = ["line_search_steps", "Iterate", "Direction", "SCDNewtonSolver"]
 
@@ -121,6 +121,8 @@ class SCDNewtonSolver(NewtonLinearSolves):
             float(settings.gamma) if settings.gamma is not None
             else settings.gamma_scale * power_iteration(self.A, settings.power_iterations)
         )
+        if settings.gamma is not None:
+            check_fixed_gamma(self.gamma, power_iteration(self.A, settings.power_iterations))
         self.timings["gamma"] = time.perf_counter() - t0
 
         t0 = time.perf_counter()

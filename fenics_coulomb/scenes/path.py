@@ -43,9 +43,13 @@ from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scenes.scene import FREE, MAX_LOAD, PathStep, Scene
 
 __all__ = ["ZERO", "GROUP_KEYS", "LoadState", "scene_state", "zero_state", "step_state", "blend_vector", "PathSolve",
-           "plan", "obstacle_labels", "StepLoads", "StepRecord", "contact_groups", "remaining_time", "run_path"]
+           "plan", "obstacle_labels", "StepLoads", "StepRecord", "contact_groups", "remaining_time", "run_path",
+           "INPUT_STOP"]
 
 logger = logging.getLogger(__name__)
+
+#: How :func:`run_path`'s reason starts when a later solve's input (its placement) was refused.
+INPUT_STOP = "bad input at step "
 
 #: A traction: three components, each a number or a function of points x (shape (3, m)).
 Traction = tuple[Any, Any, Any]
@@ -431,7 +435,10 @@ def run_path(
 
     Returns:
         The records, the last solve's result (None if ``solves`` is empty) and "" or the reason the path
-        stopped.
+        stopped: a solve that did not converge (its record and result are the last), or, starting with
+        :data:`INPUT_STOP`, an InputError of a later solve's placement (an obstacle buried in or moved through the
+        body where the previous solve left it; the records and result are the solves before it). An InputError of
+        the first solve is raised.
     """
     from fenics_coulomb.report import make_report
 
@@ -445,10 +452,10 @@ def run_path(
         t0 = time.perf_counter()
         loads.apply(solve.start, solve.end, solve.weight)
         deltas, rotations = solve.obstacle_displacements, solve.obstacle_rotations
-        for j, (delta, rotation) in enumerate(zip(deltas, rotations, strict=True)):
-            problem.move(j, delta, rotation=rotation)
         failure = ""
         try:
+            for j, (delta, rotation) in enumerate(zip(deltas, rotations, strict=True)):
+                problem.move(j, delta, rotation=rotation)
             step_result: SolveResult
             _, step_result = problem.solve(u0 if i == 0 else None)
         except SolverError as err:
@@ -456,6 +463,10 @@ def run_path(
                 raise
             step_result = err.result
             failure = str(err)
+        except InputError as err:  # a placement only the body's configuration refuses: keep the steps before it
+            if not records:
+                raise
+            return records, result, f"{INPUT_STOP}{solve.step}: {err}"
         if not failure and not step_result.converged:
             failure = step_result.reason
         wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)

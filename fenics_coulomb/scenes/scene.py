@@ -251,8 +251,17 @@ class Scene:
             raise InputError(f"unknown scene setting {unknown[0]!r}")
         solver = {FLAGS[key][1]: value for key, value in flags.items()
                   if value is not None and FLAGS[key][0] == "solver"}
+        given = set(self.given)
+        # rtol and accuracy set one residual reduction: the one given here replaces the scene's other
+        if "rtol" in solver and "accuracy" not in solver and self.solver.accuracy is not None:
+            solver["accuracy"] = None
+            given.discard("accuracy")
+        if "accuracy" in solver and "rtol" not in solver:
+            solver["rtol"] = SolverSettings().rtol
+            given.discard("rtol")
         scene = dataclasses.replace(
-            self, body=dataclasses.replace(self.body), material=dataclasses.replace(self.material),
+            self, given=frozenset(given), body=dataclasses.replace(self.body),
+            material=dataclasses.replace(self.material),
             friction=dataclasses.replace(self.friction), load=dataclasses.replace(self.load),
             contact=dataclasses.replace(self.contact),
             solver=dataclasses.replace(self.solver, **solver) if solver else self.solver)  # frozen: shared

@@ -16,7 +16,7 @@ import numpy as np
 
 
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.arguments import SLIDING, validate_friction
+from fenics_coulomb.model.arguments import check_sliding, validate_friction
 from fenics_coulomb.model.materials import Material
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, LOAD_CASES, GapFunction
 from fenics_coulomb.scenes.expression import parse_gap_expression
@@ -227,8 +227,7 @@ class ContactSection:
     def validate(self) -> None:
         """Raise InputError naming the first bad value."""
         check_kinds("contact", self)
-        if self.sliding not in SLIDING:
-            raise InputError(f"[contact] sliding = {self.sliding!r}: must be one of {', '.join(SLIDING)}")
+        check_sliding(self.sliding)
 
 
 @dataclass

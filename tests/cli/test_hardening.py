@@ -103,6 +103,42 @@ def test_obstacles_the_contact_nodes_cannot_see_exit_2(mpi_tmp_path, capsys, cas
     assert not (mpi_tmp_path / "o").exists()
 
 
+#: The block free but for its right face, which a path slides by 0.9 along x1; a ball above it.
+SLID_BLOCK = ('[body]\nlev = 2\ngap = "0.0*x1"\nclamped = []\ncontact = ["{contact}"]\n[tractions]\n'
+              '[prescribed]\nright = [0.0, 0.0, 0.0]\n[[obstacle]]\nname = "ball"\ntype = "sphere"\n'
+              'center = {center}\nradius = {radius}\n[[path.step]]\nprescribed = {{ right = [0.9, 0.0, 0.0] }}\n'
+              '[[path.step]]\nprescribed = {{ right = [0.9, 0.0, 0.0] }}\nmove = {{ ball = {move} }}\n')
+
+
+def test_an_obstacle_moved_through_the_slid_body_keeps_the_steps_before(mpi_tmp_path, capsys):
+    """Finite sliding: the ball moved down through the block where step 1 slid it (x1 in [0.9, 2.9]), not where
+    it was (the reference block ends at x1 = 2 < 2.5): the reference check passed it and it ended buried in the
+    block with exit 0 and no contact. Now exit 2 naming the step and the obstacle, step 1 written."""
+    scene = shared(mpi_tmp_path / "t.toml", SLID_BLOCK.format(contact="top", center="[2.5, 0.5, 1.5]",
+                                                              radius=0.2, move="[0.0, 0.0, -1.0]"))
+    out = mpi_tmp_path / "t"
+    assert run("--scene", str(scene), "--out", str(out)) == EXIT_INPUT
+    lines = capsys.readouterr().err.strip().splitlines()
+    if MPI.COMM_WORLD.rank == 0:
+        assert len(lines) == 1 and "bad input at step 2" in lines[0] and "would pass through the body" in lines[0]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["path"]["completed"] == 1 and len(summary["steps"]) == 1 and summary["steps"][0]["converged"]
+
+
+def test_an_obstacle_clear_of_the_slid_body_is_not_refused(mpi_tmp_path):
+    """The ball brought down beside the block's left face where step 1 slid it (x1 = 0.9), 0.01 into it: the
+    reference block (x1 from 0) had it buried (exit 2); now it presses the face along +x1 (and drags it down by
+    friction, F = 0.23, as it comes down)."""
+    scene = shared(mpi_tmp_path / "t.toml", SLID_BLOCK.format(contact="left", center="[0.3, 0.5, 2.0]",
+                                                              radius=0.4, move="[0.21, 0.0, -1.5]"))
+    out = mpi_tmp_path / "t"
+    assert run("--scene", str(scene), "--out", str(out)) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    force = summary["contact_force"]
+    assert summary["contact_nodes"] >= 1 and force[0] > 0.05 and abs(force[1]) < 1e-4 * force[0]
+    assert force[2] < 0.0  # the cone at the node is among the physics checks of exit 0
+
+
 def test_a_closed_surface_pressed_in_still_solves(mpi_tmp_path):
     """The core check leaves a real indentation alone: the ball pressed 0.05 into the block (a sixth of its
     radius) solves, with a downward contact force."""
