@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.model.checks import physics_residuals
+from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.sliding import SMALL_SLIDE_WARNING, GeometryIteration, largest_slide
 from fenics_coulomb.scd.resolvent import OPEN
 from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
@@ -34,6 +34,18 @@ if TYPE_CHECKING:
 __all__ = ["SlidingSolve"]
 
 logger = logging.getLogger(__name__)
+
+
+def _join_histories(result: SolveResult, solves: list[SolveResult]) -> None:
+    """The residual histories and iteration records of every solve of a geometry iteration (``solves``, in order)
+    into ``result``, one after the other, with the solve of each history entry (``history_geometry``):
+    summary.json's newton_iterations counts them all, and so do its histories and convergence.csv."""
+    if len(solves) < 2:
+        return
+    records = [record for solve in solves for record in solve.records]  # result is solves[-1]: read, then set
+    history = [float(r) for solve in solves for r in solve.residual_history]
+    result.history_geometry = [g for g, solve in enumerate(solves) for _ in solve.residual_history]
+    result.records, result.residual_history = records, history
 
 
 class SlidingSolve:
@@ -137,6 +149,7 @@ class SlidingSolve:
         reduction = iteration.reduction
         result = self._solve_placed(self.initial_displacement(u0), reduction)
         newton, krylov = result.iterations, result.krylov_iterations
+        solves = [result]  # every solve of the geometry iteration: their histories, one after the other
         while True:
             z = np.array(result.displacement, dtype=np.float64)
             u = model.physical(z)
@@ -151,11 +164,15 @@ class SlidingSolve:
                     self._remember_pairing(u, step.change.pairing)  # the next step configures X + u first
                 break
             if step.action == "fail":
+                _join_histories(result, solves)
+                result.iterations, result.krylov_iterations = newton, krylov
                 result.geometry_updates = iteration.updates
                 result.converged, result.reason = False, "geometry"
                 result.checks = physics_residuals(model, z, balance=False, accuracy=self._accuracy(result))
                 self._finish(result)
-                raise SolverError(step.message, "geometry", result)
+                both = physics_failure({"obstacle_penetration": result.checks.get("obstacle_penetration", 0.0)},
+                                       self.settings.reduction)
+                raise SolverError(step.message + (f"; {both}" if both else ""), "geometry", result)
             if step.action == "update":
                 assert step.change is not None
                 self._configure(u, step.change.pairing)
@@ -169,10 +186,12 @@ class SlidingSolve:
             reduction = iteration.reduction
             earlier = result.timings
             result = self._solve_placed(start, reduction)
+            solves.append(result)
             newton, krylov = newton + result.iterations, krylov + result.krylov_iterations
             result.timings["total"] = result.timings.get("total", 0.0) + earlier.get("total", 0.0)  # every geometry
         result.geometry_updates = iteration.updates
         result.iterations, result.krylov_iterations = newton, krylov  # over every geometry of the solve
+        _join_histories(result, solves)
         # the answer's reduction is the iteration's rtol (a solve carried on past it to resolve an update does not
         # make the checks' bound or the reported rtol tighter than asked)
         result.rtol = max(result.rtol, self.settings.reduction)

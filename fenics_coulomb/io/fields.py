@@ -107,8 +107,10 @@ def stress_statistics(model: ContactModel, result: SolveResult) -> dict[str, Any
     S = mises.function_space
     owned = S.dofmap.index_map.size_local
     x = S.tabulate_dof_coordinates()[:owned]
-    principal = np.linalg.eigvalsh(sigma.x.array[: 9 * owned].reshape(-1, 3, 3))
-    shear = 0.5 * (principal[:, -1] - principal[:, 0])
+    tensors = sigma.x.array[: 9 * owned].reshape(-1, 3, 3)
+    finite = np.isfinite(tensors).all(axis=(1, 2))  # a diverged iterate's NaN: no eigenvalues, a NaN shear
+    principal = np.linalg.eigvalsh(np.where(finite[:, None, None], tensors, 0.0))
+    shear = np.where(finite, 0.5 * (principal[:, -1] - principal[:, 0]), np.nan)
     none = np.full(owned, -1, dtype=np.int64)
     out: dict[str, Any] = {}
     for key, values in (("max_von_mises", mises.x.array[:owned]), ("max_shear", shear)):
@@ -176,7 +178,7 @@ def contact_statistics(model: ContactModel, result: SolveResult) -> dict[str, An
 
     def entry(g: int) -> dict[str, Any]:
         return {"contact_area": float(totals[g, 0]), "contact_nodes": int(round(totals[g, 1])),
-                "peak_pressure": float(peaks[g]),
+                "peak_pressure": float(peaks[g]) + 0.0,  # no -0.0 (a pressure of -0 read as a tension)
                 "peak_pressure_at": None if peaks[g] <= 0.0 else [float(c) for c in where[g]]}
 
     def group_entry(g: int) -> dict[str, Any]:

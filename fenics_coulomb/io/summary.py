@@ -60,18 +60,27 @@ def write_summary(path: Path, data: dict[str, Any], comm: MPI.Comm) -> None:
 
 @rank0_file
 def write_convergence_csv(path: Path, result: SolveResult, comm: MPI.Comm) -> None:
-    """Per-iteration history as CSV on rank 0: residual, relative residual, step, Krylov, states."""
+    """Per-iteration history as CSV on rank 0: residual, relative residual, step, Krylov, states, and the solve of
+    finite sliding's geometry iteration each row belongs to (``geometry``; each solve starts with its own row 0,
+    the relative residual is relative to it)."""
     if comm.rank != 0:
         return
-    h0 = result.residual_history[0] if result.residual_history else 0.0
     lines = ["iteration,residual,relative_residual,step_length,krylov_iterations,open,stick,slip,forcing,"
-             "linear_residual"]
-    lines.append(f"0,{h0:.17g},1,,,,,,,")
-    for rec in result.records:
+             "linear_residual,geometry"]
+    history = list(result.residual_history) or [0.0]
+    solve_of = list(result.history_geometry) or [0] * len(history)  # one solve: one row 0
+    records = iter(result.records)
+    h0 = 0.0
+    for k, (residual, g) in enumerate(zip(history, solve_of, strict=True)):
+        if k == 0 or g != solve_of[k - 1]:  # a solve's initial residual
+            h0 = residual
+            lines.append(f"0,{h0:.17g},1,,,,,,,,{g}")
+            continue
+        rec = next(records)
         rel = rec.residual / h0 if h0 > 0 else 0.0
         lines.append(f"{rec.iteration},{rec.residual:.17g},{rel:.17g},{rec.step_length:.17g},"
                      f"{rec.krylov_iterations},{rec.open},{rec.stick},{rec.slip},{rec.forcing:.6g},"
-                     f"{rec.linear_residual:.6g}")
+                     f"{rec.linear_residual:.6g},{g}")
     path.write_text("\n".join(lines) + "\n")
 
 

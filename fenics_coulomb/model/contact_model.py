@@ -60,7 +60,7 @@ from fenics_coulomb.model.coupling import Coupling, IdentityCoupling
 from fenics_coulomb.model.forces import block_to_scalar_dofs, boundary_areas
 from fenics_coulomb.model.frames import local_shift, to_global
 from fenics_coulomb.model.mesh_checks import check_mesh
-from fenics_coulomb.model.obstacles import Obstacle
+from fenics_coulomb.model.obstacles import Obstacle, check_obstacle_names
 from fenics_coulomb.model.placement import ObstaclePlacement, previous_placements
 from fenics_coulomb.model.pairs import ContactPair, Pairing
 from fenics_coulomb.model.pairs.coupling import PairCoupling
@@ -141,6 +141,7 @@ class ContactModel:
         bad_obstacles = [o for o in self.obstacles if not isinstance(o, Obstacle)]
         if bad_obstacles:
             raise InputError(f"obstacles: {bad_obstacles[0]!r} is not a Plane, Sphere or Cylinder")
+        check_obstacle_names(self.obstacles)
         if not isinstance(friction, dolfinx.fem.Function):
             validate_friction(friction)
         if L is None:

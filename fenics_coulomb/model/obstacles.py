@@ -34,7 +34,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.frames import _E, _NOISE, _perpendicular, frames_from_normals
 
 __all__ = ["Obstacle", "Plane", "Sphere", "Cylinder", "DEFAULT_PLANE", "OBSTACLE_TYPES", "register_obstacle",
-           "closest_obstacle", "obstacle_from_dict", "obstacles_from_list", "obstacle_names"]
+           "closest_obstacle", "obstacle_from_dict", "obstacles_from_list", "obstacle_names", "check_obstacle_names"]
 
 Array = npt.NDArray[np.float64]
 Vector = tuple[float, float, float]
@@ -391,6 +391,17 @@ def obstacle_names(obstacles: Sequence[Obstacle]) -> list[str]:
     return [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(obstacles)]
 
 
+def check_obstacle_names(obstacles: Sequence[Obstacle], where: str = "obstacles") -> None:
+    """InputError unless the obstacles' output names (:func:`obstacle_names`) are distinct: a repeated name kept one
+    obstacle's entry in summary.json and the report and lost the other's force (pure)."""
+    names = obstacle_names(obstacles)
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            j = names.index(name)
+            raise InputError(f"{where}: obstacles {j + 1} and {i + 1} are both called {name!r} in the outputs (an "
+                             "unnamed obstacle is called '<type> <position>'): give them distinct names")
+
+
 def register_obstacle(cls: type[Obstacle], **checks: Callable[[Any, str], Any]) -> type[Obstacle]:
     """Make ``cls`` the ``[[obstacle]]`` type ``cls.kind``, with the checks of its own keys (``key=check(value,
     owner)``, applied on creation and to scene tables); a new obstacle type is its module and this call."""
@@ -476,11 +487,5 @@ def obstacles_from_list(tables: Iterable[Mapping[str, Any]]) -> list[Obstacle]:
     if isinstance(tables, Mapping) or isinstance(tables, (str, bytes)):
         raise InputError(f"obstacle = {_show(tables)}: must be an array of tables ([[obstacle]])")
     obstacles = [obstacle_from_dict(t, i + 1) for i, t in enumerate(tables)]
-    seen: set[str] = set()
-    for i, o in enumerate(obstacles):
-        name = getattr(o, "name", None)
-        if name is not None:
-            if name in seen:
-                raise InputError(f"[[obstacle]] {i + 1}: name {name!r} is used by an earlier obstacle")
-            seen.add(name)
+    check_obstacle_names(obstacles, "[[obstacle]]")
     return obstacles

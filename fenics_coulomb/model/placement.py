@@ -21,7 +21,12 @@ from fenics_coulomb.model.mesh_checks import BodyLocator, displaced_geometry
 from fenics_coulomb.model.obstacle_checks import check_solid_side, core_path, rotation_text
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 
-__all__ = ["ObstaclePlacement", "previous_placements"]
+__all__ = ["FARTHEST", "ObstaclePlacement", "previous_placements"]
+
+#: How far an obstacle may be placed or moved, in units of the body's size (its largest absolute coordinate): a
+#: node's gap to an obstacle at distance D carries a round-off of about 1e-16 D, and D = 1e12 sizes leaves 1e-4 of
+#: the body's size. A sphere at 1e200 gave a residual of inf - inf (NaN) and a traceback.
+FARTHEST = 1e12
 
 
 def previous_placements(obstacles: Sequence[Obstacle], previous: Any) -> list[Obstacle] | None:
@@ -115,6 +120,13 @@ class ObstaclePlacement:
           displacement u of its local DOFs: the body at X + u, finite sliding at the start of a step) or the
           reference configuration X (None).
         """
+        for k, obstacle in enumerate(obstacles):
+            far = max(max(abs(c) for c in obstacle.placed), max(abs(c) for c in obstacle.displacement))
+            if far > FARTHEST * self.size:
+                raise InputError(f"obstacle {k + 1} ({obstacle.label}): placed at {list(obstacle.placed)} "
+                                 f"(displacement {list(obstacle.displacement)}), {far / self.size:.3g} times the "
+                                 f"body's size {self.size:.6g}: farther than {FARTHEST:g} times it, where double "
+                                 "precision no longer resolves the body against it")
         if self._scene_obstacles is None:
             self._scene_obstacles = [o.moved(np.zeros(3)) for o in obstacles]
             check_solid_side(obstacles, self.mesh.geometry.x, self.comm, self.size)

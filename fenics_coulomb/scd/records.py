@@ -84,6 +84,9 @@ class SolveResult:
             that node (:func:`fenics_coulomb.model.sliding.largest_slide`); empty for finite sliding.
         free_penetration: Contact pairs: the free slave nodes (over a master surface, but no contact nodes) that
             penetrate it, ``{"nodes": count, "depth": deepest −g}``; empty when none does.
+        history_geometry: Finite sliding: the solve of the geometry iteration (0, 1, ...) each entry of
+            ``residual_history`` belongs to, whose histories follow one another there and in ``records`` (each
+            solve's first entry is its initial residual); empty: one solve.
     """
 
     u: Array
@@ -117,6 +120,7 @@ class SolveResult:
     geometry_updates: int = 0
     largest_slide: dict[str, Any] = field(default_factory=dict)
     free_penetration: dict[str, Any] = field(default_factory=dict)
+    history_geometry: list[int] = field(default_factory=list)
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes (collective)."""
@@ -136,6 +140,7 @@ class SolveResult:
             "step_lengths": [rec.step_length for rec in self.records],
             "krylov_history": [rec.krylov_iterations for rec in self.records],
             "forcing_history": [rec.forcing for rec in self.records],
+            "geometry_history": list(self.history_geometry) or [0] * len(self.residual_history),
             "wall_time_s": timings.get("total", 0.0),
             "state_counts": self.state_counts(comm),
             "gamma": self.gamma,

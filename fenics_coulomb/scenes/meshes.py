@@ -126,6 +126,10 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
             gmsh.merge(path)
             if not gmsh.model.getEntities(3):
                 message = f"mesh file {path!r} holds no volume (3D) entities"
+            elif not gmsh.model.getPhysicalGroups(3):
+                message = (f"mesh file {path!r} has no physical volume: name the body's volume(s) and the "
+                           "boundary surfaces [boundaries] refers to as gmsh physical groups "
+                           "(gmsh.model.addPhysicalGroup), and save them")
             else:
                 _number_nodes_continuously(gmsh)
                 unmatched = unmatched_surface_elements(gmsh)

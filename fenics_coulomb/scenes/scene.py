@@ -287,6 +287,12 @@ class Scene:
         if self.body.shape == "cuboid":
             names: dict[str, Any] = FACE_NAMES
             where = "does not exist on the cuboid (it has " + ", ".join(FACE_NAMES) + ")"
+            for table, given in (("[boundaries]", self.boundaries), ("[bodies]", self.bodies),
+                                 ("[material.NAME]", self.materials)):
+                if given:  # gmsh tags of a mesh body: the cuboid would ignore them (or fail on per-body materials)
+                    raise InputError(f"{table} ({', '.join(map(str, given))}) is for a mesh body (shape = 'mesh'): "
+                                     f"the cuboid is one body of one material with the faces "
+                                     f"{', '.join(FACE_NAMES)}")
         else:
             for name, tag in self.boundaries.items():
                 if isinstance(tag, bool) or not isinstance(tag, int):

@@ -82,6 +82,8 @@ OBSTACLES = {
     "sphere turned through": ('name = "b"\ntype = "sphere"\ncenter = [1, 0.5, 1.5]\nradius = 0.3\n'
                               '[[path.step]]\n[[path.step]]\nrotate = { b = [180, [0, 1, 0], [1, 0.5, 0.5]] }\n',
                               "its centre would pass through the body"),
+    # a sphere 1e200 away: the gaps overflowed the residual (NaN) and the stress statistics raised (exit 1)
+    "far away": ('type = "sphere"\ncenter = [1e200, 1e200, 1e200]\nradius = 1.0\n', "farther than 1e+12 times it"),
     # solid sides given as the body's side: "no contact", u = 0
     "plane facing away": ('type = "plane"\npoint = [0, 0, 1.0]\nnormal = [0, 0, 1]\ndisplacement = [0, 0, -0.01]\n',
                           "every node of the body lies inside the obstacle"),

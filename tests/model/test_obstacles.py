@@ -276,9 +276,13 @@ def test_bad_constructor_arguments_name_the_value():
         Cylinder(point=[0, 0, 0], axis=[1, 0, 0], radius=0)
     with pytest.raises(InputError, match="displacement"):
         Sphere(center=[0, 0, 0], radius=1).moved([0, np.nan, 0])
-    with pytest.raises(InputError, match="used by an earlier obstacle"):
+    with pytest.raises(InputError, match="obstacles 1 and 2 are both called 'a'"):
         obstacles_from_list([{"type": "sphere", "center": [0, 0, 0], "radius": 1, "name": "a"},
                              {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "name": "a"}])
+    # an unnamed obstacle's output name ("sphere 1") taken by a named one: summary.json kept one of the two
+    with pytest.raises(InputError, match="obstacles 1 and 2 are both called 'sphere 1'"):
+        obstacles_from_list([{"type": "sphere", "center": [0, 0, 0], "radius": 1},
+                             {"type": "plane", "point": [0, 0, 0], "normal": [0, 0, 1], "name": "sphere 1"}])
     with pytest.raises(InputError, match="array of tables"):
         obstacles_from_list({"type": "plane"})
     # tiny (but non-zero) vectors are directions

@@ -321,10 +321,11 @@ def test_pair_and_rigid_obstacle_agree_with_brute_force(friction):
 def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
     """The upper block's bottom is both the slave surface (gap 1e-3 to the lower block) and the contact boundary
     of a rigid plane: at 5e-4 below it the plane wins every node (the solve equals the one-body solve against
-    the plane), at 1.5e-3 below the pair wins every node (the solve equals the pair alone)."""
+    the plane), at 5.5e-3 below (beyond the press of 4e-3) the pair wins every node (the solve equals the pair
+    alone)."""
     V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_WORLD, top=(0.0, 0.0, -0.004))
     pair = ContactPair(ft, slave=SLAVE, master=MASTER)
-    for height, winner in ((5e-4, "plane"), (-5e-4, "pair")):
+    for height, winner in ((5e-4, "plane"), (-4.5e-3, "pair")):
         plane = Plane(point=[0.0, 0.0, height], normal=[0.0, 0.0, 1.0])
         with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), obstacles=[plane], contact_pairs=[pair],
                             settings=TIGHT, petsc_options_prefix="both_") as problem:
@@ -332,12 +333,32 @@ def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
             mask = problem.model.coupling.paired_mask(problem.model.contact.size)
             paired = MPI.COMM_WORLD.allreduce(int(np.sum(mask)), op=MPI.SUM)
             assert problem.p == 25 and paired == (25 if winner == "pair" else 0)
+            assert result.checks["obstacle_penetration"] == 0.0
             both = owned(problem)
         kwargs = dict(contact_pairs=[pair]) if winner == "pair" else dict(contact=(ft, [SLAVE]), obstacles=[plane])
         with ContactProblem(a, None, bcs, settings=TIGHT, petsc_options_prefix="one_", **kwargs) as problem:
             problem.solve()
             alone = owned(problem)
         assert global_norm(both - alone) <= 1e-10 * global_norm(alone), winner
+
+
+@pytest.mark.parametrize("sliding", ["small", "finite"])
+def test_a_node_that_must_meet_a_pair_and_an_obstacle_is_no_exit_0(sliding):
+    """The plane 5e-4 below the lower block's top (1.5e-3 below the slave surface, inside the partner body): the
+    pair wins (the smaller gap), the press takes the slave nodes through the plane, where a node would have to meet
+    both constraints. The smaller |g| kept the pair in every configuration and the solve passed with the nodes
+    2.2e-3 inside the plane (exit 0); now small sliding fails its physics check obstacle_penetration, finite sliding
+    alternates between the two (the smaller signed gap in each configuration) and fails naming it."""
+    from fenics_coulomb.errors import SolverError
+
+    V, ft, a, bcs, _ = pressed_blocks(MPI.COMM_WORLD, top=(0.0, 0.0, -0.004))
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER)
+    plane = Plane(point=[0.0, 0.0, -5e-4], normal=[0.0, 0.0, 1.0])
+    with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), obstacles=[plane], contact_pairs=[pair],
+                        settings=TIGHT, sliding=sliding, petsc_options_prefix="inside_") as problem:
+        with pytest.raises(SolverError, match="obstacle_penetration residual") as failure:
+            problem.solve()
+        assert failure.value.reason == ("physics_check" if sliding == "small" else "geometry")
 
 
 def test_free_slave_nodes_that_penetrate_are_counted():

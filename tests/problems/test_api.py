@@ -334,3 +334,8 @@ def test_obstacle_plane_from_obstacles_module():
         assert np.allclose(tilted_problem.model.contact.normals, nu, rtol=0, atol=1e-15)
     with pytest.raises(InputError, match="obstacles"):
         user_problem(comm, cells=(4, 2, 2), obstacles=["plane"])
+    # the API took two obstacles of one name, and the report kept one of them (the scene refused it)
+    twins = [Plane(point=[0, 0, -0.01], normal=[0, 0, 1], name="x"), Plane(point=[0, 0, 2], normal=[0, 0, -1],
+                                                                            name="x")]
+    with pytest.raises(InputError, match="obstacles 1 and 2 are both called 'x'"):
+        user_problem(comm, cells=(4, 2, 2), obstacles=twins)

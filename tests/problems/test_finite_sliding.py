@@ -141,6 +141,16 @@ def test_the_slide_off_demo_scene(mpi_tmp_path):
     nodes = [s["state_counts"]["slip"] + s["state_counts"]["stick"] for s in finite]
     assert nodes[0] > nodes[-1] and finite[-1]["contact_force"][2] < 0.7 * finite[0]["contact_force"][2]
     assert all(s["geometry_updates"] >= 1 for s in finite[1:5]) and finite[-1]["geometry_updates"] == 0
+    # the Newton iterations of every solve of the geometry iteration are in the histories (only the last solve's
+    # were, so that summary.json's newton_iterations disagreed with residual_history and convergence.csv)
+    assert all(len(s["residual_history"]) - s["newton_iterations"] >= s["geometry_updates"] + 1 for s in finite)
+    last = json.loads((mpi_tmp_path / "finite" / "summary.json").read_text())
+    solves = last["geometry_history"]
+    assert len(solves) == len(last["residual_history"]) == last["newton_iterations"] + max(solves) + 1
+    assert solves == sorted(solves) and max(solves) >= last["geometry_updates"]
+    rows = (mpi_tmp_path / "finite" / "convergence.csv").read_text().strip().splitlines()[1:]
+    assert len(rows) == len(last["residual_history"])
+    assert [float(r.split(",")[1]) for r in rows] == pytest.approx(last["residual_history"], rel=1e-15)
     small = runs["small"]["steps"]
     assert all(s["state_counts"]["slip"] + s["state_counts"]["stick"] == nodes[0] for s in small)
     assert abs(small[-1]["contact_force"][2] / small[0]["contact_force"][2] - 1) < 1e-3

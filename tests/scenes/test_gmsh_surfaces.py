@@ -87,3 +87,25 @@ def test_the_command_refuses_an_unmatched_surface(arrangement, mpi_tmp_path, cap
     else:
         assert lines == [], lines
     assert not (mpi_tmp_path / "out").exists()
+
+
+def test_a_mesh_without_physical_groups_is_refused(mpi_tmp_path) -> None:
+    """A box meshed and saved without gmsh.model.addPhysicalGroup: DOLFINx's model_to_mesh raised an IndexError on
+    rank 0 (a traceback, exit 1); now an InputError on every rank naming the file and the fix."""
+    import gmsh
+
+    comm = MPI.COMM_WORLD
+    path = str(mpi_tmp_path / "bare.msh")
+    if comm.rank == 0:
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.mesh.generate(3)
+        gmsh.option.setNumber("Mesh.SaveAll", 1)
+        gmsh.write(path)
+        gmsh.finalize()
+    comm.barrier()
+    with pytest.raises(InputError, match=r"bare.msh' has no physical volume: name the body's volume"):
+        read_gmsh_tags(path, comm)

@@ -88,6 +88,10 @@ def test_expression_rejects(text):
         ("[body]\nshape = 'mesh'\nmesh = 'missing.msh'\n", "missing.msh"),
         ("[solver]\npc = 'magic'\n", "magic"),
         ("[solver]\nstart = 'nowhere.xdmf'\n", "nowhere.xdmf"),
+        # gmsh tags on the cuboid: ignored (exit 0), or per-body materials failing an assertion (exit 1)
+        ("[body]\nlev = 1\n[boundaries]\nbottom = 7\n", r"\[boundaries\] \(bottom\) is for a mesh body"),
+        ("[body]\nlev = 1\n[bodies]\nb = 1\n", r"\[bodies\] \(b\) is for a mesh body"),
+        ("[body]\nlev = 1\n[bodies]\nb = 1\n[material.b]\nyoung = 200.0\npoisson = 0.3\n", "is for a mesh body"),
     ],
 )
 def test_bad_scene_files(text, message, mpi_tmp_path, capsys):

@@ -5,7 +5,7 @@ obstacles' contact nodes into the model's contact map, and the outputs of pairs 
 
 Construction (:meth:`PairCoupling.build`): the bodies and their supports, A_free and the obstacles' contact nodes
 once; then the pairing of the reference configuration. A node that is both a paired slave node and an obstacle
-contact node belongs to the one with the smaller |g| (ties: the pair); obstacle nodes keep z = u (no row of Φ).
+contact node belongs to the one with the smaller signed gap (ties: the pair); obstacle nodes keep z = u (no row of Φ).
 Finite sliding pairs again in X + u (:meth:`PairCoupling.configure`) and rebuilds M, Ã, l̃ and the contact map.
 """
 
@@ -143,8 +143,9 @@ class PairCoupling(Coupling):
 
     def _merge(self, model: ContactModel, pairing: Pairing, u: Array | None) -> Pairing:
         """The pairing without the nodes that belong to a rigid obstacle: a node that is both a paired slave node
-        and an obstacle contact node belongs to the one with the smaller |g| in X + u (``u`` ghosted, None: X;
-        ties: the pair; collective)."""
+        and an obstacle contact node belongs to the one with the smaller signed gap g in X + u (``u`` ghosted,
+        None: X; ties: the pair; collective): the constraint it meets first, or violates more. (The smaller |g|
+        handed a node pressed onto its master (g ≈ 0) to the pair while it was 2.2e-3 inside a rigid plane, exit 0.)"""
         obstacle_map = self._obstacle_map
         if obstacle_map is None:
             return pairing
@@ -153,7 +154,7 @@ class PairCoupling(Coupling):
         both_p = np.isin(pairing.blocks, obstacle_map.blocks)
         where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
         lose = np.zeros(pairing.blocks.size, dtype=bool)
-        lose[np.flatnonzero(both_p)] = np.abs(obstacle_gap[where]) < np.abs(pairing.gap[both_p])
+        lose[np.flatnonzero(both_p)] = obstacle_gap[where] < pairing.gap[both_p]
         return pairing.subset(~lose, model.comm)
 
     def _adopt(self, model: ContactModel, pairing: Pairing) -> None:
@@ -434,6 +435,22 @@ class PairCoupling(Coupling):
 
     def free_slave_depth(self, model: ContactModel, u: Array) -> float:
         return self._free_penetration(model, u)[1]
+
+    def obstacle_depth(self, model: ContactModel, u: Array) -> float:
+        """A node meets one constraint: the merge gives a node on a pair's slave surface and the obstacles' contact
+        boundary to the smaller gap. Where it must meet both (a rigid obstacle reaching into its partner body), the
+        other is not enforced: this measures it (collective)."""
+        obstacle_map = self._obstacle_map
+        if obstacle_map is None or self.pairing is None:
+            return 0.0
+        taken = np.isin(obstacle_map.blocks, self.pairing.blocks)
+        depth = 0.0
+        if model.comm.allreduce(bool(np.any(taken)), op=MPI.LOR):
+            blocks = obstacle_map.blocks[taken]
+            ug = model.ghosted(u).reshape(-1, 3)
+            _, gap, _, _ = closest_obstacle(model.obstacles, obstacle_map.coordinates[taken] + ug[blocks])
+            depth = float(np.max(-gap, initial=0.0))
+        return float(model.comm.allreduce(depth, op=MPI.MAX))
 
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""
