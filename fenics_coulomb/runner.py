@@ -22,7 +22,7 @@ import dolfinx.fem
 import numpy as np
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.errors import EXIT_DIVERGED, EXIT_INPUT
+from fenics_coulomb.errors import EXIT_DIVERGED
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
 from fenics_coulomb.io.writer import PathResultSet, write_result_set
@@ -199,11 +199,40 @@ def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace)
                     message = f"its step {start_step} did not converge"
             except (OSError, ValueError, KeyError, ET.ParseError) as err:
                 message = f"no step {start_step} in it ({err})"
+            if not message:
+                message = _other_path(Path(scene.start), scene, steps)
             if message:
                 message = f"--start {scene.start!r} --start-step {start_step}: {message}"
         message = comm.bcast(message, root=0)
         check_all(comm, not message, message)
     return solves
+
+
+#: The parts of a scene a resumed path may change: how it is solved, not what is solved.
+RESUMABLE_CHANGES = ("solver", "start", "given")
+
+
+def _other_path(start: Path, scene: Scene, steps: int | None) -> str:
+    """"" when the result set of ``start`` (its summary.json beside it) was written by the same load path as
+    ``scene`` with ``--steps`` ``steps`` — the same scene but for RESUMABLE_CHANGES —, else what differs (rank 0)."""
+    import json
+
+    summary = start.with_name("summary.json")
+    try:
+        earlier = json.loads(summary.read_text())
+    except (OSError, ValueError) as err:
+        return f"its result set has no readable summary.json ({err}), which says what path it belongs to"
+    before, now = earlier.get("scene"), json.loads(json.dumps(scene.as_dict()))  # JSON's own types on both sides
+    if not isinstance(before, dict):
+        return "its summary.json holds no scene"
+    for key in sorted(set(before) | set(now)):
+        if key not in RESUMABLE_CHANGES and before.get(key) != now.get(key):
+            return (f"the earlier path is another scene: its [{key}] is {json.dumps(before.get(key))[:120]}, this "
+                    f"scene's {json.dumps(now.get(key))[:120]} (a resumed path may change [solver] only)")
+    ramp = (earlier.get("path") or {}).get("ramp_steps")
+    if ramp != steps:
+        return f"the earlier path ran with --steps {ramp}, this one with --steps {steps}"
+    return ""
 
 
 def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves: list, t0: float) -> int:
@@ -271,11 +300,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
         problem_logger.setLevel(level)
     status = 0
     refused = failure.startswith(INPUT_STOP)
-    if refused:
-        status = EXIT_INPUT
-        logger.error("fenics-coulomb: error: %s; the path stops (the %d of %d solves before it written, all "
-                     "converged)", failure, len(records), len(todo))
-    elif failure:
+    if failure and not refused:
         status = EXIT_DIVERGED
         logger.error("fenics-coulomb: step %g of the load path did not converge: %s; the path stops (%d of %d "
                      "solves written, the last one NOT converged)", records[-1].time, failure, len(records),
@@ -289,6 +314,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
               f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
         print("\n".join(f"last step: {line}" for line in force_lines(data, scene)), flush=True)
         print("\n".join(f"last step: {line}" for line in contact_lines(data)), flush=True)
+    if refused:  # the command's one error line (exit 2), after the result set of the solves before it
+        raise InputError(f"{failure}; the path stops: the {len(records)} solve(s) before it are written, converged")
     return status
 
 

@@ -84,14 +84,18 @@ def plot_contact_states(
     ``labels``) coloured by state to ``path``."""
     plt = _pyplot()
     extent = np.ptp(coordinates[:, :2], axis=0) if coordinates.size else np.ones(2)
-    aspect = extent[1] / max(extent[0], 1e-12)
+    longest = max(float(extent.max()), np.finfo(float).tiny)
+    # nodes on a line (one extent ~0) are drawn along it unscaled: their aspect made a 960 x 270 919 285 figure
+    flat = float(extent.min()) < 1e-3 * longest
+    aspect = 0.3 if flat else float(np.clip(extent[1] / extent[0], 0.05, 4.0))
     fig, ax = plt.subplots(figsize=(8, max(2.5, 8 * aspect) + 0.8))
     size = float(np.clip(20000.0 / max(states.size, 1), 2.0, 60.0))
     for state, (label, colour) in STATE_COLOURS.items():
         mask = states == state
         ax.scatter(coordinates[mask, 0], coordinates[mask, 1], s=size, c=colour, marker="s",
                    label=f"{label} ({int(mask.sum())})", edgecolors="none")
-    ax.set_aspect("equal")
+    if not flat:
+        ax.set_aspect("equal")
     ax.set_xlabel(labels[0])
     ax.set_ylabel(labels[1])
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=3, frameon=False)

@@ -226,7 +226,8 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
             cause = ("rtol or accuracy too loose for any check to pass: tighten it" if bound < PHYSICS_PER_RTOL * rtol
                      else "no contact node of the pairs carries a force while slave nodes beyond the search distance "
                      "or not fully covered by the master (mortar) penetrate it: make the smaller surface the slave, "
-                     "or enlarge search_distance" if key == "free_penetration"
+                     "enlarge search_distance, or, for a slave that rests on the master's border (mortar drops the "
+                     "nodes whose facets reach past it), use method = 'node-to-surface'" if key == "free_penetration"
                      else "slave nodes of a pair end inside a rigid obstacle: a node meets one constraint, the pair or "
                      "the obstacle with the smaller gap, and here it must meet both (an obstacle reaching into the "
                      "pair's partner body): move the obstacle, or leave the pair's slave surface off the obstacles' "

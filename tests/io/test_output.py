@@ -316,6 +316,22 @@ def test_the_state_legend_survives_a_round_patch(tmp_path):
     assert np.all(image[-5:] > 0.95)  # nothing drawn on the last rows
 
 
+@pytest.mark.parametrize("axis", [0, 1])
+def test_the_states_of_nodes_on_a_line_are_drawn(tmp_path, axis):
+    """Contact nodes on one line (a body's edge on a cylinder): the equal aspect made a 960 x 270 919 285 pixel
+    figure, and contact_states.png was not written. Now a figure of ordinary size with every node."""
+    import matplotlib.image
+
+    if MPI.COMM_WORLD.rank:
+        return
+    xy = np.zeros((11, 2))
+    xy[:, axis] = np.linspace(0.0, 1.0, 11)
+    png = tmp_path / "line.png"
+    figures.plot_contact_states(xy, np.ones(11, dtype=np.int8), png, "line")
+    image = matplotlib.image.imread(png)
+    assert 100 < image.shape[0] < 2000 and 100 < image.shape[1] < 2000
+
+
 def test_the_pressure_map_zooms_onto_the_patch(tmp_path):
     """contact_pressure.png of a small round patch on a large contact surface shows the patch: a square window
     holding every node in contact, a fraction of the surface wide; without contact the whole surface."""
