@@ -10,11 +10,12 @@ write → print. Each returns the exit status."""
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
@@ -200,7 +201,7 @@ def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace)
             except (OSError, ValueError, KeyError, ET.ParseError) as err:
                 message = f"no step {start_step} in it ({err})"
             if not message:
-                message = _other_path(Path(scene.start), scene, steps)
+                message = _other_path(Path(scene.start), scene, steps, start_step)
             if message:
                 message = f"--start {scene.start!r} --start-step {start_step}: {message}"
         message = comm.bcast(message, root=0)
@@ -208,27 +209,58 @@ def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace)
     return solves
 
 
-#: The parts of a scene a resumed path may change: how it is solved, not what is solved.
-RESUMABLE_CHANGES = ("solver", "start", "given")
+#: The parts of a scene a resumed path may change: how it is solved, its name, not what is solved.
+RESUMABLE_CHANGES = ("solver", "start", "given", "name")
 
 
-def _other_path(start: Path, scene: Scene, steps: int | None) -> str:
+def _first_difference(before: Any, now: Any, where: str) -> str:
+    """Where two JSON values first differ, as "where: before against now" ("" when equal)."""
+    if isinstance(before, dict) and isinstance(now, dict):
+        for key in sorted(set(before) | set(now)):
+            found = _first_difference(before.get(key), now.get(key), f"{where}.{key}")
+            if found:
+                return found
+        return ""
+    if isinstance(before, list) and isinstance(now, list) and len(before) == len(now):
+        for i, (a, b) in enumerate(zip(before, now, strict=True)):
+            found = _first_difference(a, b, f"{where}[{i}]")
+            if found:
+                return found
+        return ""
+    return "" if before == now else f"{where} = {json.dumps(before)[:80]} there, {json.dumps(now)[:80]} here"
+
+
+def _comparable(scene: dict[str, Any], steps_done: int) -> dict[str, Any]:
+    """A scene's summary.json entry as a resumed path compares it: without RESUMABLE_CHANGES, files by their name
+    (a path is relative to where the command ran), the steps after the resumed one left out (they may change)."""
+    data = {key: value for key, value in scene.items() if key not in RESUMABLE_CHANGES}
+    data = json.loads(json.dumps(data))
+    if isinstance(data.get("body"), dict) and data["body"].get("mesh"):
+        data["body"]["mesh"] = Path(str(data["body"]["mesh"])).name
+    for obstacle in data.get("obstacles") or []:
+        if isinstance(obstacle, dict) and obstacle.get("file"):
+            obstacle["file"] = Path(str(obstacle["file"])).name
+    if isinstance(data.get("path"), list):
+        data["path"] = data["path"][:steps_done]
+    return data
+
+
+def _other_path(start: Path, scene: Scene, steps: int | None, start_step: int) -> str:
     """"" when the result set of ``start`` (its summary.json beside it) was written by the same load path as
-    ``scene`` with ``--steps`` ``steps`` — the same scene but for RESUMABLE_CHANGES —, else what differs (rank 0)."""
-    import json
-
+    ``scene`` with ``--steps`` ``steps`` up to its step ``start_step`` (:func:`_comparable`), else what differs
+    (rank 0)."""
     summary = start.with_name("summary.json")
     try:
         earlier = json.loads(summary.read_text())
     except (OSError, ValueError) as err:
         return f"its result set has no readable summary.json ({err}), which says what path it belongs to"
-    before, now = earlier.get("scene"), json.loads(json.dumps(scene.as_dict()))  # JSON's own types on both sides
-    if not isinstance(before, dict):
+    if not isinstance(earlier.get("scene"), dict):
         return "its summary.json holds no scene"
-    for key in sorted(set(before) | set(now)):
-        if key not in RESUMABLE_CHANGES and before.get(key) != now.get(key):
-            return (f"the earlier path is another scene: its [{key}] is {json.dumps(before.get(key))[:120]}, this "
-                    f"scene's {json.dumps(now.get(key))[:120]} (a resumed path may change [solver] only)")
+    difference = _first_difference(_comparable(earlier["scene"], start_step), _comparable(scene.as_dict(), start_step),
+                                   "scene")
+    if difference:
+        return (f"the earlier path is another scene ({difference}); a resumed path may change [solver] and the "
+                f"steps after {start_step} only")
     ramp = (earlier.get("path") or {}).get("ramp_steps")
     if ramp != steps:
         return f"the earlier path ran with --steps {ramp}, this one with --steps {steps}"

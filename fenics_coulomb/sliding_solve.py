@@ -20,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.model.checks import physics_failure, physics_residuals
+from fenics_coulomb.model.checks import ONE_CONSTRAINT, physics_failure, physics_residuals
 from fenics_coulomb.model.sliding import SMALL_SLIDE_WARNING, GeometryIteration, largest_slide
 from fenics_coulomb.scd.resolvent import OPEN
 from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
@@ -172,6 +172,10 @@ class SlidingSolve:
                 self._finish(result)
                 both = physics_failure({"obstacle_penetration": result.checks.get("obstacle_penetration", 0.0)},
                                        self.settings.reduction)
+                shared = model.coupling.shared_nodes()
+                if shared and not both:  # nodes that may alternate between a pair and an obstacle
+                    both = (f"{shared} contact node(s) lie on both a pair's slave surface and the obstacles' contact "
+                            f"boundary; if they alternate between the two: {ONE_CONSTRAINT}")
                 raise SolverError(step.message + (f"; {both}" if both else ""), "geometry", result)
             if step.action == "update":
                 assert step.change is not None
@@ -185,7 +189,15 @@ class SlidingSolve:
                 self._log(f"finite sliding: {step.message}")
             reduction = iteration.reduction
             earlier = result.timings
-            result = self._solve_placed(start, reduction)
+            try:
+                result = self._solve_placed(start, reduction)
+            except SolverError as err:  # the failed solve's result with every earlier solve's history
+                if err.result is not None:
+                    _join_histories(err.result, [*solves, err.result])
+                    err.result.iterations += newton
+                    err.result.krylov_iterations += krylov
+                    err.result.geometry_updates = iteration.updates
+                raise
             solves.append(result)
             newton, krylov = newton + result.iterations, krylov + result.krylov_iterations
             result.timings["total"] = result.timings.get("total", 0.0) + earlier.get("total", 0.0)  # every geometry

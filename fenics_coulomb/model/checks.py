@@ -48,7 +48,7 @@ from fenics_coulomb.model.frames import to_local
 
 __all__ = ["FORCE_FLOOR", "residual", "unconstrained_residual", "physics_residuals", "SLIP_RESOLUTION", "PHYSICS_TOL",
            "PHYSICS_PER_RTOL", "PHYSICS_LOOSEST", "DECISIVE_CHECKS", "physics_failure", "boundary_reactions",
-           "constrained_mask", "support_dofs", "total_contact_force"]
+           "constrained_mask", "support_dofs", "total_contact_force", "ONE_CONSTRAINT"]
 
 
 #: Forces below this fraction of (largest diagonal of A) × (displacement scale) count as round-off in the relative
@@ -217,6 +217,14 @@ DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "obstacle_p
                    "complementarity", "cone")
 
 
+#: Why a node on a pair's slave surface and on the obstacles' contact boundary can fail (the messages' words).
+ONE_CONSTRAINT = ("a contact node meets one constraint, the pair's or the obstacle's (the smaller gap), and these "
+                  "nodes must meet both — an obstacle reaching into the pair's partner body, or a slave face sharing "
+                  "an edge with a face that rests on the obstacle (two blocks side by side on a floor): this model "
+                  "cannot; keep the slave surface's nodes off the obstacles' contact boundary (e.g. a slave face that "
+                  "stops short of the floor, or the floor contact on the master body only)")
+
+
 def physics_failure(checks: dict[str, float], rtol: float) -> str:
     """"" when every decisive check of :func:`physics_residuals` passes, else the first failure in words."""
     bound = min(max(PHYSICS_TOL, PHYSICS_PER_RTOL * rtol), PHYSICS_LOOSEST)
@@ -228,10 +236,8 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
                      "or not fully covered by the master (mortar) penetrate it: make the smaller surface the slave, "
                      "enlarge search_distance, or, for a slave that rests on the master's border (mortar drops the "
                      "nodes whose facets reach past it), use method = 'node-to-surface'" if key == "free_penetration"
-                     else "slave nodes of a pair end inside a rigid obstacle: a node meets one constraint, the pair or "
-                     "the obstacle with the smaller gap, and here it must meet both (an obstacle reaching into the "
-                     "pair's partner body): move the obstacle, or leave the pair's slave surface off the obstacles' "
-                     "contact boundary" if key == "obstacle_penetration"
+                     else f"slave nodes of a pair end inside a rigid obstacle: {ONE_CONSTRAINT}"
+                     if key == "obstacle_penetration"
                      else "a degenerate mesh cell or a load too large for floating point?")
             return f"the physics checks fail: {key} residual {value:.3g} > {bound:.3g} ({cause})"
     return ""

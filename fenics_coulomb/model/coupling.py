@@ -200,6 +200,10 @@ class Coupling:
         """The number of free slave nodes penetrating their master surface (collective; 0 for one body)."""
         return 0
 
+    def shared_nodes(self) -> int:
+        """The contact nodes on both a pair's slave surface and the obstacles' contact boundary (0 for one body)."""
+        return 0
+
     def obstacle_depth(self, model: ContactModel, u: Array) -> float:
         """The deepest penetration max(−g, 0) of an obstacle, in X + u (``u`` physical), by the coupling's own contact
         nodes that also lie on the obstacles' contact boundary (the merge gave them to a pair; collective; 0 for one

@@ -126,10 +126,22 @@ def displaced_geometry(V: dolfinx.fem.FunctionSpace, u: npt.NDArray[np.float64])
     x = msh.geometry.x
     saved = np.array(x, copy=True)
     cells = V.dofmap.list
-    nodes = np.empty(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, dtype=np.int64)
-    nodes[cells.ravel()] = msh.geometry.dofmap[: cells.shape[0]].ravel()  # P1 on a first-order mesh: node k ↔ DOF k
+    geometry = msh.geometry.dofmap[: cells.shape[0]]
+    values = np.asarray(u, dtype=np.float64).reshape(-1, 3)
     try:
-        x[nodes] = saved[nodes] + np.asarray(u, dtype=np.float64).reshape(-1, 3)
+        if geometry.shape[1] == cells.shape[1]:  # P1 on a first-order mesh: node k of a cell ↔ its DOF k
+            nodes = np.empty(values.shape[0], dtype=np.int64)
+            nodes[cells.ravel()] = geometry.ravel()
+            x[nodes] = saved[nodes] + values
+        else:  # a higher-order geometry: every node moved by the P1 displacement interpolated at it
+            moved = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("Lagrange", msh.geometry.cmap.degree,
+                                                                             (3,))))
+            source = dolfinx.fem.Function(V)
+            source.x.array[:] = values.ravel()
+            moved.interpolate(source)
+            node_of = np.empty(moved.x.array.size // 3, dtype=np.int64)
+            node_of[moved.function_space.dofmap.list.ravel()] = geometry.ravel()
+            x[node_of] = saved[node_of] + moved.x.array.reshape(-1, 3)
         yield
     finally:
         x[:] = saved

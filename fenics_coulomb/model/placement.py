@@ -121,10 +121,13 @@ class ObstaclePlacement:
           reference configuration X (None).
         """
         for k, obstacle in enumerate(obstacles):
-            far = max(max(abs(c) for c in obstacle.placed), max(abs(c) for c in obstacle.displacement))
+            rotation = getattr(obstacle, "rotation", None)
+            far = max(abs(c) for c in (*obstacle.placed, *obstacle.displacement,
+                                       *(rotation[2] if rotation is not None else ())))
             if far > FARTHEST * self.size:
                 raise InputError(f"obstacle {k + 1} ({obstacle.label}): placed at {list(obstacle.placed)} "
-                                 f"(displacement {list(obstacle.displacement)}), {far / self.size:.3g} times the "
+                                 f"(displacement {list(obstacle.displacement)}, rotation "
+                                 f"{rotation_text(obstacle)}), {far / self.size:.3g} times the "
                                  f"body's size {self.size:.6g}: farther than {FARTHEST:g} times it, where double "
                                  "precision no longer resolves the body against it")
         if self._scene_obstacles is None:

@@ -291,7 +291,8 @@ def test_bad_path_flags_exit_2(mpi_tmp_path, capsys):
         (["--steps", "3", "--start", start, "--start-step", "3"], "--start-step 3: must lie in [1, 2]"),
         (["--steps", "4", "--start", start, "--start-step", "3"], "no step 3 in it"),
         # the earlier path at lev 0, this one at lev 1: resumed from another scene's state (exit 0 before)
-        (["--steps", "2", "--start", start, "--start-step", "1"], "the earlier path is another scene: its [body]"),
+        (["--steps", "2", "--start", start, "--start-step", "1"],
+         "the earlier path is another scene (scene.body.lev = 0 there, 1 here)"),
         (["--steps", "2", "--nested", "1"], "--nested: nested iteration is not available for a load path"),
     ]
     capsys.readouterr()

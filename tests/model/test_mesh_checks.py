@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 
@@ -58,3 +60,46 @@ def test_diameters_are_the_largest_vertex_distance():
         h = _diameters(X)
         assert h[0] == 0.0
         assert np.allclose(h, reference, rtol=1e-14, atol=0.0)
+
+
+def _second_order_box(comm):
+    """A gmsh box of 10-node tetrahedra (second-order geometry)."""
+    import gmsh
+    from dolfinx.io import gmshio
+
+    if comm.rank == 0:
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addBox(0, 0, 0, 2, 1, 1)
+        gmsh.model.occ.synchronize()
+        gmsh.model.addPhysicalGroup(3, [1], 1)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.mesh.generate(3)
+        gmsh.model.mesh.setOrder(2)
+    msh, _, _ = gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0, gdim=3)
+    if comm.rank == 0:
+        gmsh.finalize()
+    return msh
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_displaced_geometry_moves_every_node_and_restores_them(order):
+    """The body at X + u for the obstacle checks of finite sliding: every geometry node moved by the P1
+    displacement (a linear field: exact at the midside nodes of a second-order mesh too, where the first-order
+    mapping failed with a shape mismatch), and the reference geometry back bit for bit afterwards."""
+    import dolfinx.fem
+    import dolfinx.mesh
+
+    from fenics_coulomb.model.mesh_checks import displaced_geometry
+
+    comm = MPI.COMM_WORLD
+    msh = dolfinx.mesh.create_box(comm, [[0, 0, 0], [2, 1, 1]], [4, 2, 2]) if order == 1 else _second_order_box(comm)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    B, c = np.array([[0.1, 0.02, 0.0], [0.0, -0.05, 0.03], [0.01, 0.0, 0.2]]), np.array([0.3, -0.1, 0.05])
+    u = dolfinx.fem.Function(V)
+    u.interpolate(lambda x: (B @ x) + c[:, None])
+    before = np.array(msh.geometry.x, copy=True)
+    with displaced_geometry(V, u.x.array):
+        moved = np.array(msh.geometry.x, copy=True)
+    assert np.array_equal(msh.geometry.x, before)
+    assert np.allclose(moved, before + before @ B.T + c, rtol=0, atol=1e-13)

@@ -84,6 +84,7 @@ class PairCoupling(Coupling):
         self._excluded: npt.NDArray[np.int32] = np.zeros(0, np.int32)
         self._free_coupling: PETSc.Mat | None = None
         self._product = TripleProduct()
+        self._shared = 0
         self.reused = False
 
     # -- construction ------------------------------------------------------------------------------------
@@ -155,7 +156,14 @@ class PairCoupling(Coupling):
         where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
         lose = np.zeros(pairing.blocks.size, dtype=bool)
         lose[np.flatnonzero(both_p)] = obstacle_gap[where] < pairing.gap[both_p]
+        #: The paired slave nodes that are obstacle contact nodes too, over all ranks (:meth:`shared_nodes`).
+        self._shared = int(model.comm.allreduce(int(np.sum(both_p)), op=MPI.SUM))
         return pairing.subset(~lose, model.comm)
+
+    def shared_nodes(self) -> int:
+        """The contact nodes on both a pair's slave surface (paired) and the obstacles' contact boundary in the last
+        configuration: each meets one of its two constraints, the one with the smaller gap."""
+        return self._shared
 
     def _adopt(self, model: ContactModel, pairing: Pairing) -> None:
         """Make ``pairing`` (of the model's configuration) the model's: the obstacles' contact nodes merged in,
