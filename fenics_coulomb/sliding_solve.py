@@ -170,7 +170,7 @@ class SlidingSolve:
                 result.converged, result.reason = False, "geometry"
                 result.checks = physics_residuals(model, z, balance=False, accuracy=self._accuracy(result))
                 self._finish(result)
-                both = physics_failure({"obstacle_penetration": result.checks.get("obstacle_penetration", 0.0)},
+                both = physics_failure({"shared_penetration": result.checks.get("shared_penetration", 0.0)},
                                        self.settings.reduction)
                 shared = model.coupling.shared_nodes()
                 if shared and not both:  # nodes that may alternate between a pair and an obstacle

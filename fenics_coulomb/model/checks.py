@@ -11,8 +11,9 @@ thresholds do not depend on units:
 * ``free_penetration``: the same for the slave nodes over a master surface that are not contact nodes (beyond the
   search distance, or mortar nodes not fully covered) when no paired contact node carries a force: a pair that
   lost its contact must not pass;
-* ``obstacle_penetration``: the same for a pair's slave nodes on the obstacles' contact boundary against the
-  obstacles (a node meets one constraint, the one with the smaller gap: it must not end inside the other);
+* ``shared_penetration``: the same for the nodes on both a pair's slave surface and the obstacles' contact boundary,
+  against the constraint they were not given (a node meets one, the one with the smaller gap: it must not end
+  inside the other — the obstacle, or the pair's master surface);
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
 * ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
@@ -154,9 +155,9 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     carried = _gmax(comm, lam[model.coupling.paired_mask(cmap.size)])
     out["free_penetration"] = model.coupling.free_slave_depth(model, model.physical(displacement)) / \
         max(gap_scale, tiny) if carried <= force_tiny else 0.0
-    # a node meets one constraint: a pair's slave node that is also an obstacle contact node must not end inside
-    # the obstacle the merge took it from (a rigid obstacle reaching into its partner body needs both)
-    out["obstacle_penetration"] = model.coupling.obstacle_depth(model, model.physical(displacement)) / \
+    # a node meets one constraint: a node on a pair's slave surface and the obstacles' contact boundary must not
+    # end inside the one it was not given (a rigid obstacle reaching into its partner body needs both)
+    out["shared_penetration"] = model.coupling.shared_depth(model, model.physical(displacement)) / \
         max(gap_scale, tiny)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * max(lam_scale, force_tiny), tiny)
@@ -213,7 +214,7 @@ PHYSICS_LOOSEST = 1e-2
 #: The checks that decide (the others are reported values): slip_direction tests directions known to 1e-3 rad, a
 #: mismatch of up to F·1e-3 of the largest force from the solve's own error, and reaction_balance divides
 #: by the supports' own forces, which are the solver's noise when a prescribed motion is rigid.
-DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "obstacle_penetration", "negative_pressure",
+DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "shared_penetration", "negative_pressure",
                    "complementarity", "cone")
 
 
@@ -236,8 +237,8 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
                      "or not fully covered by the master (mortar) penetrate it: make the smaller surface the slave, "
                      "enlarge search_distance, or, for a slave that rests on the master's border (mortar drops the "
                      "nodes whose facets reach past it), use method = 'node-to-surface'" if key == "free_penetration"
-                     else f"slave nodes of a pair end inside a rigid obstacle: {ONE_CONSTRAINT}"
-                     if key == "obstacle_penetration"
+                     else f"nodes on a pair's slave surface and an obstacle's contact boundary end inside the "
+                     f"constraint they were not given: {ONE_CONSTRAINT}" if key == "shared_penetration"
                      else "a degenerate mesh cell or a load too large for floating point?")
             return f"the physics checks fail: {key} residual {value:.3g} > {bound:.3g} ({cause})"
     return ""

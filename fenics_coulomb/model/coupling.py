@@ -204,10 +204,9 @@ class Coupling:
         """The contact nodes on both a pair's slave surface and the obstacles' contact boundary (0 for one body)."""
         return 0
 
-    def obstacle_depth(self, model: ContactModel, u: Array) -> float:
-        """The deepest penetration max(−g, 0) of an obstacle, in X + u (``u`` physical), by the coupling's own contact
-        nodes that also lie on the obstacles' contact boundary (the merge gave them to a pair; collective; 0 for one
-        body)."""
+    def shared_depth(self, model: ContactModel, u: Array) -> float:
+        """The deepest penetration, in X + u (``u`` physical), of the constraint a contact node on both a pair's slave
+        surface and the obstacles' contact boundary was not given (collective; 0 for one body)."""
         return 0.0
 
     def free_slave_depth(self, model: ContactModel, u: Array) -> float:

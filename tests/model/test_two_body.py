@@ -333,7 +333,7 @@ def test_a_node_on_a_pair_and_an_obstacle_goes_to_the_smaller_gap():
             mask = problem.model.coupling.paired_mask(problem.model.contact.size)
             paired = MPI.COMM_WORLD.allreduce(int(np.sum(mask)), op=MPI.SUM)
             assert problem.p == 25 and paired == (25 if winner == "pair" else 0)
-            assert result.checks["obstacle_penetration"] == 0.0
+            assert result.checks["shared_penetration"] == 0.0
             both = owned(problem)
         kwargs = dict(contact_pairs=[pair]) if winner == "pair" else dict(contact=(ft, [SLAVE]), obstacles=[plane])
         with ContactProblem(a, None, bcs, settings=TIGHT, petsc_options_prefix="one_", **kwargs) as problem:
@@ -347,7 +347,7 @@ def test_a_node_that_must_meet_a_pair_and_an_obstacle_is_no_exit_0(sliding):
     """The plane 5e-4 below the lower block's top (1.5e-3 below the slave surface, inside the partner body): the
     pair wins (the smaller gap), the press takes the slave nodes through the plane, where a node would have to meet
     both constraints. The smaller |g| kept the pair in every configuration and the solve passed with the nodes
-    2.2e-3 inside the plane (exit 0); now small sliding fails its physics check obstacle_penetration, finite sliding
+    2.2e-3 inside the plane (exit 0); now small sliding fails its physics check shared_penetration, finite sliding
     alternates between the two (the smaller signed gap in each configuration) and fails naming it."""
     from fenics_coulomb.errors import SolverError
 
@@ -356,9 +356,48 @@ def test_a_node_that_must_meet_a_pair_and_an_obstacle_is_no_exit_0(sliding):
     plane = Plane(point=[0.0, 0.0, -5e-4], normal=[0.0, 0.0, 1.0])
     with ContactProblem(a, None, bcs, contact=(ft, [SLAVE]), obstacles=[plane], contact_pairs=[pair],
                         settings=TIGHT, sliding=sliding, petsc_options_prefix="inside_") as problem:
-        with pytest.raises(SolverError, match="obstacle_penetration residual") as failure:
+        with pytest.raises(SolverError, match="shared_penetration residual") as failure:
             problem.solve()
         assert failure.value.reason == ("physics_check" if sliding == "small" else "geometry")
+
+
+def side_by_side(gap: float, sliding: str):
+    """Two blocks side by side on a rigid floor x3 = −2 (the two-block mesh turned by 90° about x2), the upper
+    block's face x1 = gap the slave of the lower's face x1 = 0, squeezed by −0.004 along x1 and pressed down by
+    gravity: the slave face's bottom-edge nodes are floor contact nodes too (contact boundary: both bottoms)."""
+    msh, ft = two_blocks(MPI.COMM_WORLD, gap=gap, lower=(4, 4, 2), upper=(3, 4, 2), upper_origin=(0.0, 0.0),
+                         upper_size=(2.0, 1.0, 1.0))
+    x = msh.geometry.x
+    X = x.copy()
+    x[:, 0], x[:, 2] = X[:, 2], -X[:, 0]  # stacked → side by side, both bottoms on x3 = −2
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    v = ufl.TestFunction(V)
+    L = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -1.0])), v) * ufl.dx
+    fixed = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM))  # now x1 = −1
+    pushed = dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP))  # now x1 = 1 + gap
+    bcs = [dolfinx.fem.dirichletbc(np.zeros(3), fixed, V),
+           dolfinx.fem.dirichletbc(np.array([-0.004, 0.0, 0.0]), pushed, V)]
+    floor = Plane(point=[0, 0, -2.0], normal=[0, 0, 1], name="floor")
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3, method="node-to-surface")
+    sides = [TAGS["lower_sides"], TAGS["upper_sides"]]
+    return ContactProblem(elasticity(V), L, bcs, contact=(ft, sides), friction=0.3, obstacles=[floor],
+                          contact_pairs=[pair], sliding=sliding, petsc_options_prefix="side_")
+
+
+def test_nodes_on_a_pair_and_a_floor_are_checked_both_ways():
+    """The slave face's bottom edge on the floor, the blocks 1e-3 apart: the floor (gap 0) wins those nodes, and
+    their pair constraint — unenforced — is now measured (shared_penetration: 0 before, however deep); touching
+    (gap 0: the pair wins the tie), the floor's is, and the solve fails instead of ending with exit 0 and the edge
+    nodes inside the floor."""
+    with side_by_side(1e-3, "small") as problem:
+        _, result = problem.solve()
+        assert problem.model.coupling.shared_nodes() > 0
+        depth = problem.model.coupling.shared_depth(problem.model, result.displacement)
+        assert 1e-5 < depth < 1e-3  # the edge nodes end ~1e-4 inside the lower block's face
+        assert result.checks["shared_penetration"] > 0.0
+    with side_by_side(0.0, "small") as problem:
+        with pytest.raises(SolverError, match="shared_penetration residual"):
+            problem.solve()
 
 
 def test_free_slave_nodes_that_penetrate_are_counted():

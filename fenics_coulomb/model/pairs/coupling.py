@@ -61,6 +61,25 @@ def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
     return bool(a.getComm().tompi4py().allreduce(same, op=MPI.LAND))
 
 
+def _linearized_gaps(model: ContactModel, nodes: dict[str, np.ndarray], coupling: PETSc.Mat, u: Array) -> Array:
+    """g + n·(w − w_c) of the owned slave ``nodes`` (keys blocks, gap, normals; ``coupling`` = I + Φ of their
+    stencils), w = u_s − Σ_j φ_j u_j of the physical ``u`` and w_c of the model's configuration (their ``gap`` is
+    g(X + u_c)); collective."""
+    x, y = coupling.createVecs()
+
+    def w_of(v: npt.ArrayLike) -> Array:
+        x.array[:] = np.asarray(v, dtype=np.float64)[:x.getLocalSize()]
+        coupling.mult(x, y)  # (I + Φ) v
+        return (2.0 * x.getArray(readonly=True) - y.getArray(readonly=True)).reshape(-1, 3)[nodes["blocks"]]
+
+    w = w_of(u)
+    if model.configuration is not None:
+        w = w - w_of(model.configuration)
+    x.destroy()
+    y.destroy()
+    return nodes["gap"] + np.einsum("ij,ij->i", nodes["normals"], w)
+
+
 class PairCoupling(Coupling):
     """Two elastic bodies: M = I + Φ (PETSc AIJ ``<prefix>coupling_``) from the pairing of ``pairs``.
 
@@ -84,7 +103,7 @@ class PairCoupling(Coupling):
         self._excluded: npt.NDArray[np.int32] = np.zeros(0, np.int32)
         self._free_coupling: PETSc.Mat | None = None
         self._product = TripleProduct()
-        self._shared = 0
+        self._given_coupling: PETSc.Mat | None = None
         self.reused = False
 
     # -- construction ------------------------------------------------------------------------------------
@@ -156,14 +175,16 @@ class PairCoupling(Coupling):
         where = np.searchsorted(obstacle_map.blocks, pairing.blocks[both_p])
         lose = np.zeros(pairing.blocks.size, dtype=bool)
         lose[np.flatnonzero(both_p)] = obstacle_gap[where] < pairing.gap[both_p]
-        #: The paired slave nodes that are obstacle contact nodes too, over all ranks (:meth:`shared_nodes`).
-        self._shared = int(model.comm.allreduce(int(np.sum(both_p)), op=MPI.SUM))
-        return pairing.subset(~lose, model.comm)
+        given = {"blocks": pairing.blocks[lose], "gap": pairing.gap[lose], "normals": pairing.normals[lose],
+                 "master_blocks": pairing.master_blocks[lose], "weights": pairing.weights[lose]}
+        merged = pairing.subset(~lose, model.comm)
+        return dataclasses.replace(merged, to_obstacles=given,
+                                   shared=int(model.comm.allreduce(int(np.sum(both_p)), op=MPI.SUM)))
 
     def shared_nodes(self) -> int:
-        """The contact nodes on both a pair's slave surface (paired) and the obstacles' contact boundary in the last
-        configuration: each meets one of its two constraints, the one with the smaller gap."""
-        return self._shared
+        """The contact nodes on both a pair's slave surface (paired) and the obstacles' contact boundary in the
+        model's configuration: each meets one of its two constraints, the one with the smaller gap."""
+        return 0 if self.pairing is None else self.pairing.shared
 
     def _adopt(self, model: ContactModel, pairing: Pairing) -> None:
         """Make ``pairing`` (of the model's configuration) the model's: the obstacles' contact nodes merged in,
@@ -230,9 +251,10 @@ class PairCoupling(Coupling):
         self._paired = paired[order]
         model.friction = np.ascontiguousarray(np.asarray(node_friction, dtype=np.float64)[order])
         model.p = model.contact.num_global
-        if self._free_coupling is not None:
-            self._free_coupling.destroy()
-            self._free_coupling = None
+        for mat in (self._free_coupling, self._given_coupling):
+            if mat is not None:
+                mat.destroy()
+        self._free_coupling = self._given_coupling = None
 
     def stiffness(self, model: ContactModel, prefix: str, reuse: PETSc.Mat | None = None) -> PETSc.Mat:
         """Ã = Mᵀ A_free M (:class:`~fenics_coulomb.model.reproducible.TripleProduct`) with the Dirichlet rows and
@@ -390,24 +412,20 @@ class PairCoupling(Coupling):
         not contact nodes: beyond the search distance, with a Dirichlet component, or a mortar node not fully
         covered), ``u`` physical (collective)."""
         assert self.pairing is not None
-        free = self.pairing.free
         if self._free_coupling is None:
+            free = self.pairing.free
             self._free_coupling = coupling_matrix(model.V, free["blocks"], free["master_blocks"], free["weights"],
                                                   f"{model.prefix}free_")
-        coupling = self._free_coupling
-        x, y = coupling.createVecs()
+        return _linearized_gaps(model, self.pairing.free, self._free_coupling, u)
 
-        def w_of(v: npt.ArrayLike) -> Array:
-            x.array[:] = np.asarray(v, dtype=np.float64)[:x.getLocalSize()]
-            coupling.mult(x, y)  # (I + Φ_free) v
-            return (2.0 * x.getArray(readonly=True) - y.getArray(readonly=True)).reshape(-1, 3)[free["blocks"]]
-
-        w = w_of(u)
-        if model.configuration is not None:  # free["gap"] is g(X + u_c): linearized about the configuration
-            w = w - w_of(model.configuration)
-        x.destroy()
-        y.destroy()
-        return free["gap"] + np.einsum("ij,ij->i", free["normals"], w)
+    def _given_gaps(self, model: ContactModel, u: Array) -> Array:
+        """The linearized pair gaps of the owned slave nodes the merge gave to an obstacle (collective)."""
+        assert self.pairing is not None
+        given = self.pairing.to_obstacles
+        if self._given_coupling is None:
+            self._given_coupling = coupling_matrix(model.V, given["blocks"], given["master_blocks"],
+                                                   given["weights"], f"{model.prefix}given_")
+        return _linearized_gaps(model, given, self._given_coupling, u)
 
     def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None) -> str | None:
         if not self.held_by_contact or self.pairing is None:
@@ -444,20 +462,19 @@ class PairCoupling(Coupling):
     def free_slave_depth(self, model: ContactModel, u: Array) -> float:
         return self._free_penetration(model, u)[1]
 
-    def obstacle_depth(self, model: ContactModel, u: Array) -> float:
-        """A node meets one constraint: the merge gives a node on a pair's slave surface and the obstacles' contact
-        boundary to the smaller gap. Where it must meet both (a rigid obstacle reaching into its partner body), the
-        other is not enforced: this measures it (collective)."""
+    def shared_depth(self, model: ContactModel, u: Array) -> float:
+        """A node on a pair's slave surface and on the obstacles' contact boundary meets one constraint, the one with
+        the smaller gap (:meth:`_merge`): the deepest penetration max(−g, 0) in X + u (``u`` physical) of the other
+        one — a node the pair took into an obstacle, or a node an obstacle took into the pair's master surface (its
+        linearized pair gap; collective; 0 without such nodes)."""
         obstacle_map = self._obstacle_map
-        if obstacle_map is None or self.pairing is None:
+        if obstacle_map is None or self.pairing is None or not self.pairing.shared:
             return 0.0
         taken = np.isin(obstacle_map.blocks, self.pairing.blocks)
-        depth = 0.0
-        if model.comm.allreduce(bool(np.any(taken)), op=MPI.LOR):
-            blocks = obstacle_map.blocks[taken]
-            ug = model.ghosted(u).reshape(-1, 3)
-            _, gap, _, _ = closest_obstacle(model.obstacles, obstacle_map.coordinates[taken] + ug[blocks])
-            depth = float(np.max(-gap, initial=0.0))
+        ug = model.ghosted(u).reshape(-1, 3)
+        x = obstacle_map.coordinates[taken] + ug[obstacle_map.blocks[taken]]
+        _, gap, _, _ = closest_obstacle(model.obstacles, x)
+        depth = max(float(np.max(-gap, initial=0.0)), float(np.max(-self._given_gaps(model, u), initial=0.0)))
         return float(model.comm.allreduce(depth, op=MPI.MAX))
 
     def contact_areas(self, areas: Array) -> Array:
@@ -507,8 +524,8 @@ class PairCoupling(Coupling):
                                   for forces, stats in zip(pair_forces(model, result), per_pair, strict=False)]}
 
     def destroy(self) -> None:
-        for obj in (self.M, self.A_free, self._free_coupling, self._physical_stiffness):
+        for obj in (self.M, self.A_free, self._free_coupling, self._given_coupling, self._physical_stiffness):
             if obj is not None:
                 obj.destroy()
-        self.M = self.A_free = self._free_coupling = self._physical_stiffness = None
+        self.M = self.A_free = self._free_coupling = self._given_coupling = self._physical_stiffness = None
         self._product.destroy()

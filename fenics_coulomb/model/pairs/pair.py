@@ -121,6 +121,10 @@ class Pairing:
             ``gap``, ``normals``, ``master_blocks``, ``weights`` as above (the pair with the smallest |g|), for the
             penetration check after a solve
             (:meth:`fenics_coulomb.model.pairs.coupling.PairCoupling.free_slave_penetrations`).
+        to_obstacles: The owned paired slave nodes the merge with the obstacles' contact nodes gave to an obstacle
+            (the smaller gap), with the same keys as ``free``: their pair constraint is not enforced, and the check
+            after a solve measures it (:meth:`~fenics_coulomb.model.pairs.coupling.PairCoupling.shared_depth`).
+        shared: The number of paired slave nodes that are obstacle contact nodes too, on all ranks.
     """
 
     blocks: npt.NDArray[np.int32]
@@ -135,6 +139,8 @@ class Pairing:
     friction: Array
     num_global: int
     free: dict[str, np.ndarray] = field(default_factory=dict)
+    to_obstacles: dict[str, np.ndarray] = field(default_factory=dict)
+    shared: int = 0
 
     def subset(self, keep: npt.NDArray[np.bool_], comm: MPI.Comm) -> Pairing:
         """The pairing of the nodes ``keep`` selects (collective: the global count)."""
@@ -142,7 +148,7 @@ class Pairing:
                        gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
                        weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep],
                        friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM),
-                       free=self.free)
+                       free=self.free, to_obstacles=self.to_obstacles, shared=self.shared)
 
     @property
     def normals(self) -> Array:
