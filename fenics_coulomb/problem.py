@@ -24,6 +24,7 @@ it only while the solver reads them and removed again.
 
 from __future__ import annotations
 
+import itertools
 import logging
 import time
 from collections.abc import Mapping, Sequence
@@ -37,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
-from fenics_coulomb.errors import InputError, SolverError
+from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.model.checks import physics_failure, physics_residuals
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.dof_values import set_owned_values
@@ -55,6 +56,9 @@ from fenics_coulomb.start_rule import auto_start, interpolate_displacement
 __all__ = ["ContactProblem"]
 
 logger = logging.getLogger(__name__)
+
+#: A serial number per problem in this process (results name theirs: an id() is reused once an object is freed).
+_SERIALS = itertools.count(1)
 
 
 class ContactProblem(SlidingSolve):
@@ -111,6 +115,9 @@ class ContactProblem(SlidingSolve):
         self._solver: SCDNewtonSolver | None = None
         if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
             raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
+        if not petsc_options_prefix[0].isalpha() or not all(c.isalnum() or c == "_" for c in petsc_options_prefix):
+            raise InputError(f"petsc_options_prefix = {petsc_options_prefix!r}: PETSc takes letters, digits and '_', "
+                             "starting with a letter (e.g. 'contact_')")
         if isinstance(bcs, dolfinx.fem.DirichletBC | str | bytes) or not isinstance(bcs, Sequence):
             raise InputError(f"bcs = {type(bcs).__name__}: give a list of dolfinx.fem.DirichletBC (or [])")
         self.settings = as_settings(settings)
@@ -125,7 +132,11 @@ class ContactProblem(SlidingSolve):
                                    form_compiler_options, jit_options, contact_pairs, sliding)
         #: Wall time of building the model (form compilation and assembly) on this rank.
         self.model_time = time.perf_counter() - t0
-        self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
+        try:
+            self._solver = SCDNewtonSolver(self._model, self.settings, petsc_options_prefix, petsc_options)
+        except BaseException:  # e.g. a fixed gamma out of range: the model's PETSc objects go with the problem
+            self._model.destroy()
+            raise
         self._petsc_options = dict(petsc_options or {})
         self.petsc_options_prefix = petsc_options_prefix
         #: The physical displacement of the last solve.
@@ -136,8 +147,10 @@ class ContactProblem(SlidingSolve):
         self.p: int = self._model.p
         self._obstacles = list(self._model.obstacles)
         self._step = 0
-        #: The ids of this problem's results (:meth:`report` refuses another problem's).
-        self._results: set[int] = set()
+        #: This problem's serial number and the number of its state changes (solve, move, reset): a result is
+        #: this problem's of the current state (:meth:`check_result`).
+        self._serial = next(_SERIALS)
+        self._state = 0
         self._previous: npt.NDArray[np.float64] | None = None
         self._previous_delta: npt.NDArray[np.float64] | None = None
         #: The obstacles as placed at the previous step (their rotations; None before the first step).
@@ -178,8 +191,24 @@ class ContactProblem(SlidingSolve):
         negative pressure, complementarity, the Coulomb cone, the slip direction and the balance of reactions,
         contact forces and loads, each relative (:func:`fenics_coulomb.model.checks.physics_residuals`). The
         solve itself checks all but the balance (``result.checks``) and does not converge when one fails."""
+        self.check_result(result, "checks")
         unknown = result.relative_displacement if result.relative_displacement is not None else result.displacement
         return physics_residuals(self.model, unknown, accuracy=self._accuracy(result))
+
+    def check_result(self, result: object, where: str) -> None:
+        """InputError unless ``result`` is the SolveResult of this problem's last solve, its obstacles and history as
+        they are now: a report, check or result set of an earlier state would mix that result with the current
+        placement (a moved ball made a converged result's penetration 0.025)."""
+        if not isinstance(result, SolveResult):
+            raise InputError(f"{where}: result = {type(result).__name__}: give the SolveResult of this problem's "
+                             "solve()")
+        origin = result.origin
+        if origin is None or origin[0] != self._serial:
+            raise InputError(f"{where}: the result is not one of this problem's solve() (a result of another problem "
+                             "describes other nodes)")
+        if origin[1] != self._state:
+            raise InputError(f"{where}: the result of an earlier solve: this problem has been moved, reset or solved "
+                             "since (report, check and write a result before the next move, reset or solve)")
 
     def _accuracy(self, result: SolveResult | None = None) -> float:
         """The relative displacement accuracy of a solve to its rtol (ERROR_PER_RTOL·rtol, docs/tradeoff)."""
@@ -199,14 +228,10 @@ class ContactProblem(SlidingSolve):
             normal, area, force, pressure, gap, state) gathered in global node order.
         """
         model = self.model
-        if not isinstance(result, SolveResult):
-            raise InputError(f"report: result = {show(result)}: give the SolveResult of this problem's solve()")
-        if id(result) not in self._results:
-            raise InputError("report: the result is not one of this problem's solve() (a result of another problem "
-                             "describes other nodes)")
+        self.check_result(result, "report")
         if reactions is not None and not isinstance(reactions, Mapping):
-            raise InputError(f"report: reactions = {show(reactions)}: give a dict name -> DirichletBC of bcs (or "
-                             "node blocks)")
+            raise InputError(f"report: reactions = {type(reactions).__name__}: give a dict name -> DirichletBC of bcs "
+                             "(or node blocks)")
         return make_report(model, result, self._obstacles, reactions)
 
     @property
@@ -219,10 +244,12 @@ class ContactProblem(SlidingSolve):
         """Replace the solver (settings and PETSc options) on the same assembled model (collective)."""
         settings = as_settings(settings)
         check_petsc_options(petsc_options, self.petsc_options_prefix)
-        self.solver.destroy()
-        self._solver = None
+        old = self.solver
+        # the new solver first: a value it refuses (a fixed gamma out of range) leaves the old one in place
+        solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)
+        old.destroy()
+        self._solver = solver
         self.settings = settings
-        self._solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)
         self._petsc_options = dict(petsc_options or {})
 
     @property
@@ -276,6 +303,7 @@ class ContactProblem(SlidingSolve):
         target = self._obstacles[index]
         moved = target.moved(_vector(displacement, "displacement", f"move: {target.label}"))
         self._obstacles[index] = moved if isinstance(rotation, str) and rotation == "keep" else moved.rotated(rotation)
+        self._state += 1
 
     def reset(self, u: dolfinx.fem.Function | None = None, *, step: int = 0,
               obstacle_displacements: npt.ArrayLike | None = None,
@@ -319,6 +347,7 @@ class ContactProblem(SlidingSolve):
         self._previous_delta = delta
         self._previous_obstacles = placed
         self._step = int(step)
+        self._state += 1
 
     def _place(self) -> None:
         """Re-assemble l̃ from the current loads and place the obstacles with the history's shift."""
@@ -401,6 +430,8 @@ class ContactProblem(SlidingSolve):
             SolverError: when the method does not converge; ``error.result`` holds the last iterate and
                 :attr:`u` its displacement.
         """
+        self.model  # noqa: B018  (RuntimeError after destroy())
+        self._state += 1
         if self.finite_sliding:
             return self._solve_finite(u0)
         self._place()
@@ -414,6 +445,10 @@ class ContactProblem(SlidingSolve):
         """One SCD solve of the model as placed, from ``start``, to ``reduction`` (default rtol; the predictor and
         the no-contact shortcut first when set; collective). A SolverError keeps its last iterate as :attr:`u`."""
         model, solver, settings = self.model, self.solver, self.settings
+        finite = bool(np.all(np.isfinite(model.rhs.getArray(readonly=True))))
+        check_all(model.comm, finite, "solve: the load is not finite: a NaN or infinite body force, traction, "
+                  "prescribed displacement or other coefficient of L or of the boundary conditions")
+        check_all(model.comm, bool(np.all(np.isfinite(start))), "solve: the start u0 is not finite (NaN or inf)")
         if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
             result = solver.solve_linear()
             if model.p == 0:
@@ -452,7 +487,7 @@ class ContactProblem(SlidingSolve):
             logger.info(message)
 
     def _finish(self, result: SolveResult, commit: bool = False) -> dolfinx.fem.Function:
-        self._results.add(id(result))
+        result.origin = (self._serial, self._state)
         result.timings["model"] = self.model_time
         finite = self.finite_sliding
         if commit and not finite:

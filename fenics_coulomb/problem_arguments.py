@@ -23,9 +23,9 @@ def as_settings(settings: SolverSettings | dict[str, Any] | None) -> SolverSetti
     if settings is not None and not isinstance(settings, SolverSettings | dict):
         raise InputError(f"settings = {show(settings)}: give a SolverSettings, a dict of its fields or None")
     if isinstance(settings, dict):
-        unknown = set(settings) - set(SolverSettings.__dataclass_fields__)
+        unknown = [key for key in settings if key not in SolverSettings.__dataclass_fields__]
         if unknown:
-            raise InputError(f"unknown solver setting(s) {sorted(unknown)}")
+            raise InputError(f"unknown solver setting(s) {sorted(map(repr, unknown))}")
         settings = SolverSettings(**settings)
     return settings or SolverSettings()  # validated where it was constructed
 

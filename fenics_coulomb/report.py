@@ -185,12 +185,17 @@ def reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dic
     except InputError as err:
         message = str(err)
     check_all(V.mesh.comm, not message, message)
+    names = V.mesh.comm.allgather(sorted(groups))  # node blocks are per rank, the names must be every rank's
+    check_all(V.mesh.comm, all(n == names[0] for n in names),
+              f"reactions: the names differ between ranks ({names[0]} on rank 0, "
+              f"{next((n for n in names if n != names[0]), names[0])} on another): give every name on every rank "
+              "(an empty array of node blocks where a rank has none)")
     return groups
 
 
 def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> dict[str, Any]:
     if not isinstance(bcs, Mapping):
-        raise InputError(f"reactions = {bcs!r}: give a dict name -> DirichletBC (or node blocks)")
+        raise InputError(f"reactions = {type(bcs).__name__}: give a dict name -> DirichletBC (or node blocks)")
     bs = V.dofmap.index_map_bs
     nodes = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
     groups: dict[str, Any] = {}

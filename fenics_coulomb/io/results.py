@@ -92,8 +92,8 @@ class ResultDirectory:
             probe = self.path.parent / f".{self.path.name}.probe-{os.getpid()}"
             probe.mkdir()
             probe.rmdir()
-        except OSError as err:
-            return f"{prefix}: output directory is not writable ({err.strerror or err})"
+        except (OSError, ValueError) as err:  # ValueError: a NUL in the name
+            return f"{prefix}: output directory is not writable ({getattr(err, 'strerror', None) or err})"
         return ""
 
     @contextlib.contextmanager

@@ -24,6 +24,7 @@ same bits on any number of ranks).
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -176,6 +177,28 @@ class PathResultSet:
         return _finish(directory, data, comm, files, timings, started, self.seconds)
 
 
+#: summary.json's entries that ``extra`` may not replace: what the solve says about itself.
+PROTECTED_KEYS = ("converged", "reason", "newton_iterations", "krylov_iterations", "residual_history",
+                  "physics_checks", "contact_force", "reactions", "applied_load", "n", "p")
+
+
+def check_extra(extra: Any) -> None:
+    """InputError unless ``extra`` is None or a mapping of JSON data that replaces none of PROTECTED_KEYS (pure: the
+    same on every rank, before anything is written)."""
+    if extra is None:
+        return
+    if not isinstance(extra, Mapping):
+        raise InputError(f"write_results: extra = {type(extra).__name__}: give a dict of entries for summary.json")
+    taken = [key for key in extra if key in PROTECTED_KEYS]
+    if taken:
+        raise InputError(f"write_results: extra would replace summary.json's {taken[0]!r}, which the solve reports")
+    try:
+        json.dumps(dict(extra))
+    except (TypeError, ValueError) as err:
+        raise InputError(f"write_results: extra is not JSON data ({err}): give numbers, strings, lists and dicts "
+                         "(e.g. array.tolist())") from None
+
+
 def write_results(path: str | Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
                   plots: bool = False, reactions: Mapping[str, Any] | None = None,
                   extra: Mapping[str, Any] | None = None, comm: MPI.Comm | None = None) -> dict[str, Any]:
@@ -196,9 +219,10 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
     if not isinstance(result, SolveResult):
         raise InputError(f"write_results: result = {type(result).__name__}: give the SolveResult of the problem's "
                          "solve()")
-    if id(result) not in getattr(problem, "_results", {id(result)}):
-        raise InputError("write_results: the result is not one of this problem's solve() (a result of another "
-                         "problem describes other nodes)")
+    problem.check_result(result, "write_results")
+    if "\0" in str(path):
+        raise InputError(f"write_results: path = {str(path)!r}: a file name cannot hold a NUL character")
+    check_extra(extra)
     out = ResultDirectory(comm or problem.model.comm, path)
     out.failed = not result.converged
     with out.writing() as tmp:

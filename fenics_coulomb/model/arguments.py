@@ -14,7 +14,7 @@ import ufl
 
 from fenics_coulomb.errors import InputError
 
-__all__ = ["SLIDING", "check_sliding", "validate_friction", "validate_arguments", "function_space"]
+__all__ = ["SLIDING", "check_sliding", "validate_friction", "validate_arguments", "function_space", "as_list"]
 
 #: The sliding models: "finite" evaluates the contact geometry in the deformed configuration X + u
 #: (:meth:`ContactModel.configure`), "small" once in the reference configuration X.
@@ -25,6 +25,18 @@ def check_sliding(sliding: object) -> None:
     """Raise InputError unless ``sliding`` is one of SLIDING (the API's and the scene's one message)."""
     if not isinstance(sliding, str) or sliding not in SLIDING:
         raise InputError(f"sliding = {sliding!r}: must be one of {', '.join(map(repr, SLIDING))}")
+
+
+def as_list(value: object, name: str, single: type | tuple[type, ...]) -> list:
+    """``value`` as a list: None → [], one ``single`` → [it], a list or tuple (or another iterable but a string or
+    mapping) → its items; InputError naming ``name`` otherwise (pure)."""
+    if value is None:
+        return []
+    if isinstance(value, single):
+        return [value]
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, "__iter__"):
+        raise InputError(f"{name} = {type(value).__name__}: give a list")
+    return list(value)  # type: ignore[call-overload]
 
 
 def validate_friction(friction: float) -> None:
@@ -44,11 +56,11 @@ def _same_mesh(mesh: object, msh: dolfinx.mesh.Mesh) -> bool:
 
 
 def validate_arguments(V: dolfinx.fem.FunctionSpace, L: ufl.Form | None, bcs: Sequence[object],
-                       contact: object, friction: object) -> None:
+                       contact: object, friction: object, contact_pairs: Sequence[object] = ()) -> None:
     """InputError naming the argument of :class:`~fenics_coulomb.model.contact_model.ContactModel` that does not
     belong to V's mesh or has the wrong kind (pure: the same on every rank, before any collective call): a friction
     Function on another mesh (DOLFINx would crash on it), facet tags of another mesh, cell tags, a boundary condition
-    of another space (each would build a wrong model)."""
+    of another space, the facet tags of a contact pair on another mesh (each would build a wrong model, or crash)."""
     msh = V.mesh
     fdim = msh.topology.dim - 1
     if L is not None:
@@ -80,6 +92,12 @@ def validate_arguments(V: dolfinx.fem.FunctionSpace, L: ufl.Form | None, bcs: Se
         if any(isinstance(m, bool) or not isinstance(m, int | np.integer) for m in values):
             raise InputError(f"contact: markers {markers!r} must be a list of integer tag values (empty: no contact "
                              "boundary)")
+    for i, pair in enumerate(contact_pairs):
+        tags = getattr(pair, "facet_tags", None)
+        if isinstance(tags, dolfinx.mesh.MeshTags) and (tags.dim != fdim or
+                                                         _cpp(tags.topology) is not _cpp(msh.topology)):
+            raise InputError(f"contact_pairs[{i}]: its facet tags belong to another mesh than the bilinear form's "
+                             f"(or are not facet tags: dimension {tags.dim})")
     if isinstance(friction, dolfinx.fem.Function):
         if not _same_mesh(friction.function_space.mesh, msh):
             raise InputError("friction: the friction Function lives on another mesh than the bilinear form's")

@@ -54,7 +54,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.model.arguments import check_sliding, function_space, validate_arguments, validate_friction
+from fenics_coulomb.model.arguments import as_list, check_sliding, function_space, validate_arguments, validate_friction
 from fenics_coulomb.model.contact_map import ContactMap, held_blocks, hold
 from fenics_coulomb.model.coupling import Coupling, IdentityCoupling
 from fenics_coulomb.model.forces import block_to_scalar_dofs, boundary_areas
@@ -110,12 +110,13 @@ class ContactModel:
         V = function_space(a)
         msh = V.mesh
         comm = msh.comm
-        validate_arguments(V, L, bcs, contact, friction)
+        pairs = as_list(contact_pairs, "contact_pairs", ContactPair)
+        obstacles = as_list(obstacles, "obstacles", Obstacle)
+        validate_arguments(V, L, bcs, contact, friction, pairs)
         check_mesh(msh)
         self.V = V
         self.comm = comm
         self.bcs = list(bcs)
-        pairs = list(contact_pairs or [])
         #: The contact pairs (two bodies), in the order given.
         self.pairs = pairs
         #: Everything in which one body differs from two: the identity for one body,
@@ -130,13 +131,10 @@ class ContactModel:
         self.configuration: npt.NDArray[np.float64] | None = None
         self._ghosted: dolfinx.fem.Function | None = None
         # the contact boundary (nodal areas, figures) and the boundary of the obstacles' contact nodes
-        given = [obstacles] if isinstance(obstacles, Obstacle) else list(obstacles or [])
-        facet_tags, markers, obstacle_contact = self.coupling.boundary(self, contact, given)
+        facet_tags, markers, obstacle_contact = self.coupling.boundary(self, contact, obstacles)
         self.facet_tags = facet_tags
         self.markers = [int(m) for m in markers]
-        if isinstance(obstacles, Obstacle):
-            obstacles = [obstacles]
-        self.obstacles: list[Obstacle] = list(obstacles) if obstacles else self.coupling.default_obstacles()
+        self.obstacles: list[Obstacle] = obstacles if obstacles else self.coupling.default_obstacles()
         # Validate everything before the first collective call: all ranks hold the same values.
         bad_obstacles = [o for o in self.obstacles if not isinstance(o, Obstacle)]
         if bad_obstacles:

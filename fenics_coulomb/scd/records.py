@@ -87,6 +87,8 @@ class SolveResult:
         history_geometry: Finite sliding: the solve of the geometry iteration (0, 1, ...) each entry of
             ``residual_history`` belongs to, whose histories follow one another there and in ``records`` (each
             solve's first entry is its initial residual); empty: one solve.
+        origin: The problem and its state that made the result (:meth:`ContactProblem.check_result
+            <fenics_coulomb.problem.ContactProblem.check_result>`); None for a result no problem finished.
     """
 
     u: Array
@@ -121,6 +123,7 @@ class SolveResult:
     largest_slide: dict[str, Any] = field(default_factory=dict)
     free_penetration: dict[str, Any] = field(default_factory=dict)
     history_geometry: list[int] = field(default_factory=list)
+    origin: tuple[int, int] | None = None
 
     def state_counts(self, comm: MPI.Comm) -> dict[str, int]:
         """Global number of open / stick / slip contact nodes (collective)."""
