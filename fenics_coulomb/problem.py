@@ -115,9 +115,9 @@ class ContactProblem(SlidingSolve):
         self._solver: SCDNewtonSolver | None = None
         if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
             raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
-        if not petsc_options_prefix[0].isalpha() or not all(c.isalnum() or c == "_" for c in petsc_options_prefix):
-            raise InputError(f"petsc_options_prefix = {petsc_options_prefix!r}: PETSc takes letters, digits and '_', "
-                             "starting with a letter (e.g. 'contact_')")
+        if petsc_options_prefix.startswith("-") or any(c.isspace() for c in petsc_options_prefix):
+            raise InputError(f"petsc_options_prefix = {petsc_options_prefix!r}: a PETSc options prefix neither starts "
+                             "with '-' nor holds spaces (e.g. 'contact_')")
         if isinstance(bcs, dolfinx.fem.DirichletBC | str | bytes) or not isinstance(bcs, Sequence):
             raise InputError(f"bcs = {type(bcs).__name__}: give a list of dolfinx.fem.DirichletBC (or [])")
         self.settings = as_settings(settings)
@@ -200,8 +200,9 @@ class ContactProblem(SlidingSolve):
         they are now: a report, check or result set of an earlier state would mix that result with the current
         placement (a moved ball made a converged result's penetration 0.025)."""
         if not isinstance(result, SolveResult):
-            raise InputError(f"{where}: result = {type(result).__name__}: give the SolveResult of this problem's "
-                             "solve()")
+            plain = isinstance(result, str | int | float | list | tuple | dict) or result is None
+            raise InputError(f"{where}: result = {show(result) if plain else type(result).__name__}: give the "
+                             "SolveResult of this problem's solve()")
         origin = result.origin
         if origin is None or origin[0] != self._serial:
             raise InputError(f"{where}: the result is not one of this problem's solve() (a result of another problem "

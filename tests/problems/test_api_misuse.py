@@ -98,7 +98,7 @@ def test_an_earlier_result_is_refused_after_a_move(mpi_tmp_path):
                      lambda: write_results(mpi_tmp_path / "first", p, first)):
             with pytest.raises(InputError, match="the result of an earlier solve"):
                 call()
-        with pytest.raises(InputError, match="result = NoneType"):
+        with pytest.raises(InputError, match="result = None: give the SolveResult"):
             p.checks(None)
         with pytest.raises(InputError, match="not one of this problem's solve"):
             p.report(theirs)
