@@ -57,6 +57,14 @@ __all__ = ["ContactProblem"]
 
 logger = logging.getLogger(__name__)
 
+def _ranks(a: object) -> int:
+    """The size of the communicator of the bilinear form's mesh (1 when ``a`` is not a form: refused later)."""
+    try:
+        return int(a.arguments()[0].ufl_function_space().mesh.comm.size)  # type: ignore[attr-defined]
+    except (AttributeError, IndexError, TypeError):
+        return 1
+
+
 #: A serial number per problem in this process (results name theirs: an id() is reused once an object is freed).
 _SERIALS = itertools.count(1)
 
@@ -121,7 +129,7 @@ class ContactProblem(SlidingSolve):
         if isinstance(bcs, dolfinx.fem.DirichletBC | str | bytes) or not isinstance(bcs, Sequence):
             raise InputError(f"bcs = {type(bcs).__name__}: give a list of dolfinx.fem.DirichletBC (or [])")
         self.settings = as_settings(settings)
-        check_petsc_options(petsc_options, petsc_options_prefix)
+        check_petsc_options(petsc_options, petsc_options_prefix, _ranks(a) > 1)
         if contact is None and not contact_pairs:
             raise InputError("contact: give the facet tags and the markers of the contact boundary")
         if contact is not None and isinstance(contact, tuple | list) and len(contact) == 2 and (
@@ -244,7 +252,7 @@ class ContactProblem(SlidingSolve):
                    petsc_options: dict[str, Any] | None = None) -> None:
         """Replace the solver (settings and PETSc options) on the same assembled model (collective)."""
         settings = as_settings(settings)
-        check_petsc_options(petsc_options, self.petsc_options_prefix)
+        check_petsc_options(petsc_options, self.petsc_options_prefix, self.model.comm.size > 1)
         old = self.solver
         # the new solver first: a value it refuses (a fixed gamma out of range) leaves the old one in place
         solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)

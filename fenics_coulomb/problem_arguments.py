@@ -36,7 +36,7 @@ def show(value: Any) -> str:
     return text if len(text) <= 80 else text[:77] + "..."
 
 
-def check_petsc_options(options: Any, prefix: str) -> None:
+def check_petsc_options(options: Any, prefix: str, parallel: bool = False) -> None:
     """InputError for ``petsc_options`` that are not a mapping of option names (without '-' and prefix) to values,
     or that PETSc refuses (an unknown KSP or PC type, …): tried on a small KSP on this rank alone, before anything
     collective (:func:`fenics_coulomb.scd.options.check_petsc_options`), then removed from the database again."""
@@ -59,7 +59,7 @@ def check_petsc_options(options: Any, prefix: str) -> None:
     try:
         for name, value in zip(names, options.values(), strict=True):
             database[name] = "" if value is None else value
-        check_in_petsc(trial)
+        check_in_petsc(trial, parallel)
     except InputError as err:
         raise InputError(f"petsc_options: {str(err).replace('-' + trial, '')}") from None
     finally:

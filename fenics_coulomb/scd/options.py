@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import re
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 from fenics_coulomb.errors import InputError
@@ -38,7 +39,7 @@ def set_petsc_options(tokens: list[str]) -> list[str]:
     for key, value in pairs:
         opts[key] = value
     try:
-        check_petsc_options(COMMAND_PREFIX)
+        check_petsc_options(COMMAND_PREFIX, MPI.COMM_WORLD.size > 1)
     except InputError:
         for key, _ in pairs:
             opts.delValue(key)
@@ -46,13 +47,17 @@ def set_petsc_options(tokens: list[str]) -> list[str]:
     return [key for key, _ in pairs]
 
 
-def check_petsc_options(prefix: str) -> None:
-    """Set up a KSP with options prefix ``prefix`` like the solver's on PETSc.COMM_SELF; InputError naming the
-    options when PETSc refuses them."""
+def check_petsc_options(prefix: str, parallel: bool = False) -> None:
+    """Set up a KSP with options prefix ``prefix`` like the solver's on PETSc.COMM_SELF (``parallel``: with the
+    parallel matrix type and block Jacobi, as on several ranks, where e.g. ILU has no factorization); InputError
+    naming the options when PETSc refuses them."""
     from petsc4py import PETSc
 
     n = 6
     A = PETSc.Mat().createAIJ([n, n], nnz=3, comm=PETSc.COMM_SELF)
+    if parallel:
+        A.setType("mpiaij")
+        A.setPreallocationNNZ((3, 0))
     for i in range(n):  # the 1D Laplacian: SPD, so every sensible KSP/PC can set up on it
         A.setValue(i, i, 2.0)
         if i > 0:
@@ -68,7 +73,7 @@ def check_petsc_options(prefix: str) -> None:
         ksp.setType(PETSc.KSP.Type.GMRES)
         ksp.setPCSide(PETSc.PC.Side.RIGHT)
         ksp.setNormType(PETSc.KSP.NormType.UNPRECONDITIONED)
-        ksp.getPC().setType("ilu")
+        ksp.getPC().setType("bjacobi" if parallel else "ilu")
         ksp.setFromOptions()
         ksp.setUp()
         check_option_values(prefix)

@@ -143,3 +143,17 @@ def test_reaction_names_must_be_every_ranks():
             return
         with pytest.raises(InputError, match="reactions: the names differ between ranks"):
             p.report(result, reactions=reactions)
+
+
+def test_options_a_parallel_solve_cannot_use_are_refused_there():
+    """pc_type ilu passed the serial check of the options and failed on 2 ranks as a solve error ("Could not locate
+    a solver type for factorization type ILU and matrix type mpiaij", per rank): the check now sets the parallel
+    matrix type up on several ranks. On 1 rank ILU is the solver's own preconditioner."""
+    a, L, bcs, contact, _ = block()
+    kwargs = {"petsc_options_prefix": "ilu_", "petsc_options": {"pc_type": "ilu"}}
+    if MPI.COMM_WORLD.size > 1:
+        with pytest.raises(InputError, match="factorization type ILU and matrix type mpiaij"):
+            ContactProblem(a, L, bcs, contact, 0.3, [ball()], **kwargs)
+    else:
+        with ContactProblem(a, L, bcs, contact, 0.3, [ball()], **kwargs) as p:
+            assert p.solve()[1].converged
