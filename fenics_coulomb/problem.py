@@ -57,6 +57,7 @@ __all__ = ["ContactProblem"]
 
 logger = logging.getLogger(__name__)
 
+
 def _ranks(a: object) -> int:
     """The size of the communicator of the bilinear form's mesh (1 when ``a`` is not a form: refused later)."""
     try:
