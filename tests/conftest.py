@@ -102,6 +102,19 @@ def problem_factory() -> Iterator:
         problem.destroy()
 
 
+def matrix_difference(a, b, norm=None) -> float:
+    """‖a − b‖ / ‖b‖ of two PETSc matrices of one layout (any nonzero patterns; ``norm``: a PETSc.NormType,
+    default the Frobenius norm; collective)."""
+    from petsc4py import PETSc
+
+    norm = PETSc.NormType.FROBENIUS if norm is None else norm
+    d = a.copy()
+    d.axpy(-1.0, b, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+    value = d.norm(norm) / b.norm(norm)
+    d.destroy()
+    return value
+
+
 def global_norm(x: np.ndarray, comm: MPI.Comm = MPI.COMM_WORLD) -> float:
     """‖x‖ over the owned entries of all ranks."""
     return float(np.sqrt(comm.allreduce(float(np.dot(np.ravel(x), np.ravel(x))), op=MPI.SUM)))

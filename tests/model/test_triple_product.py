@@ -10,15 +10,12 @@ import numpy as np
 import pytest
 
 from benchmarks.sliding import SlidingBlocks
+from conftest import matrix_difference
 from fenics_coulomb.model.reproducible import TripleProduct
 
 
 def _difference(a: PETSc.Mat, b: PETSc.Mat) -> float:
-    d = a.copy()
-    d.axpy(-1.0, b, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    value = d.norm(PETSc.NormType.INFINITY) / b.norm(PETSc.NormType.INFINITY)
-    d.destroy()
-    return value
+    return matrix_difference(a, b, PETSc.NormType.INFINITY)
 
 
 def test_triple_product_is_petsc_ptap_new_and_in_place():

@@ -8,7 +8,7 @@ from petsc4py import PETSc
 
 import numpy as np
 import pytest
-from conftest import solve_each
+from conftest import matrix_difference, solve_each
 
 from fenics_coulomb.model.checks import physics_residuals
 from fenics_coulomb.errors import InputError
@@ -33,11 +33,7 @@ def _galerkin_chain(pc: PETSc.PC, fine: PETSc.Mat) -> list[PETSc.Mat]:
 
 
 def _relative_difference(X: PETSc.Mat, Y: PETSc.Mat) -> float:
-    D = X.copy()
-    D.axpy(-1.0, Y, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
-    value = D.norm(PETSc.NormType.FROBENIUS) / Y.norm(PETSc.NormType.FROBENIUS)
-    D.destroy()
-    return value
+    return matrix_difference(X, Y)
 
 
 def test_coarse_operators_are_the_galerkin_products_of_the_newton_matrix(problem_factory):
