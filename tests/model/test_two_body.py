@@ -359,6 +359,13 @@ def test_a_node_that_must_meet_a_pair_and_an_obstacle_is_no_exit_0(sliding):
         with pytest.raises(SolverError, match="shared_penetration residual") as failure:
             problem.solve()
         assert failure.value.reason == ("physics_check" if sliding == "small" else "geometry")
+        # independently: the deepest slave node (X3 = 1e-3) below the plane x3 = −5e-4 in the last iterate; small
+        # sliding gives every slave node to the pair, so each one that ends below the plane counts
+        if sliding == "small":
+            X, u = gather_by_coordinates(problem.V, problem.u.x.array)
+            slave = np.isclose(X[:, 2], 1e-3)
+            depth = problem.model.coupling.shared_depth(problem.model, failure.value.result.displacement)
+            assert np.max(-5e-4 - (X[slave, 2] + u[slave, 2])) == pytest.approx(depth, rel=1e-9)
 
 
 def side_by_side(gap: float, sliding: str):
@@ -390,11 +397,19 @@ def test_nodes_on_a_pair_and_a_floor_are_checked_both_ways():
     (gap 0: the pair wins the tie), the floor's is, and the solve fails instead of ending with exit 0 and the edge
     nodes inside the floor."""
     with side_by_side(1e-3, "small") as problem:
-        _, result = problem.solve()
+        uh, result = problem.solve()
         assert problem.model.coupling.shared_nodes() > 0
         depth = problem.model.coupling.shared_depth(problem.model, result.displacement)
         assert 1e-5 < depth < 1e-3  # the edge nodes end ~1e-4 inside the lower block's face
         assert result.checks["shared_penetration"] > 0.0
+        # independently: small sliding pairs in X, where each floor-edge node of the slave face (X1 = 1e-3,
+        # X3 = −2) lies straight across from a master node (X1 = 0): its linearized gap is 1e-3 + u1(slave) −
+        # u1(master) (normal +e1), the deepest the check's value
+        X, u = gather_by_coordinates(problem.V, uh.x.array)
+        edge = np.isclose(X[:, 2], -2.0)
+        slave, master = edge & np.isclose(X[:, 0], 1e-3), edge & np.isclose(X[:, 0], 0.0)
+        assert np.allclose(X[slave, 1], X[master, 1], rtol=0, atol=1e-12)  # sorted: partner by partner
+        assert np.max(-(1e-3 + u[slave, 0] - u[master, 0])) == pytest.approx(depth, rel=1e-9)
     with side_by_side(0.0, "small") as problem:
         with pytest.raises(SolverError, match="shared_penetration residual"):
             problem.solve()
