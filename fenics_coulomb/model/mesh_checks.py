@@ -53,24 +53,25 @@ _HEX_EDGES = ((1 | (_B << 1) | (_C << 2), _B << 1 | (_C << 2)),
 def corner_determinants(cell_type: str, X: Array) -> Array:
     """The Jacobian determinants of each cell's map at its corners, shape (cells, corners), from the vertex
     coordinates X of shape (cells, vertices, 3) (tetrahedra: one value, the map is affine); the triple product
-    a·(b × c) of the corner's three edge vectors, all corners at once."""
+    a·(b × c) of the corner's three edge vectors, all corners at once (on the coordinates laid out component by
+    component, so that every product runs over contiguous memory)."""
+    Xt = np.ascontiguousarray(np.asarray(X, dtype=np.float64).transpose(2, 1, 0))  # (3, vertices, cells)
     if cell_type == "tetrahedron":
-        a, b, c = (X[:, k] - X[:, 0] for k in (1, 2, 3))
+        a, b, c = (Xt[:, k] - Xt[:, 0] for k in (1, 2, 3))
     else:
-        a, b, c = (X[:, hi] - X[:, lo] for hi, lo in _HEX_EDGES)
-    det = (a[..., 0] * (b[..., 1] * c[..., 2] - b[..., 2] * c[..., 1])
-           - a[..., 1] * (b[..., 0] * c[..., 2] - b[..., 2] * c[..., 0])
-           + a[..., 2] * (b[..., 0] * c[..., 1] - b[..., 1] * c[..., 0]))
-    return det[:, None] if cell_type == "tetrahedron" else det
+        a, b, c = (Xt[:, hi] - Xt[:, lo] for hi, lo in _HEX_EDGES)
+    det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) + a[2] * (b[0] * c[1] - b[1] * c[0])
+    return det[:, None] if cell_type == "tetrahedron" else det.T
 
 
 def _diameters(X: Array) -> Array:
     """Each cell's largest vertex distance (its diameter), from the vertex coordinates (cells, vertices, 3): one
     vertex pair at a time (28 for hexahedra), so that no (cells, pairs, 3) temporary is made."""
+    Xt = np.ascontiguousarray(np.asarray(X, dtype=np.float64).transpose(2, 1, 0))  # (3, vertices, cells)
     best = np.zeros(X.shape[0])
     for i, j in zip(*np.triu_indices(X.shape[1], 1), strict=True):
-        d = X[:, i] - X[:, j]
-        np.maximum(best, np.einsum("ck,ck->c", d, d), out=best)
+        d = Xt[:, i] - Xt[:, j]
+        np.maximum(best, np.einsum("kc,kc->c", d, d), out=best)
     return np.sqrt(best)
 
 
