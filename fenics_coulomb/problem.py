@@ -44,7 +44,8 @@ from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairs import ContactPair, Pairing
-from fenics_coulomb.problem_arguments import as_settings, check_petsc_options, show
+from fenics_coulomb.problem_arguments import (as_settings, check_bcs, check_contact, check_petsc_options, check_prefix,
+                                             history_placement, obstacle_index, show)
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
@@ -122,20 +123,11 @@ class ContactProblem(SlidingSolve):
     ) -> None:
         self._model: ContactModel | None = None
         self._solver: SCDNewtonSolver | None = None
-        if not isinstance(petsc_options_prefix, str) or not petsc_options_prefix:
-            raise InputError("petsc_options_prefix: a non-empty PETSc options prefix is required")
-        if petsc_options_prefix.startswith("-") or any(c.isspace() for c in petsc_options_prefix):
-            raise InputError(f"petsc_options_prefix = {petsc_options_prefix!r}: a PETSc options prefix neither starts "
-                             "with '-' nor holds spaces (e.g. 'contact_')")
-        if isinstance(bcs, dolfinx.fem.DirichletBC | str | bytes) or not isinstance(bcs, Sequence):
-            raise InputError(f"bcs = {type(bcs).__name__}: give a list of dolfinx.fem.DirichletBC (or [])")
+        check_prefix(petsc_options_prefix)
+        check_bcs(bcs)
         self.settings = as_settings(settings)
         check_petsc_options(petsc_options, petsc_options_prefix, _ranks(a) > 1)
-        if contact is None and not contact_pairs:
-            raise InputError("contact: give the facet tags and the markers of the contact boundary")
-        if contact is not None and isinstance(contact, tuple | list) and len(contact) == 2 and (
-                isinstance(contact[1], str | bytes) or not isinstance(contact[1], Sequence | np.ndarray)):
-            raise InputError(f"contact: markers = {show(contact[1])}: give a list of facet tag values, e.g. [1]")
+        check_contact(contact, contact_pairs)
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
                                    form_compiler_options, jit_options, contact_pairs, sliding)
@@ -299,17 +291,7 @@ class ContactProblem(SlidingSolve):
             InputError: for an unknown obstacle, a displacement that is not a finite 3-vector or a bad rotation.
         """
         self.model  # noqa: B018  (RuntimeError after destroy())
-        names = [getattr(o, "name", None) for o in self._obstacles]
-        if isinstance(obstacle, str):
-            if obstacle not in names:
-                raise InputError(f"move: no obstacle named {obstacle!r} (obstacles: {names})")
-            index = names.index(obstacle)
-        elif isinstance(obstacle, int | np.integer) and not isinstance(obstacle, bool) and (
-                0 <= int(obstacle) < len(self._obstacles)):
-            index = int(obstacle)
-        else:
-            raise InputError(f"move: obstacle {obstacle!r} is neither a name nor an index below "
-                             f"{len(self._obstacles)}")
+        index = obstacle_index(self._obstacles, obstacle)
         target = self._obstacles[index]
         moved = target.moved(_vector(displacement, "displacement", f"move: {target.label}"))
         self._obstacles[index] = moved if isinstance(rotation, str) and rotation == "keep" else moved.rotated(rotation)
@@ -330,27 +312,7 @@ class ContactProblem(SlidingSolve):
         self.model  # noqa: B018  (RuntimeError after destroy())
         if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 0:
             raise InputError(f"reset: step {step!r} must be an integer >= 0")
-        delta = None
-        if obstacle_displacements is not None:
-            try:
-                delta = np.asarray(obstacle_displacements, dtype=np.float64)
-            except (TypeError, ValueError):
-                raise InputError(f"reset: obstacle_displacements = {show(obstacle_displacements)}: need finite "
-                                 f"values of shape ({len(self._obstacles)}, 3)") from None
-            if delta.size == 0 and not self._obstacles:
-                delta = delta.reshape(0, 3)
-            if delta.shape != (len(self._obstacles), 3) or not np.all(np.isfinite(delta)):
-                raise InputError(f"reset: obstacle_displacements of shape {delta.shape}: need finite values of "
-                                 f"shape ({len(self._obstacles)}, 3)")
-        placed = None
-        if obstacle_rotations is not None:
-            if isinstance(obstacle_rotations, str | bytes) or not isinstance(obstacle_rotations, Sequence) or \
-                    len(obstacle_rotations) != len(self._obstacles):
-                raise InputError(f"reset: obstacle_rotations = {obstacle_rotations!r}: give one rotation (or None) "
-                                 f"per obstacle ({len(self._obstacles)})")
-            deltas = delta if delta is not None else np.zeros((len(self._obstacles), 3))
-            placed = [o.moved(d).rotated(r)
-                      for o, d, r in zip(self._obstacles, deltas, obstacle_rotations, strict=True)]
+        delta, placed = history_placement(self._obstacles, obstacle_displacements, obstacle_rotations)
         self._previous = None if u is None else interpolate_displacement(u, self.model.V)
         if self._previous is not None and not self.finite_sliding:  # the history in the model's unknown
             self._previous = self.model.relative(self._previous)

@@ -20,13 +20,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import dolfinx
 import dolfinx.fem.petsc
 import numpy as np
 
-__all__ = ["FIXED_ORDER_PTAP", "MIN_RANKS", "TripleProduct", "assemble_matrix"]
+__all__ = ["FIXED_ORDER_PTAP", "MIN_RANKS", "TripleProduct", "assemble_matrix", "same_pattern"]
 
 #: From this many ranks a matrix entry can receive off-process contributions from more than one rank.
 MIN_RANKS = 3
@@ -126,3 +127,12 @@ class TripleProduct:
             if mat is not None:
                 mat.destroy()
         self._transpose = self._right = None
+
+
+def same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
+    """Whether two matrices of one layout have the same nonzero pattern on every rank (collective): a new M of the
+    same pattern lets :class:`TripleProduct` overwrite its last product in place."""
+    ia, ja, _ = a.getValuesCSR()
+    ib, jb, _ = b.getValuesCSR()
+    same = bool(np.array_equal(ia, ib) and np.array_equal(ja, jb))
+    return bool(a.getComm().tompi4py().allreduce(same, op=MPI.LAND))

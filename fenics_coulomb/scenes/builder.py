@@ -3,7 +3,7 @@
 This is the only place where the command line's model is built; the scene's material is isotropic (the
 Lamé operator in UFL), its Dirichlet boundaries are clamped (u = 0), prescribed or rollers, its loads are
 tractions per boundary (constants or expressions) and a constant body force. The load form and the prescribed
-values are built on coefficients (:class:`fenics_coulomb.scenes.path.StepLoads`) that a load path changes in place
+values are built on coefficients (:class:`fenics_coulomb.scenes.loads.StepLoads`) that a load path changes in place
 between solves.
 """
 
@@ -30,7 +30,7 @@ from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.problem import ContactProblem
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, Body, GapFunction, create_cuboid
 from fenics_coulomb.scenes.meshes import read_gmsh_tags
-from fenics_coulomb.scenes.path import StepLoads, scene_state, step_state
+from fenics_coulomb.scenes.loads import StepLoads, scene_state, step_state
 from fenics_coulomb.scenes.scene import Scene, held_components
 from fenics_coulomb.settings import COMMAND_PREFIX, START_RULES
 

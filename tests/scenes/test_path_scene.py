@@ -15,7 +15,8 @@ import pytest
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.scene import PathStep, Scene
 from fenics_coulomb.errors import InputError
-from fenics_coulomb.scenes.path import StepLoads, plan, scene_state, step_state, zero_state
+from fenics_coulomb.scenes.loads import StepLoads, scene_state, step_state, zero_state
+from fenics_coulomb.scenes.path import plan
 
 ROOT = Path(__file__).resolve().parents[2]
 

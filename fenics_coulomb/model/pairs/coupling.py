@@ -37,9 +37,9 @@ from fenics_coulomb.model.pairs.forces import pair_forces
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
-from fenics_coulomb.model.reproducible import TripleProduct, assemble_matrix
+from fenics_coulomb.model.reproducible import TripleProduct, assemble_matrix, same_pattern
 from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies,
-                                                 coupling_matrix)
+                                                 coupling_matrix, linearized_pair_gaps)
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel, Friction
@@ -51,33 +51,6 @@ logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
-
-
-def _same_pattern(a: PETSc.Mat, b: PETSc.Mat) -> bool:
-    """Whether two matrices of one layout have the same nonzero pattern on every rank (collective)."""
-    ia, ja, _ = a.getValuesCSR()
-    ib, jb, _ = b.getValuesCSR()
-    same = bool(np.array_equal(ia, ib) and np.array_equal(ja, jb))
-    return bool(a.getComm().tompi4py().allreduce(same, op=MPI.LAND))
-
-
-def _linearized_gaps(model: ContactModel, nodes: dict[str, np.ndarray], coupling: PETSc.Mat, u: Array) -> Array:
-    """g + n·(w − w_c) of the owned slave ``nodes`` (keys blocks, gap, normals; ``coupling`` = I + Φ of their
-    stencils), w = u_s − Σ_j φ_j u_j of the physical ``u`` and w_c of the model's configuration (their ``gap`` is
-    g(X + u_c)); collective."""
-    x, y = coupling.createVecs()
-
-    def w_of(v: npt.ArrayLike) -> Array:
-        x.array[:] = np.asarray(v, dtype=np.float64)[:x.getLocalSize()]
-        coupling.mult(x, y)  # (I + Φ) v
-        return (2.0 * x.getArray(readonly=True) - y.getArray(readonly=True)).reshape(-1, 3)[nodes["blocks"]]
-
-    w = w_of(u)
-    if model.configuration is not None:
-        w = w - w_of(model.configuration)
-    x.destroy()
-    y.destroy()
-    return nodes["gap"] + np.einsum("ij,ij->i", nodes["normals"], w)
 
 
 class PairCoupling(Coupling):
@@ -205,7 +178,7 @@ class PairCoupling(Coupling):
         #: Whether the last configuration kept M's nonzero pattern on every rank: M's Mat then takes the new
         #: values and Ã is overwritten in place by PtAP's numeric phase (the same bits as a new product; PtAP's
         #: reuse needs the very Mat its product was made from).
-        self.reused = self.M is not None and model.A is not None and _same_pattern(self.M, M)
+        self.reused = self.M is not None and model.A is not None and same_pattern(self.M, M)
         if self.reused:
             assert self.M is not None
             M.copy(self.M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
@@ -416,7 +389,7 @@ class PairCoupling(Coupling):
             free = self.pairing.free
             self._free_coupling = coupling_matrix(model.V, free["blocks"], free["master_blocks"], free["weights"],
                                                   f"{model.prefix}free_")
-        return _linearized_gaps(model, self.pairing.free, self._free_coupling, u)
+        return linearized_pair_gaps(model.configuration, self.pairing.free, self._free_coupling, u)
 
     def _given_gaps(self, model: ContactModel, u: Array) -> Array:
         """The linearized pair gaps of the owned slave nodes the merge gave to an obstacle (collective)."""
@@ -425,7 +398,7 @@ class PairCoupling(Coupling):
         if self._given_coupling is None:
             self._given_coupling = coupling_matrix(model.V, given["blocks"], given["master_blocks"],
                                                    given["weights"], f"{model.prefix}given_")
-        return _linearized_gaps(model, given, self._given_coupling, u)
+        return linearized_pair_gaps(model.configuration, given, self._given_coupling, u)
 
     def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None) -> str | None:
         if not self.held_by_contact or self.pairing is None:
@@ -438,15 +411,8 @@ class PairCoupling(Coupling):
         counts = np.bincount(self.pairing.pair_index[mine], minlength=len(self.pairs)).astype(np.int64)
         counts = np.ascontiguousarray(counts[:len(self.pairs)])
         model.comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
-        parts = []
-        for held in self.held_by_contact:
-            n = int(counts[list(held.pairs)].sum())
-            parts.append(held.describe(labels) + (
-                ": no contact node of it is closed in the last iterate — the loads lift it off, and nothing holds its "
-                "rigid motion (support it, or load it onto its partner)" if n == 0 else
-                f": {n} contact node(s) of it closed in the last iterate — if the loads lift it off, nothing holds "
-                "its rigid motion (support it, or load it onto its partner)"))
-        return "; ".join(parts)
+        return "; ".join(held.describe_lost(labels, int(counts[list(held.pairs)].sum()))
+                         for held in self.held_by_contact)
 
     def _free_penetration(self, model: ContactModel, u: Array, tol: float = 1e-8) -> tuple[int, float]:
         """(the number of free slave nodes whose gap is below −tol × the mesh size, the deepest penetration

@@ -51,7 +51,7 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -69,7 +69,7 @@ if TYPE_CHECKING:
     from fenics_coulomb.model.pairs.pair import ContactPair
 
 __all__ = ["HELD_FRACTION", "HeldByContact", "connected_bodies", "check_rigid_support", "held_fraction",
-           "coupling_matrix", "body_rigid_modes"]
+           "coupling_matrix", "linearized_pair_gaps", "body_rigid_modes"]
 
 logger = logging.getLogger(__name__)
 
@@ -190,6 +190,16 @@ class HeldByContact:
         pairs = ", ".join(labels[i] for i in self.pairs)
         return f"body {self.body} (centroid ({where})) is held by contact alone ({pairs})"
 
+    def describe_lost(self, labels: Sequence[str], closed: int) -> str:
+        """Why a solve failed, for this body with ``closed`` contact nodes of its pairs closed in the last iterate."""
+        if closed == 0:
+            return self.describe(labels) + (": no contact node of it is closed in the last iterate — the loads lift it "
+                                            "off, and nothing holds its rigid motion (support it, or load it onto its "
+                                            "partner)")
+        return self.describe(labels) + (f": {closed} contact node(s) of it closed in the last iterate — if the loads "
+                                        "lift it off, nothing holds its rigid motion (support it, or load it onto its "
+                                        "partner)")
+
 
 def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
                         dirichlet: npt.NDArray[np.int32], pairs: Sequence[ContactPair] = ()
@@ -304,6 +314,26 @@ def coupling_matrix(V: dolfinx.fem.FunctionSpace, blocks: npt.NDArray[np.int32],
     M.setOptionsPrefix(f"{prefix}coupling_")
     M.assemble()
     return M
+
+
+def linearized_pair_gaps(configuration: npt.ArrayLike | None, nodes: dict[str, npt.NDArray[Any]],
+                         coupling: PETSc.Mat, u: Array) -> Array:
+    """g + n·(w − w_c) of the owned slave ``nodes`` (keys blocks, gap, normals; ``coupling`` = I + Φ of their
+    stencils), w = u_s − Σ_j φ_j u_j of the physical ``u`` and w_c of the ``configuration`` the gaps were evaluated
+    in (their ``gap`` is g(X + u_c); None: X); collective."""
+    x, y = coupling.createVecs()
+
+    def w_of(v: npt.ArrayLike) -> Array:
+        x.array[:] = np.asarray(v, dtype=np.float64)[:x.getLocalSize()]
+        coupling.mult(x, y)  # (I + Φ) v
+        return (2.0 * x.getArray(readonly=True) - y.getArray(readonly=True)).reshape(-1, 3)[nodes["blocks"]]
+
+    w = w_of(u)
+    if configuration is not None:
+        w = w - w_of(configuration)
+    x.destroy()
+    y.destroy()
+    return nodes["gap"] + np.einsum("ij,ij->i", nodes["normals"], w)
 
 
 def body_rigid_modes(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
