@@ -112,11 +112,6 @@ def build_parser(prog: str = "python3 -m fenics_coulomb") -> argparse.ArgumentPa
                    help="apply the Newton matrix as D(A x) + C x without a second copy of A when the "
                    "preconditioner is built on A (gamg); --no-matrix-free stores it (default "
                    f"{'on' if d.solver.matrix_free else 'off'})")
-    p.add_argument("--galerkin-coarse", action=argparse.BooleanOptionalAction, default=None,
-                   help="with GAMG (on A) and variant 4a: scale the contact rows to A's diagonal and keep GAMG's "
-                   "coarse operators the Galerkin products of the Newton matrix, updated in place every Newton "
-                   "step; --no-galerkin-coarse keeps A's (default "
-                   f"{'on' if d.solver.galerkin_coarse else 'off'})")
     p.add_argument("--max-it", type=int, help=f"maximal Newton iterations (default {d.solver.max_it})")
     p.add_argument("--pc", help=f"preconditioner: {', '.join(PRECONDITIONERS)} (default {d.solver.pc})")
     p.add_argument("--gamma-scale", type=float,

@@ -67,7 +67,7 @@ def scene_from_args(args: argparse.Namespace) -> Scene:
         poisson=args.poisson, friction=args.friction, variant=args.variant, tol=args.tol, rtol=args.rtol,
         max_it=args.max_it, pc=args.pc, gamma_scale=args.gamma_scale, start=args.start, predictor=args.predictor,
         accuracy=args.accuracy, adaptive_tol=args.adaptive_tol, matrix_free=args.matrix_free,
-        galerkin_coarse=args.galerkin_coarse, sliding=getattr(args, "sliding", None),
+        sliding=getattr(args, "sliding", None),
     )
 
 

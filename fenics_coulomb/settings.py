@@ -17,7 +17,7 @@ __all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERRO
            "INTEGER_REASONS", "GAMMA_SCALE_RANGE", "check_fixed_gamma", "rtol_and_accuracy", "rtol_for_accuracy",
            "SolverSettings", "setting_kinds"]
 
-PRECONDITIONERS = ("auto", "ilu", "gamg", "gamg-newton", "hypre", "lu", "jacobi", "none")
+PRECONDITIONERS = ("auto", "ilu", "gamg", "hypre", "lu", "jacobi", "none")
 VARIANTS = ("4a", "4b")
 #: The starts of a solve given no start that continues no load path (:attr:`SolverSettings.start`).
 START_RULES = ("auto", "zero", "undeformed")
@@ -138,8 +138,7 @@ class SolverSettings:
         pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.scd.preconditioner.AUTO_GAMG_UNKNOWNS`
             unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (aggregation
             AMG on the stiffness matrix A with the rigid-body near-nullspace, unsmoothed on hexahedral meshes, set up
-            once and reused by every Newton step), gamg-newton (on the Newton matrix, set up every step), hypre, lu,
-            jacobi, none.
+            once and reused by every Newton step), hypre, lu, jacobi, none.
         power_iterations: Power-method iterations on A for γ (paper: 5).
         gamma: Fixed γ instead of the power-method estimate.
         gamma_scale: Factor on the power-method estimate of λ_max(A). The paper uses γ ≈ λ_max(A)
@@ -158,11 +157,6 @@ class SolverSettings:
         no_contact_shortcut: Without contact nodes, solve the linear problem once instead of Newton.
         matrix_free: Apply the Newton matrix as D(A x) + C x (a PETSc shell, no second copy of A) when the
             preconditioner does not read it (gamg, none); false stores the explicit copy always.
-        galerkin_coarse: With GAMG on A and variant 4a, scale the contact rows to A's diagonal and keep GAMG's
-            coarse operators equal to the Galerkin products of the Newton matrix (:mod:`fenics_coulomb.scd.galerkin`);
-            false (the default) leaves them those of A: fewer Krylov iterations (lev 8: 58 instead of 91) but more
-            Newton steps, no shorter wall time at lev 10 and about 10 % more memory (docs/scale/README.md). Needs pc
-            "gamg" or "auto" (where it applies when GAMG is chosen) and variant 4a, else an InputError.
         start: The start ũ⁽⁰⁾ of a solve given none that is not a later step of a load path (which starts from the
             previous step's solution): "zero" (the paper's u⁽⁰⁾ = 0 of the shifted unknown, ũ = −d: every contact
             node on its obstacle), "undeformed" (ũ = 0), or "auto" (the default): "zero" when the residual
@@ -199,7 +193,6 @@ class SolverSettings:
     predictor: bool = _setting(False, "bool")
     no_contact_shortcut: bool = _setting(True, "bool")
     matrix_free: bool = _setting(True, "bool")
-    galerkin_coarse: bool = _setting(False, "bool")
     start: str = _setting("auto", "str", choices=START_RULES, label="start")
     poisson_ratio: float | None = _setting(None, "number?", low=-1.0, high=0.5, bounds="()",
                                            text="must lie in (-1, 0.5)")
@@ -222,9 +215,6 @@ class SolverSettings:
             raise InputError(rtol_and_accuracy(self.rtol, self.accuracy))
         if self.variant == "4b" and self.pc == "hypre":
             raise InputError("preconditioner 'hypre' cannot apply its transpose, which variant 4b needs")
-        if self.galerkin_coarse and (self.variant != "4a" or self.pc not in ("auto", "gamg")):
-            raise InputError(f"galerkin_coarse = true needs GAMG on A and variant 4a (it updates GAMG's coarse "
-                             f"operators), not pc = {self.pc!r} with variant {self.variant!r}")
 
 
 def setting_kinds() -> dict[str, str]:

@@ -5,6 +5,6 @@ contact states), :mod:`.derivatives` (its SC derivatives), :mod:`.steps` (the Ne
 4a/4b), :mod:`.stopping` (the stopping rule), :mod:`.forcing` (the linear solves' tolerances),
 :mod:`.contact_rows` (A's rows at the contact DOFs), :mod:`.newton_operator` (the Newton matrix, explicit or a
 shell), :mod:`.power_method` (λ_max(A) for γ), :mod:`.preconditioner` (the KSP's preconditioners and pc auto's
-ladder), :mod:`.galerkin` (GAMG's coarse operators following the Newton matrix); the driver
+ladder), :mod:`.physical_preconditioner` (GAMG for pairs in the physical displacement); the driver
 :mod:`.newton` (:class:`~fenics_coulomb.scd.newton.SCDNewtonSolver`) and its result :mod:`.records`.
 """

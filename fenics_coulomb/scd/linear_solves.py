@@ -4,7 +4,7 @@
 (GMRES, right preconditioned, stopped on the unpreconditioned relative residual) and its preconditioner:
 
 * creation for the resolved preconditioner under the solver's options prefix (:mod:`fenics_coulomb.scd.preconditioner`),
-  with GAMG's near-nullspace and, when asked, the Galerkin coarse operators (:mod:`fenics_coulomb.scd.galerkin`);
+  with GAMG's near-nullspace;
 * the scope of the options: the solver's defaults and the user's ``petsc_options`` put into PETSc's database only
   for the solver's own calls (:meth:`NewtonLinearSolves.petsc_options`);
 * one linear solve of the Newton system or of A x = l̃ to a relative tolerance, pc = "auto"'s cap per decade of
@@ -23,7 +23,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import math
-import time
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
 
@@ -34,7 +33,6 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import SolverError
-from fenics_coulomb.scd.galerkin import GalerkinCoarsening
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 from fenics_coulomb.scd.preconditioner import (
@@ -92,7 +90,6 @@ class NewtonLinearSolves:
     _user_options: dict[str, object]
     _default_options: dict[str, object]
     _nullspace: PETSc.NullSpace | None
-    _galerkin: GalerkinCoarsening | None
     #: Pairs with GAMG: the preconditioner set up in the physical displacement (None otherwise).
     _physical: PhysicalGAMG | None
     _ladder: list[str]
@@ -106,11 +103,11 @@ class NewtonLinearSolves:
 
     def _rebind_ksp(self) -> None:
         """The KSP after a geometry update (:meth:`~fenics_coulomb.scd.newton.SCDNewtonSolver.rebind`): made anew
-        for the Galerkin coarse products and the preconditioners of M; GAMG's hierarchy kept, as it does not
+        for the preconditioners of M; GAMG's hierarchy kept, as it does not
         depend on the geometry (one body: it is A's; pairs: B's, :mod:`fenics_coulomb.scd.physical_preconditioner`,
         which reads the new change of variables at each application)."""
-        if self._galerkin is not None or self.pc != "gamg":
-            # the Galerkin coarse products and the preconditioners of M start from a KSP of their own
+        if self.pc != "gamg":
+            # the preconditioners of M start from a KSP of their own
             self.ksp.destroy()
             if self._nullspace is not None:
                 self._nullspace.destroy()
@@ -126,7 +123,7 @@ class NewtonLinearSolves:
         self._default_options = {k: v for k, v in default_options(self.pc, self.model.V.mesh.topology.cell_type.name,
                                                                   settings.poisson_ratio).items()
                                  if k not in self._user_options}
-        if self.pc == "gamg" and not settings.galerkin_coarse and self._physical is None:
+        if self.pc == "gamg" and self._physical is None:
             B = self.model.physical_stiffness()
             if B is not None:
                 self._physical = PhysicalGAMG(B, self.model.variables, self.model.V, self.prefix)
@@ -140,12 +137,6 @@ class NewtonLinearSolves:
             self.ksp.setFromOptions()
             if physical is not None:
                 physical.set_from_options()
-        if self._galerkin is not None:
-            self._galerkin.destroy()
-            self._galerkin = None
-        if settings.galerkin_coarse and settings.variant == "4a" and self.pc == "gamg" \
-                and self.ksp.getPC().getType() == "gamg":
-            self._galerkin = GalerkinCoarsening(self.A, self.rows)
 
     def _escalate(self) -> bool:
         """After a stagnated linear solve under pc = "auto", hand the rest of the solve to the next preconditioner of
@@ -199,7 +190,7 @@ class NewtonLinearSolves:
                 added[name] = opts.getString(name) if opts.hasName(name) else None
                 opts[name] = value
         key, value = DETERMINISTIC_PTAP  # unprefixed by necessity, scoped to the solver's own calls
-        if self.pc in ("gamg", "gamg-newton") and self.comm.size >= DETERMINISTIC_PTAP_MIN_RANKS \
+        if self.pc == "gamg" and self.comm.size >= DETERMINISTIC_PTAP_MIN_RANKS \
                 and not opts.hasName(key):
             added[key] = None
             opts[key] = value
@@ -211,16 +202,6 @@ class NewtonLinearSolves:
                     opts.delValue(name)
                 else:
                     opts[name] = previous
-
-    def _coarsen(self, left: Array, right: Array) -> None:
-        """Set GAMG up on A (the first time) and make its coarse operators the Galerkin products of the Newton
-        matrix with the Cartesian contact-row blocks (left, right) (:mod:`fenics_coulomb.scd.galerkin`)."""
-        t0 = time.perf_counter()
-        with self.petsc_options():
-            self.ksp.setUp()
-            assert self._galerkin is not None
-            self._galerkin.update(self.ksp.getPC(), left, right)
-        self.timings["galerkin"] = self.timings.get("galerkin", 0.0) + time.perf_counter() - t0
 
     def _set_tolerance(self, rtol: float) -> None:
         """Set the KSP's relative tolerance; under pc = "auto" with a preconditioner left to escalate to also its

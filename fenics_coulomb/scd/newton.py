@@ -38,7 +38,6 @@ from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.frames import conjugate, to_global, to_local
 from fenics_coulomb.scd.contact_rows import ContactRows
 from fenics_coulomb.scd.forcing import forcing_term, terminal_forcing
-from fenics_coulomb.scd.galerkin import GalerkinCoarsening
 from fenics_coulomb.scd.linear_solves import NewtonLinearSolves
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
@@ -143,7 +142,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
                 raise InputError(f"petsc_options: key {key!r} must be an option name without '-' and prefix, "
                                  "e.g. 'ksp_monitor'")
             check_option_value(f"{prefix}{key}", value)
-        self._galerkin: GalerkinCoarsening | None = None
         #: Pairs with GAMG: the preconditioner in the physical displacement (:mod:`.physical_preconditioner`).
         self._physical: PhysicalGAMG | None = None
         self._create_ksp()
@@ -278,8 +276,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
             left[node, k, k] = 1.0
             right[node, k, :] = 0.0
             right[node, :, k] = 0.0
-        if self._galerkin is not None:  # rows scaled to A's diagonal for the Galerkin coarse operators
-            left, right = self._galerkin.scale(left, right)
         # the blocks of the Cartesian contact map Qᵢ = Rᵢ Q̃(Rᵢᵀ · + sⁱ): Rᵢ Bⁱ Rᵢᵀ, Rᵢ Cⁱ Rᵢᵀ (see
         # fenics_coulomb.model.obstacles); the identity frame leaves them unchanged. The Newton operator (shell or
         # explicit rows) receives these rotated blocks.
@@ -288,8 +284,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
         self._blocks = (left, right)
         self.step.right_hand_side(self, it.e, left, right)
         self.timings["newton_matrix"] = self.timings.get("newton_matrix", 0.0) + time.perf_counter() - t0
-        if self._galerkin is not None:
-            self._coarsen(left, right)
 
         t0 = time.perf_counter()
         its = self._solve_newton_system(eta)
@@ -460,9 +454,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
         t0 = time.perf_counter()
         self.operator.set_stiffness()
         self._blocks = None
-        if self._galerkin is not None:
-            m = len(self.cdofs)
-            self._coarsen(np.broadcast_to(np.eye(3), (m, 3, 3)).copy(), np.zeros((m, 3, 3)))
         its = self._solve_linear_system()
         while self._escalate():
             its += self._solve_linear_system()
@@ -490,8 +481,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
         self.operator.destroy()
-        if self._galerkin is not None:
-            self._galerkin.destroy()
         for obj in (self.ksp, self.u, self.r, self.b, self.x, self.Adu, self.w):
             obj.destroy()
         if self._nullspace is not None:

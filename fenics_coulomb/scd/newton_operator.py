@@ -8,7 +8,7 @@ The Newton matrix of both variants is A with the rows of every contact node i re
 with block-diagonal D (Bⁱ on the contact nodes, I elsewhere) and C (Cⁱ on the contact nodes, 0 elsewhere).
 GMRES needs only products with M (and Mᵀ for variant 4b), so when the preconditioner is built on A (GAMG
 with the reused hierarchy) M is applied as a PETSc shell from A and the blocks: no second copy of A is
-stored. Preconditioners that factor or read M itself (ILU, LU, Jacobi, hypre, gamg-newton) get the explicit
+stored. Preconditioners that factor or read M itself (ILU, LU, Jacobi, hypre) get the explicit
 copy, updated in place by :class:`~fenics_coulomb.scd.contact_rows.ContactRows`.
 
 Both forms take the SAME blocks (Bⁱ, Cⁱ) — the ones :meth:`NewtonStep.rows` returns — so whatever those

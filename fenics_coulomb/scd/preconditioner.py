@@ -165,7 +165,7 @@ def default_options(pc: str, cell_type: str, poisson: float | None = None) -> di
     """Options (without prefix) the preconditioner ``pc`` sets on a mesh of ``cell_type`` unless the user gave
     them: one Chebyshev sweep per level for GAMG, and unsmoothed aggregation on UNSMOOTHED_CELL_TYPES unless the
     body is nearly incompressible (``poisson`` >= NEARLY_INCOMPRESSIBLE_POISSON); BoomerAMG's elasticity options."""
-    if pc in ("gamg", "gamg-newton"):
+    if pc == "gamg":
         options: dict[str, object] = {"mg_levels_ksp_max_it": GAMG_SMOOTHER_SWEEPS}
         if cell_type in UNSMOOTHED_CELL_TYPES and (poisson is None or poisson < NEARLY_INCOMPRESSIBLE_POISSON):
             options["pc_gamg_agg_nsmooths"] = GAMG_PROLONGATOR_SMOOTHS
@@ -191,8 +191,8 @@ def create_ksp(
     """Create the KSP of the Newton matrix M (stiffness A) with the preconditioner ``pc_name``.
 
     ``gamg`` preconditions with A, which never changes: PETSc sets the AMG hierarchy up at the first solve
-    and reuses it for every Newton matrix (only the contact rows differ from A). ``gamg-newton`` builds it on
-    M every step. Both get the rigid-body near-nullspace of V, or ``near_nullspace()`` (e.g. the modes of two
+    and reuses it for every Newton matrix (only the contact rows differ from A), with the rigid-body near-nullspace
+    of V, or ``near_nullspace()`` (e.g. the modes of two
     bodies in the variables of :mod:`fenics_coulomb.model.pairs.two_body`). ``gamg`` with ``physical`` (contact
     pairs) is GAMG on the bodies' physical stiffness between the changes of variables, a ``python`` PC
     (:mod:`fenics_coulomb.scd.physical_preconditioner`; the caller owns it). Call ``ksp.setFromOptions()`` afterwards.
@@ -220,10 +220,10 @@ def create_ksp(
     elif pc_name == "gamg" and physical is not None:
         pc.setType("python")
         pc.setPythonContext(physical)
-    elif pc_name in ("gamg", "gamg-newton"):
+    elif pc_name == "gamg":
         pc.setType("gamg")
         nullspace = near_nullspace() if near_nullspace is not None else rigid_body_modes(V)
-        (A if pc_name == "gamg" else M).setNearNullSpace(nullspace)
+        A.setNearNullSpace(nullspace)
     elif pc_name == "hypre":
         pc.setType("hypre")
         pc.setHYPREType("boomeramg")

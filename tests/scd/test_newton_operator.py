@@ -75,7 +75,7 @@ def test_shell_equals_assembled_newton_matrix(variant, problem_factory):
 
 
 @pytest.mark.parametrize("pc, matrix_free", [("gamg", True), ("gamg", False), ("ilu", True), ("lu", True),
-                                             ("gamg-newton", True)])
+                                             ("hypre", True)])
 def test_shell_only_when_the_preconditioner_is_built_on_A(pc, matrix_free, problem_factory):
     """The Newton matrix is a shell exactly when the preconditioner does not read it (and it is asked for)."""
     solver = problem_factory(1, "d3", "L2", pc=pc, matrix_free=matrix_free).solver

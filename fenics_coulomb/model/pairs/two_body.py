@@ -38,9 +38,10 @@ kept for this lifting (a load path re-lifts at every step) and for the physical 
 
 **Near-nullspace.** The rigid modes r_b of body b (6 per body, zero on the other bodies) are the kernel of
 the supportless elastic operator; in z they are M⁻¹ r_b = (I − Φ) r_b: these 6 × (number of bodies) vectors
-are the near-nullspace of GAMG on Ã (``galerkin_coarse``, ``gamg-newton``). The default GAMG is set up on the
-physical stiffness instead, with the six modes of the mesh (:mod:`fenics_coulomb.scd.physical_preconditioner`).
-The estimate of γ comes from Ã (the solver's power method on the model's matrix).
+are the near-nullspace of GAMG on Ã (the linear-solve reference of benchmarks/robustness.py). The solver's
+GAMG is set up on the physical stiffness instead, with the six modes of the mesh
+(:mod:`fenics_coulomb.scd.physical_preconditioner`). The estimate of γ comes from Ã (the solver's power method on the
+model's matrix).
 
 **Outputs.** u = M z. The contact force on slave node s is f_s = −q_s (the solver's contact force), on master
 node j the reaction f_j = −Σ_s φ_sj f_s.
