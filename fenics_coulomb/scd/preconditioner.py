@@ -69,8 +69,9 @@ GAMG_PROLONGATOR_SMOOTHS = 0
 #: the tetrahedral roller the counts grew with the mesh (up to 56 per step against smoothed aggregation's 17,
 #: ν = 0.45, 63 900 unknowns, twice the time), so tetrahedra keep smoothed aggregation.
 #: Nor is it for nearly incompressible hexahedral bodies: d3/L2 lev 6, 2 ranks, ν = 0.49: 260 Krylov (28 per
-#: step) against 173 (19); ν = 0.499: 726 (83) against 469 (51), 4.2 s against 3.5 s. The solver does not know ν
-#: (the user's forms), so there -coulomb_pc_gamg_agg_nsmooths 1 is the user's to give (README).
+#: step) against 173 (19); ν = 0.499: 726 (83) against 469 (51), 4.2 s against 3.5 s. So :func:`default_options`
+#: keeps smoothed aggregation when the settings' ``poisson_ratio`` (a scene's largest ν; None from the API, where
+#: -coulomb_pc_gamg_agg_nsmooths 1 is the user's to give) reaches NEARLY_INCOMPRESSIBLE_POISSON.
 UNSMOOTHED_CELL_TYPES = ("hexahedron",)
 #: BoomerAMG for 3D elasticity: nodal (block) coarsening on the 3 components of a node and the strength threshold
 #: 0.7 that hypre's documentation recommends in 3D (the default 0.25 is for 2D). On the graded Hertz block of
