@@ -202,14 +202,18 @@ def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> di
     for name, bc in bcs.items():
         if not isinstance(name, str) or not name:
             raise InputError(f"reactions: name {name!r} must be a non-empty string")
-        if isinstance(bc, dolfinx.fem.DirichletBC):
-            space = bc.function_space
-            if getattr(space.mesh, "_cpp_object", space.mesh) is not getattr(V.mesh, "_cpp_object", V.mesh) or \
-                    space.dofmap.index_map.size_global != V.dofmap.index_map.size_global or \
-                    space.dofmap.index_map_bs != bs:
-                raise InputError(f"reactions[{name!r}]: a boundary condition of another function space (give one "
-                                 "of the problem's bcs, on V or V.sub(i))")
-            groups[str(name)] = bc  # the DOFs it holds: its components only (a condition on V.sub(i))
+        conditions = [bc] if isinstance(bc, dolfinx.fem.DirichletBC) else list(bc) if isinstance(bc, list | tuple) \
+            and bc and all(isinstance(c, dolfinx.fem.DirichletBC) for c in bc) else None
+        if conditions is not None:
+            for condition in conditions:
+                space = condition.function_space
+                if getattr(space.mesh, "_cpp_object", space.mesh) is not getattr(V.mesh, "_cpp_object", V.mesh) \
+                        or space.dofmap.index_map.size_global != V.dofmap.index_map.size_global \
+                        or space.dofmap.index_map_bs != bs:
+                    raise InputError(f"reactions[{name!r}]: a boundary condition of another function space (give "
+                                     "one of the problem's bcs, on V or V.sub(i))")
+            # the DOFs they hold: their components only (a condition on V.sub(i))
+            groups[str(name)] = bc if isinstance(bc, dolfinx.fem.DirichletBC) else conditions
         else:
             try:
                 blocks = np.asarray(bc)
@@ -217,8 +221,8 @@ def _reaction_groups(V: dolfinx.fem.FunctionSpace, bcs: Mapping[str, Any]) -> di
                 blocks = np.zeros(0, dtype=object)
             if blocks.ndim != 1 or (blocks.size and (blocks.dtype.kind not in "iu" or blocks.min() < 0
                                                      or blocks.max() >= nodes)):
-                raise InputError(f"reactions[{name!r}] = {type(bc).__name__}: give a DirichletBC of bcs or an array "
-                                 f"of this rank's node blocks (integers in [0, {nodes}))")
+                raise InputError(f"reactions[{name!r}] = {type(bc).__name__}: give a DirichletBC of bcs (or a list "
+                                 f"of them) or an array of this rank's node blocks (integers in [0, {nodes}))")
             groups[str(name)] = np.unique(blocks.astype(np.int32))
     return groups
 

@@ -258,8 +258,8 @@ def support_dofs(model: ContactModel, support: Any, name: str = "") -> npt.NDArr
     Args:
         model: The solved model.
         support: A ``dolfinx.fem.DirichletBC`` of the problem (on V or on a sub-space ``V.sub(i)``: the
-            components it holds) or an integer array of local DOF blocks (nodes: the components of those nodes
-            that the problem's boundary conditions hold).
+            components it holds), a list of them (the union), or an integer array of local DOF blocks (nodes: the
+            components of those nodes that the problem's boundary conditions hold).
         name: The support's name (for the error message).
 
     Raises:
@@ -269,6 +269,8 @@ def support_dofs(model: ContactModel, support: Any, name: str = "") -> npt.NDArr
     size_local = model.V.dofmap.index_map.size_local
     num_blocks = size_local + model.V.dofmap.index_map.num_ghosts
     held = constrained_mask(model)
+    if isinstance(support, list | tuple) and support and all(isinstance(s, dolfinx.fem.DirichletBC) for s in support):
+        return np.unique(np.concatenate([support_dofs(model, s, name) for s in support])).astype(np.int32)
     if isinstance(support, dolfinx.fem.DirichletBC):
         dofs = np.asarray(support.dof_indices()[0], dtype=np.int64)  # unrolled: V's DOFs for V.sub(i) too
         owned = dofs[dofs < 3 * size_local]

@@ -13,6 +13,7 @@ import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from collections.abc import Sequence
 from typing import Any
 
 from mpi4py import MPI
@@ -144,53 +145,71 @@ def clamp(V: dolfinx.fem.FunctionSpace, body: Body) -> dolfinx.fem.DirichletBC:
 def dirichlet_conditions(V: dolfinx.fem.FunctionSpace, body: Body, scene: Scene,
                          prescribed: dict[str, dolfinx.fem.Constant] | None = None,
                          prescribed_components: dict[str, list[dolfinx.fem.Constant]] | None = None,
-                         ) -> tuple[list[dolfinx.fem.DirichletBC], dict[str, np.ndarray]]:
-    """The scene's clamped, prescribed and roller conditions and the DOF blocks each boundary owns.
+                         ) -> tuple[list[dolfinx.fem.DirichletBC], dict[str, list[dolfinx.fem.DirichletBC]]]:
+    """The scene's clamped, prescribed and roller conditions, and per boundary name the conditions it owns (for
+    its reaction force).
 
-    A node shared by several boundaries takes the first one of: clamped, prescribed (in scene order), roller;
-    so a clamped boundary wins over a prescribed one on shared edges. Returns the conditions and, per
-    boundary name, its local DOF blocks (for its reaction force). ``prescribed`` (boundary name → a vector
-    Constant) makes the prescribed conditions hold those Constants (changed in place along a load path)
-    instead of the scene's fixed values; a prescribed boundary with "free" components gets a condition on each
-    held component (``V.sub(i)``; its values the scalar Constants of ``prescribed_components``), and its nodes
-    belong to it as a roller's do.
+    Each component of a node takes the first of the boundaries that hold it, in the order clamped, prescribed
+    (in scene order), roller: a clamped boundary wins over a prescribed one on shared edges, and a node on two
+    boundaries that hold different components (the edge of two symmetry planes, a roller beside a face
+    prescribed in one component) is held in both. ``prescribed`` (boundary name → a vector Constant) makes the
+    prescribed conditions hold those Constants (changed in place along a load path) instead of the scene's fixed
+    values; a prescribed component of a node that an earlier boundary holds in another component is a condition
+    on ``V.sub(i)`` holding the scalar Constant of ``prescribed_components`` (set with the vector).
     """
     bcs: list[dolfinx.fem.DirichletBC] = []
-    groups: dict[str, np.ndarray] = {}
-    taken: npt.NDArray[np.int32] = np.zeros(0, dtype=np.int32)
+    groups: dict[str, list[dolfinx.fem.DirichletBC]] = {}
+    fdim = body.mesh.topology.dim - 1
+    imap = V.dofmap.index_map
+    taken = np.zeros((imap.size_local + imap.num_ghosts, 3), dtype=bool)  # (node, component) held already
     if body.dirichlet:
         dofs = boundary_nodes(V, body, body.dirichlet, "clamped")
-        bcs.append(dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V))
-        groups[",".join(body.dirichlet)] = dofs
-        taken = dofs
-    fdim = body.mesh.topology.dim - 1
-    for name, value in scene.prescribed.items():
-        dofs = np.setdiff1d(boundary_nodes(V, body, [name], "prescribed"), taken).astype(np.int32)
-        components = held_components(value)
-        if len(components) == 3:
-            held = prescribed[name] if prescribed is not None else np.asarray(value, dtype=PETSc.ScalarType)
-            bcs.append(dolfinx.fem.dirichletbc(held, dofs, V))
-        else:  # "free" components: a condition on each held component (V.sub(i)) of the boundary's nodes
-            facets = body.facet_tags.find(body.tag(name))
-            for c in components:
-                sub = V.sub(c)
-                sub_dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
-                sub_dofs = sub_dofs[np.isin(sub_dofs // 3, dofs)]
-                held = prescribed_components[name][c] if prescribed_components is not None else \
-                    PETSc.ScalarType(value[c])
-                bcs.append(dolfinx.fem.dirichletbc(held, sub_dofs, sub))
-        groups[name] = dofs
-        taken = np.union1d(taken, dofs).astype(np.int32)
-    for name, components in scene.roller.items():
-        blocks = np.setdiff1d(boundary_nodes(V, body, [name], "roller"), taken).astype(np.int32)
+        bc = dolfinx.fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V)
+        bcs.append(bc)
+        groups[",".join(body.dirichlet)] = [bc]
+        taken[dofs] = True
+
+    def hold_components(name: str, blocks: npt.NDArray[np.int32], components: Sequence[int],
+                        value: Any) -> list[dolfinx.fem.DirichletBC]:
+        """Conditions on the components ``components`` of ``blocks`` no earlier boundary holds (``value(c)``: the
+        held value of component c)."""
         facets = body.facet_tags.find(body.tag(name))
+        out = []
         for c in components:
             sub = V.sub(int(c))
-            dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
-            dofs = dofs[np.isin(dofs // 3, blocks)]
-            bcs.append(dolfinx.fem.dirichletbc(PETSc.ScalarType(0.0), dofs, sub))
-        groups[name] = blocks
-        taken = np.union1d(taken, blocks).astype(np.int32)
+            sub_dofs = dolfinx.fem.locate_dofs_topological(sub, fdim, facets)
+            sub_dofs = sub_dofs[np.isin(sub_dofs // 3, blocks) & ~taken[sub_dofs // 3, int(c)]]
+            out.append(dolfinx.fem.dirichletbc(value(int(c)), sub_dofs.astype(np.int32), sub))
+        return out
+
+    for name, value in scene.prescribed.items():
+        nodes = boundary_nodes(V, body, [name], "prescribed")
+        components = held_components(value)
+
+        def component_value(c: int, name: str = name, value: Any = value) -> Any:
+            return prescribed_components[name][c] if prescribed_components is not None else \
+                PETSc.ScalarType(value[c])
+
+        if len(components) == 3:
+            # the nodes no earlier boundary holds in any component take the vector condition (as a clamped one)
+            whole = nodes[~taken[nodes].any(axis=1)].astype(np.int32)
+            held = prescribed[name] if prescribed is not None else np.asarray(value, dtype=PETSc.ScalarType)
+            own = [dolfinx.fem.dirichletbc(held, whole, V)]
+            partly = nodes[taken[nodes].any(axis=1) & ~taken[nodes].all(axis=1)].astype(np.int32)
+            if body.mesh.comm.allreduce(partly.size, op=MPI.SUM):
+                own += hold_components(name, partly, components, component_value)
+        else:  # "free" components: a condition on each held component (V.sub(i)) of the boundary's nodes
+            own = hold_components(name, nodes.astype(np.int32), components, component_value)
+        bcs.extend(own)
+        groups[name] = own
+        taken[nodes[:, None], np.asarray(components, dtype=np.int64)[None, :]] = True
+    for name, components in scene.roller.items():
+        nodes = boundary_nodes(V, body, [name], "roller")
+        own = hold_components(name, nodes.astype(np.int32), [int(c) for c in components],
+                              lambda c: PETSc.ScalarType(0.0))
+        bcs.extend(own)
+        groups[name] = own
+        taken[nodes[:, None], np.asarray(components, dtype=np.int64)[None, :]] = True
     return bcs, groups
 
 
@@ -206,7 +225,7 @@ class Built:
     #: Wall time of building the body (mesh and facet tags) on this rank.
     mesh_time: float = 0.0
     #: Local DOF blocks per Dirichlet boundary name (for the reactions).
-    dirichlet_groups: dict[str, np.ndarray] | None = None
+    dirichlet_groups: dict[str, list[dolfinx.fem.DirichletBC]] | None = None
     #: The load coefficients (tractions, body force, prescribed values) a load path sets for each step.
     loads: StepLoads | None = None
 

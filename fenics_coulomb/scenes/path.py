@@ -28,7 +28,6 @@ from mpi4py import MPI
 import dolfinx
 import dolfinx.fem
 import numpy as np
-import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.obstacles import obstacle_names
@@ -200,7 +199,7 @@ def run_path(
     loads: StepLoads,
     solves: Sequence[PathSolve],
     labels: Sequence[str],
-    groups: dict[str, npt.NDArray[np.int32]],
+    groups: dict[str, Any],
     u0: dolfinx.fem.Function | None = None,
     on_solve: Callable[[PathSolve, StepRecord, SolveResult], None] | None = None,
     last_step: int | None = None,

@@ -19,6 +19,16 @@ def held_dofs(V: dolfinx.fem.FunctionSpace, blocks: np.ndarray, components=(0, 1
     return (3 * blocks[:, None] + np.asarray(components, dtype=np.int64)[None, :]).ravel()
 
 
+def bc_dofs(bcs) -> np.ndarray:
+    """Unrolled local DOFs (owned and ghost) that a list of DirichletBCs holds (on V or on V.sub(i))."""
+    return np.unique(np.concatenate([np.asarray(bc.dof_indices()[0], dtype=np.int64) for bc in bcs]))
+
+
+def bc_blocks(bcs) -> np.ndarray:
+    """The local node blocks (owned and ghost) a list of DirichletBCs holds in some component."""
+    return np.unique(bc_dofs(bcs) // 3)
+
+
 def assembled_reactions(a: ufl.Form, L: ufl.Form | None, u: np.ndarray, supports: dict[str, np.ndarray],
                         comm: MPI.Comm, minus: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """name → Σ over the support's owned DOFs of (K u − l − minus) per component (collective).

@@ -13,7 +13,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
-from reaction_reference import assembled_reactions, held_dofs
+from reaction_reference import assembled_reactions, bc_blocks, bc_dofs
 
 from fenics_coulomb import write_results
 from fenics_coulomb.errors import InputError
@@ -72,12 +72,17 @@ def test_free_components_are_not_held(mpi_tmp_path):
         data = write_results(mpi_tmp_path / "out", problem, result, reactions=built.dirichlet_groups)
         groups = built.dirichlet_groups
         a, L = built.forms
-        supports = {name: held_dofs(problem.V, groups[name], HELD[name]) for name in groups}
+        supports = {name: bc_dofs(groups[name]) for name in groups}
+        for name in groups:  # each support holds its components of its nodes (the first boundary per component)
+            held = bc_dofs(groups[name])
+            assert set(np.unique(held % 3)) <= set(HELD[name]), name
         ours = assembled_reactions(a, L, result.displacement, supports, comm, minus=contact_forces(problem, result))
         n = problem.V.dofmap.index_map.size_local
         u = uh.x.array[: 3 * n].reshape(-1, 3)
-        top = groups["top"][groups["top"] < n]
-        left = groups["left"][groups["left"] < n]
+        top = bc_blocks(groups["top"])
+        top = top[top < n]
+        left = bc_blocks(groups["left"])
+        left = left[left < n]
         assert np.all(u[top, 0] == 0.004) and np.all(u[top, 2] == -0.03) and np.all(u[left, 0] == 0.0)
         moved_y = comm.allreduce(float(np.abs(u[top, 1]).max(initial=0.0)), op=MPI.MAX)
         moved_left = comm.allreduce(float(np.abs(u[left, 1:]).max(initial=0.0)), op=MPI.MAX)
@@ -112,6 +117,53 @@ def test_a_load_path_blends_the_held_values(mpi_tmp_path):
         assert np.linalg.norm(sum(reactions.values()) + contact) <= 1e-8 * np.linalg.norm(reactions["top"])
     first, last = (float(r["reaction_top_x [GPa*L^2]"]) for r in rows)
     assert abs(last) > abs(first) > 0  # the push grew
+
+
+SHARED = """
+[body]
+lev = 2
+gap = "d1"
+clamped = []
+contact = ["bottom"]
+[material]
+young = 70.0
+poisson = 0.3
+[friction]
+coefficient = 0.0
+[tractions]
+[prescribed]
+top = ["free", "free", -0.02]
+[roller]
+sides = [1]
+left = [0]
+"""
+
+
+def test_a_node_on_two_supports_is_held_by_both(mpi_tmp_path):
+    """Each component of a node takes the first boundary that holds it: the top's edges with the sides' and the
+    left face's rollers keep u_y = 0 and u_x = 0 there (they were released: the edge nodes took the top's condition
+    alone). The block, pressed 0.01 onto a frictionless floor through the height 0.99, is then in uniform plane
+    strain: σ₃₃ = E/(1 − ν²)·ε₃₃, the top's reaction σ₃₃·2 (exact in Q1, to the solve's accuracy)."""
+    comm = MPI.COMM_WORLD
+    path = mpi_tmp_path / "shared.toml"
+    write(comm, path, SHARED)
+    built = build_problem(Scene.from_toml(path))
+    with built.problem as problem:
+        uh, result = problem.solve()
+        assert result.converged
+        data = write_results(mpi_tmp_path / "out", problem, result, reactions=built.dirichlet_groups)
+        n = problem.V.dofmap.index_map.size_local
+        x = problem.V.tabulate_dof_coordinates()[:n]
+        u = uh.x.array[: 3 * n].reshape(-1, 3)
+        sides = np.isclose(x[:, 1], 0.0) | np.isclose(x[:, 1], 1.0)
+        left = np.isclose(x[:, 0], 0.0)
+        top = np.isclose(x[:, 2], 1.0)
+        assert np.all(u[sides, 1] == 0.0) and np.all(u[left, 0] == 0.0) and np.all(u[top, 2] == -0.02)
+        assert comm.allreduce(int(np.sum(sides & top)), op=MPI.SUM) > 0
+    strain = -0.01 / 0.99
+    expected = 70.0 / (1.0 - 0.3**2) * strain * 2.0
+    assert abs(data["reactions"]["top"][2] - expected) <= 1e-6 * abs(expected)
+    assert abs(data["peak_pressure"] + expected / 2.0) <= 1e-6 * abs(expected)
 
 
 @pytest.mark.parametrize(("value", "message"), [
