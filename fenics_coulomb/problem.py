@@ -261,11 +261,14 @@ class ContactProblem(SlidingSolve):
 
     @property
     def finite_sliding(self) -> bool:
-        """Whether the contact geometry depends on the displacement: finite sliding with contact pairs or an
-        obstacle that is not a plane (a plane's linearized gap is its gap at X, its frame constant)."""
+        """Whether the contact geometry depends on the displacement: finite sliding with contact pairs, an obstacle
+        that is not a plane (a plane's linearized gap is its gap at X, its frame constant), several obstacles, or a
+        rotated obstacle (the material point beneath a node, whose motion is the slip's, is where the node is)."""
         model = self.model
+        rotated = any(getattr(o, "rotation", None) is not None
+                      for o in [*self._obstacles, *(self._previous_obstacles or [])])
         return model.sliding == "finite" and (model.coupling.follows_configuration or len(self._obstacles) > 1 or
-                                             any(not o.affine for o in self._obstacles))
+                                             rotated or any(not o.affine for o in self._obstacles))
 
     # -- the load path ------------------------------------------------------------------------------
     @property
