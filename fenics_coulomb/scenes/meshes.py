@@ -130,6 +130,11 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
                 message = (f"mesh file {path!r} has no physical volume: name the body's volume(s) and the "
                            "boundary surfaces [boundaries] refers to as gmsh physical groups "
                            "(gmsh.model.addPhysicalGroup), and save them")
+            elif len(types := [int(t) for t in gmsh.model.mesh.getElementTypes(3)]) > 1:
+                names = [gmsh.model.mesh.getElementProperties(t)[0] for t in types]
+                message = (f"mesh file {path!r} holds volume cells of several types ({', '.join(names)}): a DOLFINx "
+                           "0.9 mesh has one cell type; mesh every volume with one type (all tetrahedra, or all "
+                           "hexahedra)")
             else:
                 _number_nodes_continuously(gmsh)
                 unmatched = unmatched_surface_elements(gmsh)

@@ -109,3 +109,36 @@ def test_a_mesh_without_physical_groups_is_refused(mpi_tmp_path) -> None:
     comm.barrier()
     with pytest.raises(InputError, match=r"bare.msh' has no physical volume: name the body's volume"):
         read_gmsh_tags(path, comm)
+
+
+def test_a_mesh_of_tetrahedra_and_hexahedra_is_refused(mpi_tmp_path) -> None:
+    """Two boxes, one of hexahedra (transfinite, recombined) and one of tetrahedra, each a physical volume: DOLFINx's
+    model_to_mesh aborted MPI (MPI_ERR_RANK, exit 6, no message); now an InputError on every rank naming the cell
+    types."""
+    import gmsh
+
+    comm = MPI.COMM_WORLD
+    path = str(mpi_tmp_path / "mixed.msh")
+    if comm.rank == 0:
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        hexes = gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        tets = gmsh.model.occ.addBox(0, 0, 1.1, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        for dim, curve in gmsh.model.getBoundary([(3, hexes)], combined=False, oriented=False, recursive=True):
+            if dim == 1:
+                gmsh.model.mesh.setTransfiniteCurve(curve, 3)
+        for _, surface in gmsh.model.getBoundary([(3, hexes)], combined=False, oriented=False):
+            gmsh.model.mesh.setTransfiniteSurface(surface)
+            gmsh.model.mesh.setRecombine(2, surface)
+        gmsh.model.mesh.setTransfiniteVolume(hexes)
+        gmsh.model.mesh.setRecombine(3, hexes)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+        gmsh.model.addPhysicalGroup(3, [hexes], 1)
+        gmsh.model.addPhysicalGroup(3, [tets], 2)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(path)
+        gmsh.finalize()
+    comm.barrier()
+    with pytest.raises(InputError, match=r"mixed.msh' holds volume cells of several types \(.*Tetrahedron.*\)"):
+        read_gmsh_tags(path, comm)
