@@ -14,6 +14,10 @@ thresholds do not depend on units:
 * ``shared_penetration``: the same for the nodes on both a pair's slave surface and the obstacles' contact boundary,
   against the constraint they were not given (a node meets one, the one with the smaller gap: it must not end
   inside the other — the obstacle, or the pair's master surface);
+* ``obstacle_penetration``: the same for the obstacles' contact nodes against every obstacle (a node meets its
+  own obstacle's constraint and must not end inside another: a corner between two obstacles);
+* ``support_penetration`` (reported, not decisive): the same for the nodes of the obstacles' contact boundary that
+  a support holds and that are therefore no contact nodes (a support moving a node along or into the contact);
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
 * ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
@@ -46,10 +50,11 @@ from fenics_coulomb.errors import check_all
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.frames import to_local
+from fenics_coulomb.model.obstacle_checks import obstacle_depths
 
 __all__ = ["FORCE_FLOOR", "residual", "unconstrained_residual", "physics_residuals", "SLIP_RESOLUTION", "PHYSICS_TOL",
            "PHYSICS_PER_RTOL", "PHYSICS_LOOSEST", "DECISIVE_CHECKS", "physics_failure", "boundary_reactions",
-           "constrained_mask", "support_dofs", "total_contact_force", "ONE_CONSTRAINT"]
+           "constrained_mask", "support_dofs", "total_contact_force", "ONE_CONSTRAINT", "physics_bound"]
 
 
 #: Forces below this fraction of (largest diagonal of A) × (displacement scale) count as round-off in the relative
@@ -157,8 +162,19 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
         max(gap_scale, tiny) if carried <= force_tiny else 0.0
     # a node meets one constraint: a node on a pair's slave surface and the obstacles' contact boundary must not
     # end inside the one it was not given (a rigid obstacle reaching into its partner body needs both)
-    out["shared_penetration"] = model.coupling.shared_depth(model, model.physical(displacement)) / \
-        max(gap_scale, tiny)
+    physical = model.physical(displacement)
+    out["shared_penetration"] = model.coupling.shared_depth(model, physical) / max(gap_scale, tiny)
+    # every obstacle contact node against every obstacle, and the contact boundary's supported nodes
+    blocks, x = model.placement.boundary(model.V, model.facet_tags, model.markers)
+    rigid = cmap.blocks[~model.coupling.paired_mask(cmap.size)]
+    contact = np.isin(blocks, rigid)
+    checked = contact | ~np.isin(blocks, cmap.blocks)  # not the pairs' slave nodes (shared_penetration's)
+    configuration = None if model.configuration is None else model.configuration.reshape(-1, 3)[blocks[checked]]
+    contact_depth, support_depth = obstacle_depths(model.obstacles, x[checked],
+                                                   physical.reshape(-1, 3)[blocks[checked]], contact[checked],
+                                                   configuration)
+    out["obstacle_penetration"] = _gmax(comm, contact_depth) / max(gap_scale, tiny)
+    out["support_penetration"] = _gmax(comm, support_depth) / max(gap_scale, tiny)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * max(lam_scale, force_tiny), tiny)
     tnorm = np.hypot(t[:, 0], t[:, 1])
@@ -214,8 +230,8 @@ PHYSICS_LOOSEST = 1e-2
 #: The checks that decide (the others are reported values): slip_direction tests directions known to 1e-3 rad, a
 #: mismatch of up to F·1e-3 of the largest force from the solve's own error, and reaction_balance divides
 #: by the supports' own forces, which are the solver's noise when a prescribed motion is rigid.
-DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "shared_penetration", "negative_pressure",
-                   "complementarity", "cone")
+DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "shared_penetration", "obstacle_penetration",
+                   "negative_pressure", "complementarity", "cone")
 
 
 #: Why a node on a pair's slave surface and on the obstacles' contact boundary can fail (the messages' words).
@@ -226,9 +242,14 @@ ONE_CONSTRAINT = ("a contact node meets one constraint, the pair's or the obstac
                   "stops short of the floor, or the floor contact on the master body only)")
 
 
+def physics_bound(rtol: float) -> float:
+    """The bound a relative residual of :func:`physics_residuals` must not exceed in a solve to ``rtol``."""
+    return min(max(PHYSICS_TOL, PHYSICS_PER_RTOL * rtol), PHYSICS_LOOSEST)
+
+
 def physics_failure(checks: dict[str, float], rtol: float) -> str:
     """"" when every decisive check of :func:`physics_residuals` passes, else the first failure in words."""
-    bound = min(max(PHYSICS_TOL, PHYSICS_PER_RTOL * rtol), PHYSICS_LOOSEST)
+    bound = physics_bound(rtol)
     for key in DECISIVE_CHECKS:
         value = checks.get(key, 0.0)
         if not np.isfinite(value) or value > bound:
@@ -239,6 +260,10 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
                      "nodes whose facets reach past it), use method = 'node-to-surface'" if key == "free_penetration"
                      else f"nodes on a pair's slave surface and an obstacle's contact boundary end inside the "
                      f"constraint they were not given: {ONE_CONSTRAINT}" if key == "shared_penetration"
+                     else "contact nodes end inside an obstacle other than their own: a node meets one obstacle's "
+                     "constraint (the smallest gap), and a node between two obstacles (a corner, an edge resting on "
+                     "two) needs both: this model cannot; keep the contact boundary of each obstacle apart (e.g. the "
+                     "faces meeting the wall and the floor without their common edge)" if key == "obstacle_penetration"
                      else "a degenerate mesh cell or a load too large for floating point?")
             return f"the physics checks fail: {key} residual {value:.3g} > {bound:.3g} ({cause})"
     return ""

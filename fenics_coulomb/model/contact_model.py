@@ -405,6 +405,9 @@ class ContactModel:
                 o._at_rest() != p._at_rest() for o, p in zip(obstacles, self.obstacles)):
             raise InputError("obstacles: a placement may only change the obstacles' displacements and rotations")
         self.obstacles = obstacles
+        if hasattr(self, "dirichlet_values"):  # the supports' values as assemble_load read them
+            self.placement.check_supported(obstacles, self.V, self.facet_tags, self.markers, self.held,
+                                           self.dirichlet_rows, self.dirichlet_values)
         previous_obstacles = previous_placements(obstacles, previous_obstacle_displacements)
         previous_deltas: npt.ArrayLike | None
         if isinstance(previous_obstacle_displacements, Sequence) and len(previous_obstacle_displacements) and \

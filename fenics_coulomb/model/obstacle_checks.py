@@ -8,6 +8,9 @@
   load path's substeps do): the obstacle's core swept through the body's box (:func:`core_path`), which
   :class:`~fenics_coulomb.model.placement.ObstaclePlacement` tests for an obstacle buried in the body or moved or
   turned through it; :func:`rotation_text` for its messages.
+* After a solve: how deep the nodes of the contact boundary end inside any obstacle (:func:`obstacle_depths`): a
+  contact node meets the constraint of one obstacle (the smallest gap) and must not end inside another (a corner
+  between two obstacles), and a node that a support holds is no contact node and must not end inside one either.
 
 The obstacles themselves (geometry, registry, parsing): :mod:`fenics_coulomb.model.obstacles`.
 """
@@ -25,7 +28,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, _points
 
 __all__ = ["find_overlap", "check_not_overlapping", "check_solid_side", "motion_placements", "core_path",
-           "rotation_text"]
+           "rotation_text", "obstacle_depths"]
 
 Array = npt.NDArray[np.float64]
 
@@ -231,6 +234,35 @@ def check_solid_side(obstacles: Sequence[Obstacle], x: npt.ArrayLike, comm: Any,
             how = "the body lies inside it: move or shrink it"
         raise InputError(f"obstacle {k + 1} ({obstacle.label}): every node of the body lies inside the obstacle at "
                          f"its scene position (the body is on its solid side, no contact could form); {how}")
+
+
+def obstacle_depths(obstacles: Sequence[Obstacle], x: npt.ArrayLike, u: npt.ArrayLike, contact: npt.ArrayLike,
+                    configuration: npt.ArrayLike | None = None) -> tuple[Array, Array]:
+    """How deep each node ends inside each obstacle, max(−g_o, 0) with g_o the node's gap to obstacle o linearized
+    about the configuration the contact model was placed in: g_o(x_c) + n_o(x_c)·(u − u_c), x_c = x + u_c
+    (small sliding: u_c = 0, the reference). For the obstacle a contact node belongs to this is the model's own gap
+    (the penetration check); for the others, and for nodes that are no contact nodes, it is the constraint the node
+    was not given.
+
+    Args:
+        obstacles: The obstacles as placed.
+        x: Reference positions of the nodes, shape (m, 3).
+        u: Their displacements, shape (m, 3).
+        contact: Which nodes are contact nodes, shape (m,).
+        configuration: u_c at the nodes, shape (m, 3) (None: 0).
+
+    Returns:
+        (the deepest of each contact node over the obstacles, the deepest of each other node), shapes
+        (contact nodes,) and (other nodes,).
+    """
+    x, u = _points(x), _points(u)
+    contact = np.asarray(contact, dtype=bool)
+    uc = np.zeros_like(u) if configuration is None else _points(configuration)
+    depth = np.zeros(x.shape[0])
+    for obstacle in obstacles:
+        g, n, _ = obstacle.evaluate(x + uc)
+        np.maximum(depth, -(g + np.einsum("ij,ij->i", n, u - uc)), out=depth)
+    return depth[contact], depth[~contact]
 
 
 def _mpi_lor() -> Any:

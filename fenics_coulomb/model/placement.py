@@ -15,8 +15,8 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.errors import InputError
-from fenics_coulomb.model.contact_map import ContactMap
+from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.model.contact_map import ContactMap, boundary_blocks
 from fenics_coulomb.model.mesh_checks import BodyLocator, displaced_geometry
 from fenics_coulomb.model.obstacle_checks import check_solid_side, core_path, rotation_text
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
@@ -78,6 +78,43 @@ class ObstaclePlacement:
         self._closest_cache: tuple | None = None  # (obstacles, points, closest_obstacle's result)
         self._motion_checked: tuple | None = None  # the placements check_motion passed last
         self._material_cache: tuple | None = None  # (obstacle, points, its closest points)
+        self._boundary: tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]] | None = None
+
+    def boundary(self, V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.MeshTags, markers: Sequence[int]
+                 ) -> tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]]:
+        """The owned nodes of the obstacles' contact boundary (ascending; contact nodes or not) and their reference
+        coordinates (computed once; collective the first time)."""
+        if self._boundary is None:
+            blocks = boundary_blocks(V, facet_tags, list(markers)) if markers else np.zeros(0, np.int32)
+            blocks = blocks[blocks < V.dofmap.index_map.size_local].astype(np.int32)
+            self._boundary = (blocks, V.tabulate_dof_coordinates()[blocks])
+        return self._boundary
+
+    def check_supported(self, obstacles: Sequence[Obstacle], V: dolfinx.fem.FunctionSpace,
+                        facet_tags: dolfinx.mesh.MeshTags, markers: Sequence[int], held: npt.NDArray[np.bool_],
+                        dirichlet_rows: npt.NDArray[np.int32], values: npt.NDArray[np.float64]) -> None:
+        """InputError on every rank (collective) for a node of the obstacles' contact boundary whose three components
+        the supports hold (no contact node) at a position inside an obstacle: a support that drives the body into
+        the obstacle (a clamped node inside an obstacle moved onto it). ``held`` per local node and component,
+        ``values`` the supports' values at ``dirichlet_rows``."""
+        blocks, x = self.boundary(V, facet_tags, markers)
+        whole = held[blocks].all(axis=1)
+        u = np.zeros(3 * V.dofmap.index_map.size_local)
+        u[dirichlet_rows] = values
+        at = x[whole] + u.reshape(-1, 3)[blocks[whole]]
+        message, worst = "", 1e-8 * self.size
+        for obstacle in obstacles:
+            g = obstacle.evaluate(at)[0] if at.size else np.zeros(0)
+            if g.size and -g.min() > worst:
+                i = int(np.argmin(g))
+                worst = -float(g[i])
+                where = ", ".join(f"{c:.6g}" for c in x[whole][i])
+                message = (f"the supports hold the contact-boundary node at ({where}) {worst:.4g} inside obstacle "
+                           f"{obstacle.label} (all its components held, it is no contact node): a prescribed or "
+                           "clamped boundary that drives the body into an obstacle; move the support off the "
+                           "obstacle, or leave the node out of it")
+        everyone = [(d, m) for d, m in self.comm.allgather((worst, message)) if m]
+        check_all(self.comm, not everyone, max(everyone)[1] if everyone else "")
 
     def closest(self, obstacles: Sequence[Obstacle], x: npt.NDArray[np.float64]
                 ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64], npt.NDArray[np.float64],

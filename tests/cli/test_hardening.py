@@ -501,3 +501,72 @@ def test_a_full_disk_before_the_hdf5_write_is_exit_4_in_one_line(mpi_tmp_path, c
     one_line(capsys, "solution.h5: No space left on device", "earlier results are kept")
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert sorted(p.name for p in mpi_tmp_path.iterdir()) == ["out"]
+
+
+#: The cuboid pushed by its left face (0.01 along x1) and pressed from the top (0.01 down), the contact boundary
+#: its bottom and right faces, frictionless; {obstacles} below.
+CORNER = """
+[body]
+lev = 2
+gap = "0.0*x1"
+clamped = []
+contact = {contact}
+[material]
+young = 70.0
+poisson = 0.3
+[friction]
+coefficient = 0.0
+[tractions]
+[prescribed]
+top = ["free", "free", -0.01]
+left = [{left}, "free", "free"]
+[[obstacle]]
+name = "floor"
+type = "plane"
+point = [0.0, 0.0, 0.0]
+normal = [0.0, 0.0, 1.0]
+[[obstacle]]
+name = "wall"
+type = "plane"
+point = [2.0, 0.0, 0.0]
+normal = [-1.0, 0.0, 0.0]
+"""
+
+
+@pytest.mark.parametrize("sliding", ["small", "finite"])
+def test_a_node_between_two_obstacles_is_no_exit_0(mpi_tmp_path, sliding):
+    """The bottom-right edge rests on the floor and the wall at once, and a contact node meets one obstacle's
+    constraint: small sliding gave exit 0 with those nodes 3.3e-3 below the floor (35 % of the press; the wall had
+    taken them), finite sliding exit 3 on an unsettled geometry. Now both exit 3, the written checks naming the
+    corner (obstacle_penetration)."""
+    scene = shared(mpi_tmp_path / "corner.toml", CORNER.format(contact='["bottom", "right"]', left=0.01))
+    out = mpi_tmp_path / sliding
+    assert run("--scene", str(scene), "--sliding", sliding, "--out", str(out)) == EXIT_DIVERGED
+    if sliding == "small":
+        data = json.loads((out / "summary.json").read_text())
+        assert data["reason"] == "physics_check" and data["physics_checks"]["obstacle_penetration"] > 0.1
+
+
+def test_contact_boundary_nodes_a_support_drives_into_an_obstacle(mpi_tmp_path, capsys):
+    """The left face held in every component at 0.02 down, the floor its contact boundary: its bottom edge is no
+    contact node and its prescribed position lies 0.02 inside the floor (exit 0 with the nodes there, penetration
+    reported 2e-15): now exit 2 naming the node. Held in x1 only (pushed 0.01 against the wall), the top-right edge
+    moves along the wall at a held value, is no contact node and ends 2.3e-3 inside it: reported
+    (support_penetration) and warned."""
+    driven = CORNER.replace('left = [{left}, "free", "free"]', 'left = [0.0, 0.0, -0.02]').replace(
+        'top = ["free", "free", -0.01]', "")
+    scene = shared(mpi_tmp_path / "driven.toml", driven.format(contact='["bottom"]'))
+    assert run("--scene", str(scene), "--out", str(mpi_tmp_path / "driven")) == EXIT_INPUT
+    one_line(capsys, "the supports hold the contact-boundary node at (", "0.02 inside obstacle", "floor")
+    floor = '[[obstacle]]\nname = "floor"\ntype = "plane"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n'
+    edge = CORNER.format(contact='["right"]', left=0.01).replace(floor, "") + "[roller]\nbottom = [1, 2]\n"
+    assert "floor" not in edge
+    scene = shared(mpi_tmp_path / "edge.toml", edge)
+    out = mpi_tmp_path / "edge"
+    assert main(["--scene", str(scene), "--out", str(out), "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    data = json.loads((out / "summary.json").read_text())
+    assert data["physics_checks"]["support_penetration"] > 0.1
+    printed = capsys.readouterr()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "that a support holds" in printed.out + printed.err
