@@ -169,10 +169,9 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     rigid = cmap.blocks[~model.coupling.paired_mask(cmap.size)]
     contact = np.isin(blocks, rigid)
     checked = contact | ~np.isin(blocks, cmap.blocks)  # not the pairs' slave nodes (shared_penetration's)
-    configuration = None if model.configuration is None else model.configuration.reshape(-1, 3)[blocks[checked]]
     contact_depth, support_depth = obstacle_depths(model.obstacles, x[checked],
                                                    physical.reshape(-1, 3)[blocks[checked]], contact[checked],
-                                                   configuration)
+                                                   model.sliding == "finite")
     out["obstacle_penetration"] = _gmax(comm, contact_depth) / max(gap_scale, tiny)
     out["support_penetration"] = _gmax(comm, support_depth) / max(gap_scale, tiny)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)

@@ -237,19 +237,19 @@ def check_solid_side(obstacles: Sequence[Obstacle], x: npt.ArrayLike, comm: Any,
 
 
 def obstacle_depths(obstacles: Sequence[Obstacle], x: npt.ArrayLike, u: npt.ArrayLike, contact: npt.ArrayLike,
-                    configuration: npt.ArrayLike | None = None) -> tuple[Array, Array]:
-    """How deep each node ends inside each obstacle, max(−g_o, 0) with g_o the node's gap to obstacle o linearized
-    about the configuration the contact model was placed in: g_o(x_c) + n_o(x_c)·(u − u_c), x_c = x + u_c
-    (small sliding: u_c = 0, the reference). For the obstacle a contact node belongs to this is the model's own gap
-    (the penetration check); for the others, and for nodes that are no contact nodes, it is the constraint the node
-    was not given.
+                    finite: bool = False) -> tuple[Array, Array]:
+    """How deep each node ends inside each obstacle, max(−g_o, 0) over the obstacles o: under finite sliding g_o the
+    signed distance of x + u from o, under small sliding its linearization about the reference, g_o(x) +
+    n_o(x)·u (the small-sliding model's gap). For the obstacle a contact node belongs to this is (to the geometry's
+    tolerance) the model's own gap, which the penetration check measures; for the others, and for nodes that are no
+    contact nodes, it is the constraint the node was not given.
 
     Args:
         obstacles: The obstacles as placed.
         x: Reference positions of the nodes, shape (m, 3).
         u: Their displacements, shape (m, 3).
         contact: Which nodes are contact nodes, shape (m,).
-        configuration: u_c at the nodes, shape (m, 3) (None: 0).
+        finite: Finite sliding (the distance at x + u) or small sliding (linearized about x).
 
     Returns:
         (the deepest of each contact node over the obstacles, the deepest of each other node), shapes
@@ -257,11 +257,14 @@ def obstacle_depths(obstacles: Sequence[Obstacle], x: npt.ArrayLike, u: npt.Arra
     """
     x, u = _points(x), _points(u)
     contact = np.asarray(contact, dtype=bool)
-    uc = np.zeros_like(u) if configuration is None else _points(configuration)
     depth = np.zeros(x.shape[0])
     for obstacle in obstacles:
-        g, n, _ = obstacle.evaluate(x + uc)
-        np.maximum(depth, -(g + np.einsum("ij,ij->i", n, u - uc)), out=depth)
+        if finite:
+            g = obstacle.evaluate(x + u)[0]
+        else:
+            g, n, _ = obstacle.evaluate(x)
+            g = g + np.einsum("ij,ij->i", n, u)
+        np.maximum(depth, -g, out=depth)
     return depth[contact], depth[~contact]
 
 
