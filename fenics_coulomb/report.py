@@ -121,7 +121,9 @@ class ContactReport:
     """Forces and contact nodes of one solve, the same on every rank (see the module docstring).
 
     Attributes:
-        total_force: Σ of the contact forces on the body over all contact nodes (obstacles and pair slaves).
+        total_force: Σ of the obstacles' contact forces on the body (the bodies): the forces of contact pairs act
+            between two bodies and cancel in it (they are in ``pair_forces``), so that total_force + Σ reactions +
+            applied_load = 0.
         obstacle_forces: Per obstacle (its ``name``, or "KIND N" by its position in the list), the force it
             exerts on the body.
         pair_forces: Per contact pair, the forces on its slave and master bodies (empty for one body).
@@ -274,7 +276,7 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     support = boundary_reactions(model, result.displacement, groups, result.master_force,
                                  result.contact_force) if groups else {}
     return ContactReport(
-        total_force=nodes.force.sum(axis=0),
+        total_force=nodes.force[nodes.obstacle >= 0].sum(axis=0),  # a pair's forces are internal
         obstacle_forces=per_obstacle,
         pair_forces=model.coupling.pair_forces(model, result),
         reactions={name: np.asarray(v) for name, v in support.items()},

@@ -385,8 +385,7 @@ def force_lines(data: dict, scene: Scene) -> list[str]:
             section = sections[k] if k < len(sections) else None
             slave = f" {'+'.join(section.slave)!r}" if section is not None else ""
             master = f" {'+'.join(section.master)!r}" if section is not None else ""
-            name = d.get("name") or k + 1
-            lines.append(f"pair {name!r}: contact force on the slave side{slave} "
+            lines.append(f"{_pair_label(d)}: contact force on the slave side{slave} "
                          f"{_vector_text(d['force_on_slave_body'])}, on the master side{master} "
                          f"{_vector_text(d['force_on_master_body'])}")
         lines += [f"obstacle {name!r}: contact force on the body {_vector_text(d['force'])}"
@@ -394,6 +393,13 @@ def force_lines(data: dict, scene: Scene) -> list[str]:
     lines.append("reactions: " + ", ".join(f"{name} {_vector_text(v)}"
                                     for name, v in data["reactions"].items()))
     return lines
+
+
+def _pair_label(d: dict) -> str:
+    """A pair of summary.json's ``contact_pairs`` as the result lines name it: pair N, or pair 'NAME' when named."""
+    default = f"pair {d['pair'] + 1}"
+    name = d.get("name") or default
+    return default if name == default else f"pair {name!r}"
 
 
 def contact_lines(data: dict) -> list[str]:
@@ -409,7 +415,7 @@ def contact_lines(data: dict) -> list[str]:
 
     lines = [f"contact: {text(data)}"]
     groups = [(f"obstacle {name!r}", d) for name, d in data.get("obstacles", {}).items()] + \
-        [(f"pair {d.get('name') or d['pair'] + 1!r}", d) for d in data.get("contact_pairs", [])]
+        [(_pair_label(d), d) for d in data.get("contact_pairs", [])]
     if len(groups) > 1:
         lines += [f"  {name}: {text(d)}" for name, d in groups]
     return lines

@@ -32,6 +32,8 @@ from typing import TYPE_CHECKING, Any
 
 from mpi4py import MPI
 
+import numpy as np
+
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
 from fenics_coulomb.io.results import ResultDirectory
@@ -87,9 +89,24 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     data["reactions"] = {name: [float(c) for c in v] for name, v in report.reactions.items()}
     data["contact_force"] = [float(c) for c in report.total_force]
     data["applied_load"] = [float(c) for c in report.applied_load]
+    _reaction_balance(data)
     if wall_start is not None:
         data["wall_time_s"] = comm.allreduce(time.perf_counter() - wall_start, op=MPI.MAX)
     return _finish(directory, data, comm, files, timings, started)
+
+
+def _reaction_balance(data: dict[str, Any]) -> None:
+    """``physics_checks.reaction_balance`` from the written forces when the result set names supports: ‖Σ reactions
+    + contact force + applied load‖ over the largest of ‖applied load‖, ‖contact force‖ and Σ ‖reaction‖ (the
+    command names every support; an API result set those its ``reactions`` name)."""
+    if not data.get("reactions"):
+        return
+    reactions = [np.asarray(v, dtype=np.float64) for v in data["reactions"].values()]
+    contact, applied = np.asarray(data["contact_force"]), np.asarray(data["applied_load"])
+    scale = max(float(np.linalg.norm(applied)), float(np.linalg.norm(contact)),
+                sum(float(np.linalg.norm(r)) for r in reactions), np.finfo(float).tiny)
+    data.setdefault("physics_checks", {})["reaction_balance"] = \
+        float(np.linalg.norm(sum(reactions) + contact + applied)) / scale
 
 
 def _finish(directory: Path, data: dict[str, Any], comm: MPI.Comm, files: list[str],
@@ -170,6 +187,10 @@ class PathResultSet:
         data["steps"] = steps
         data["reactions"] = steps[-1]["reactions"]
         data["contact_force"] = steps[-1]["contact_force"]
+        data["applied_load"] = steps[-1]["applied_load"]
+        _reaction_balance(data)
+        # the solves' time over the whole path (the phases of timings_s add up over every solve too)
+        data["timings_s"]["total"] = float(sum(s["wall_time_s"] for s in steps))
         data["newton_iterations_total"] = sum(s["newton_iterations"] for s in steps)
         data["krylov_iterations_total"] = sum(s["krylov_iterations"] for s in steps)
         if wall_start is not None:

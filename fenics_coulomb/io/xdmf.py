@@ -82,6 +82,7 @@ from fenics_coulomb.io.fields import CONTACT_STATES, FIELD_UNITS, contact_functi
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import set_owned_values
+from fenics_coulomb.model.obstacles import closest_obstacle
 from fenics_coulomb.start_rule import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN
@@ -277,10 +278,15 @@ def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0
     contact node open at its initial gap, no contact force."""
     m = model.contact.size
     zeros = np.zeros(model.A.getLocalSize()[0])
+    gap = np.array(model.contact.gap, dtype=float)
+    rigid = np.flatnonzero(~model.coupling.paired_mask(m))
+    if rigid.size and model.obstacles:  # the obstacles' nodes' gaps to the obstacles at rest (obstacles.h5 at t)
+        rest = [o.at_scene_position().rotated(None) for o in model.obstacles]
+        gap[rigid] = closest_obstacle(rest, model.contact.coordinates[rigid])[1]
     result = SolveResult(
         u=zeros, displacement=zeros, converged=True, reason="initial state", iterations=0, krylov_iterations=0,
         residual_history=[], records=[], sets=np.zeros(m, dtype=np.int8), states=np.full(m, OPEN, dtype=np.int8),
-        normal_force=np.zeros(m), tangential_force=np.zeros((m, 2)), gap=np.array(model.contact.gap, dtype=float),
+        normal_force=np.zeros(m), tangential_force=np.zeros((m, 2)), gap=gap,
         gamma=0.0, contact_force=np.zeros((m, 3)), master_force=model.coupling.initial_master_force(zeros.size))
     write_result_grid(xdmf, model, result, t, "initial state")
 

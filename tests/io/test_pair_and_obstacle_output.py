@@ -99,8 +99,9 @@ def scene_file(mesh: Path, floor: str) -> Path:
 @pytest.mark.parametrize("floor", sorted(FLOORS))
 def test_the_command_writes_a_pair_and_an_obstacle(mesh_file, floor):
     """Exit 0 and every file of the result set; summary.json's pair forces are equal and opposite and the
-    supports, the floor and the applied load balance (the floor's force: the total contact force minus the
-    pair's)."""
+    supports, the floor and the applied load balance (the contact force on the bodies is the floor's: a pair's
+    forces are internal; it counted the pair's slave side too, and the written balance failed by the pair's
+    force)."""
     out = mesh_file.parent / f"out_{floor}{MPI.COMM_WORLD.size}"
     assert main(["--scene", str(scene_file(mesh_file, floor)), "--out", str(out), "--no-plots", "--quiet"]) == 0
     MPI.COMM_WORLD.barrier()
@@ -113,10 +114,12 @@ def test_the_command_writes_a_pair_and_an_obstacle(mesh_file, floor):
     assert slave[2] > 0 and np.linalg.norm(slave + master) <= 1e-8 * np.linalg.norm(slave)
     reactions = {name: np.array(v) for name, v in data["reactions"].items()}
     assert set(reactions) == {"block_sides", "flat"}
-    floor_force = np.array(data["contact_force"]) - np.array(pair["contact_force"])
+    floor_force = np.array(data["contact_force"])
+    assert np.allclose(floor_force, data["obstacles"]["floor"]["force"], rtol=1e-12, atol=1e-15)
+    assert data["physics_checks"]["reaction_balance"] <= 1e-7
     if floor == "touching":
         assert floor_force[2] > 1e-6 * np.linalg.norm(slave)
-    else:  # round-off of the difference only (of either sign)
+    else:  # no floor node in contact
         assert np.abs(floor_force).max() <= 1e-12 * np.linalg.norm(slave)
     total = sum(reactions.values()) + floor_force + np.array(data["applied_load"])
     assert np.linalg.norm(total) <= 1e-7 * np.linalg.norm(slave)
@@ -140,7 +143,11 @@ def test_report_and_write_results_with_a_pair_and_an_obstacle(mesh_file, mpi_tmp
     assert np.linalg.norm(slave + flat) <= 1e-7 * scale  # the hemisphere: the pair's push and its support
     assert np.linalg.norm(master + floor_force + sides) <= 1e-7 * scale  # the block
     assert np.linalg.norm(sides + flat + floor_force + report.applied_load) <= 1e-7 * scale
-    assert np.allclose(report.total_force, floor_force + np.array(pair["contact_force"]), rtol=1e-12, atol=1e-14)
+    # the pair's forces act between the bodies: the contact force on the bodies is the floor's, and it balances
+    assert np.array_equal(report.total_force, floor_force) and pair["name"] == "pair 1"
+    assert np.linalg.norm(sum(report.reactions.values()) + report.total_force + report.applied_load) <= 1e-7 * scale
+    assert np.allclose(data["contact_force"], floor_force, rtol=1e-12, atol=1e-14 * scale)
+    assert data["physics_checks"]["reaction_balance"] <= 1e-7
     assert np.allclose(data["reactions"]["block_sides"], sides, rtol=1e-12, atol=1e-14 * scale)
     assert np.allclose(data["contact_pairs"][0]["force_on_master_body"], master, rtol=1e-12, atol=1e-14 * scale)
     assert all((mpi_tmp_path / "set" / name).is_file() for name in data["files"])

@@ -64,3 +64,32 @@ def test_rolling_demo_has_the_roller_history(mpi_tmp_path):
         assert g["normal_force"] > 0 and g["contact_nodes"] > 0 and g["peak_pressure"] > 0
         assert g["tangential_force"] <= 0.5 * g["normal_force"] * (1 + 1e-8)
         assert (g["stick"], g["slip"]) == (int(row["stick"]), int(row["slip"]))
+
+
+def test_the_path_summary_and_its_initial_state(mpi_tmp_path):
+    """The cylinder drag demo cut to its press (lev 1): summary.json has the last step's applied load and the
+    balance of the written forces, ``timings_s.total`` is the solves' time over the path (it was the last solve's
+    while the phases added up), and the t = 0 grid's gap is the distance to the cylinder at rest as obstacles.h5
+    draws it (it was measured to the cylinder already pressed 0.01 in: gap −0.01 on open nodes)."""
+    import h5py
+
+    comm = MPI.COMM_WORLD
+    text = (ROOT / "demos" / "scenes" / "cylinder_drag_path.toml").read_text()
+    scene = mpi_tmp_path / "press.toml"
+    if comm.rank == 0:
+        scene.write_text(text[: text.index("[[path.step]]           # 2")])
+    comm.barrier()
+    out = mpi_tmp_path / "press"
+    rows, summary = run(out, "--scene", str(scene), "--lev", "1")
+    assert len(rows) == 2 and summary["applied_load"] == summary["steps"][-1]["applied_load"]
+    assert summary["physics_checks"]["reaction_balance"] <= 1e-8
+    assert summary["timings_s"]["total"] == pytest.approx(sum(s["wall_time_s"] for s in summary["steps"]))
+    assert summary["timings_s"]["total"] >= summary["timings_s"]["ksp"]
+    if comm.rank == 0:
+        with h5py.File(out / "solution.h5", "r") as h5:
+            x = h5["Mesh/mesh/geometry"][:]
+            gap, state = h5["Function/gap/0"][:].ravel(), h5["Function/contact_state/0"][:].ravel()
+        top = state >= 0
+        axis = np.array([1.0, 0.5, 1.5])
+        distance = np.hypot(x[top, 0] - axis[0], x[top, 2] - axis[2]) - 0.5
+        assert np.allclose(gap[top], distance, rtol=0, atol=1e-12) and gap[top].min() >= -1e-12

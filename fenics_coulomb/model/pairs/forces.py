@@ -88,7 +88,7 @@ def pair_forces(model: ContactModel, result: SolveResult,
         entry: dict[str, Any] = {"pair": k}
         if k < len(pairs):
             q = pairs[k]
-            entry["name"] = getattr(q, "name", None)
+            entry["name"] = getattr(q, "name", None) or f"pair {k + 1}"  # as the report and path.csv name it
             entry["slave"] = [int(t) for t in np.atleast_1d(q.slave)]
             entry["master"] = [int(t) for t in np.atleast_1d(q.master)]
             entry["method"] = getattr(q, "method", None)
