@@ -45,7 +45,7 @@ from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
 from fenics_coulomb.model.pairs import ContactPair, Pairing
 from fenics_coulomb.problem_arguments import (as_settings, check_bcs, check_contact, check_petsc_options, check_prefix,
-                                             history_placement, obstacle_index, show)
+                                             form_ranks, history_placement, obstacle_index, show)
 from fenics_coulomb.report import ContactReport, make_report
 from fenics_coulomb.scd.newton import SCDNewtonSolver
 from fenics_coulomb.scd.records import SolveResult
@@ -57,14 +57,6 @@ from fenics_coulomb.start_rule import auto_start, interpolate_displacement
 __all__ = ["ContactProblem"]
 
 logger = logging.getLogger(__name__)
-
-
-def _ranks(a: object) -> int:
-    """The size of the communicator of the bilinear form's mesh (1 when ``a`` is not a form: refused later)."""
-    try:
-        return int(a.arguments()[0].ufl_function_space().mesh.comm.size)  # type: ignore[attr-defined]
-    except (AttributeError, IndexError, TypeError):
-        return 1
 
 
 #: A serial number per problem in this process (results name theirs: an id() is reused once an object is freed).
@@ -126,7 +118,7 @@ class ContactProblem(SlidingSolve):
         check_prefix(petsc_options_prefix)
         check_bcs(bcs)
         self.settings = as_settings(settings)
-        check_petsc_options(petsc_options, petsc_options_prefix, _ranks(a) > 1)
+        check_petsc_options(petsc_options, petsc_options_prefix, form_ranks(a) > 1)
         check_contact(contact, contact_pairs)
         t0 = time.perf_counter()
         self._model = ContactModel(a, L, bcs, contact, friction, obstacles, petsc_options_prefix,
@@ -453,6 +445,10 @@ class ContactProblem(SlidingSolve):
                                           accuracy=self._accuracy(result))
         rtol = result.rtol or self.settings.reduction
         failure = physics_failure(result.checks, rtol)
+        if not failure and self.finite_sliding:  # a body moved through a cored obstacle in one solve
+            model = self.model
+            failure = model.placement.buried(model.obstacles, model.V, model.ghosted(model.physical(
+                np.asarray(result.displacement, dtype=np.float64))))
         depth = result.checks.get("support_penetration", 0.0)
         if result.converged and not failure and depth > physics_bound(rtol) and self.model.comm.rank == 0:
             logger.warning("nodes of the contact boundary that a support holds (no contact nodes: a support moving "

@@ -22,8 +22,16 @@ from fenics_coulomb.settings import SolverSettings
 if TYPE_CHECKING:
     from fenics_coulomb.model.obstacles import Obstacle
 
-__all__ = ["as_settings", "check_bcs", "check_contact", "check_petsc_options", "check_prefix", "history_placement",
-           "obstacle_index", "show"]
+__all__ = ["as_settings", "check_bcs", "check_contact", "check_petsc_options", "check_prefix", "form_ranks",
+           "history_placement", "obstacle_index", "show"]
+
+
+def form_ranks(a: object) -> int:
+    """The size of the communicator of the bilinear form's mesh (1 when ``a`` is not a form: refused later)."""
+    try:
+        return int(a.arguments()[0].ufl_function_space().mesh.comm.size)  # type: ignore[attr-defined]
+    except (AttributeError, IndexError, TypeError):
+        return 1
 
 
 def check_prefix(prefix: Any) -> None:

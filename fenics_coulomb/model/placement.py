@@ -222,6 +222,25 @@ class ObstaclePlacement:
                         "an obstacle buried in the body, or indenting it too deep")
             raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
 
+    def buried(self, obstacles: Sequence[Obstacle], V: dolfinx.fem.FunctionSpace, u: npt.NDArray[np.float64]) -> str:
+        """"" unless an obstacle's core lies inside the body at X + ``u`` (the ghosted physical displacement), else
+        what: a body moved through an obstacle within one solve, whose contact nodes, all on one side, never met
+        it (collective)."""
+        if self._locator is None:
+            return ""
+        with displaced_geometry(V, u):
+            loc = BodyLocator(self.mesh)
+            for k, obstacle in enumerate(obstacles):
+                points, _ = core_path(obstacle, obstacle, loc.lo, loc.hi, 0.5 * loc.spacing)
+                hit = loc.first_inside(points) if points.size else -1
+                if hit >= 0:
+                    core = {"sphere": "centre", "cylinder": "axis"}.get(obstacle.kind, "deepest part")
+                    where = ", ".join(f"{c:.6g}" for c in points[hit])
+                    return (f"obstacle {k + 1} ({obstacle.label}): its {core} lies inside the deformed body at "
+                            f"({where}): the body moved through the obstacle within one solve, its contact nodes "
+                            "never met it; give the motion in substeps ([[path.step]] substeps)")
+        return ""
+
     def place(self, cmap: ContactMap, rigid: npt.NDArray[np.intp], obstacles: Sequence[Obstacle],
               configuration: npt.NDArray[np.float64] | None, previous_displacement: npt.NDArray[np.float64] | None,
               previous_obstacles: list[Obstacle] | None, previous_obstacle_displacements: npt.ArrayLike | None,

@@ -570,3 +570,36 @@ def test_contact_boundary_nodes_a_support_drives_into_an_obstacle(mpi_tmp_path, 
     printed = capsys.readouterr()
     if MPI.COMM_WORLD.rank == 0:
         assert "that a support holds" in printed.out + printed.err
+
+
+def test_a_body_moved_through_a_ball_in_one_solve_is_no_exit_0(mpi_tmp_path, capsys):
+    """The block's top moved 0.8 along x1 in one static solve, a ball (r 0.3) 0.5 beyond its right face: the block
+    passes over the ball, no contact node ever meets it, and the solve gave exit 0 with the ball inside the body
+    (23 nodes around it, the ball's centre 0.3 inside the right face). The obstacle's core is now located in the
+    deformed body after the solve: exit 3 naming the ball and the cure (substeps)."""
+    scene = shared(mpi_tmp_path / "over.toml", """
+[body]
+lev = 2
+gap = "0.0*x1"
+clamped = []
+contact = ["bottom", "right", "sides", "left"]
+[friction]
+coefficient = 0.0
+[tractions]
+[prescribed]
+top = [0.8, 0.0, 0.0]
+[[obstacle]]
+name = "ball"
+type = "sphere"
+center = [2.5, 0.5, 0.5]
+radius = 0.3
+""")
+    out = mpi_tmp_path / "over"
+    assert main(["--scene", str(scene), "--out", str(out), "--no-plots", "--quiet"]) == EXIT_DIVERGED
+    MPI.COMM_WORLD.barrier()
+    data = json.loads((out / "summary.json").read_text())
+    assert data["reason"] == "physics_check" and not data["converged"]
+    printed = capsys.readouterr()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "sphere 'ball'): its centre lies inside the deformed body" in printed.err
+        assert "give the motion in substeps" in printed.err
