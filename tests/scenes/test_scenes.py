@@ -248,9 +248,12 @@ def test_shipped_demo_scenes_solve(name, mpi_tmp_path):
     assert summary["state_counts"]["stick"] + summary["state_counts"]["slip"] > 0
     reactions = np.sum([v for v in summary["reactions"].values()], axis=0)
     pairs = summary.get("contact_pairs", [])
-    obstacles = np.array(summary["contact_force"]) - np.sum([p["contact_force"] for p in pairs] or [np.zeros(3)], 0)
+    obstacles = np.array(summary["contact_force"])  # the obstacles' force on the bodies (a pair's is internal)
+    assert np.allclose(obstacles, np.sum([o["force"] for o in summary.get("obstacles", {}).values()] or [np.zeros(3)],
+                                         0), rtol=1e-12, atol=1e-14)
     total = reactions + obstacles + np.array(summary["applied_load"])
     scale = max(np.linalg.norm(v) for v in [*summary["reactions"].values(), obstacles])
+    assert summary["physics_checks"]["reaction_balance"] <= 1e-6
     assert scale > 0 and np.linalg.norm(total) <= 1e-6 * scale, total
     for pair in pairs:
         assert pair["balance"] < 1e-6
