@@ -445,10 +445,12 @@ class ContactProblem(SlidingSolve):
                                           accuracy=self._accuracy(result))
         rtol = result.rtol or self.settings.reduction
         failure = physics_failure(result.checks, rtol)
+        model = self.model
         if not failure and self.finite_sliding:  # a body moved through a cored obstacle in one solve
-            model = self.model
             failure = model.placement.buried(model.obstacles, model.V, model.ghosted(model.physical(
                 np.asarray(result.displacement, dtype=np.float64))))
+        if not failure:  # a body held by contact alone that no contact node holds
+            failure = model.coupling.lost_support(model, np.asarray(result.states) != OPEN, lifted_only=True) or ""
         depth = result.checks.get("support_penetration", 0.0)
         if result.converged and not failure and depth > physics_bound(rtol) and self.model.comm.rank == 0:
             logger.warning("nodes of the contact boundary that a support holds (no contact nodes: a support moving "

@@ -189,11 +189,13 @@ class Coupling:
     def finish(self, model: ContactModel, result: SolveResult) -> None:
         """Make ``result`` physical: u = M z, the master forces, the free slave nodes' penetration (collective)."""
 
-    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None) -> str | None:
-        """What a solve that did not converge says about the bodies held by contact alone (their supports leave a
-        rigid motion free): each such body, its holding pairs and how many of their contact nodes are closed in
-        the last iterate (``closed``: the contact nodes' mask; None: no iterate) — none closed: the loads lift it off
-        and that motion is free. None when no body is so held (collective; always None for one body)."""
+    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
+                     lifted_only: bool = False) -> str | None:
+        """What a solve says about the bodies held by contact alone (their supports leave a rigid motion free): each
+        such body, its holding contact and how many of its contact nodes are closed in the last iterate
+        (``closed``: the contact nodes' mask; None: no iterate) — none closed: the loads lift it off and that motion
+        is free. ``lifted_only``: only the bodies with no closed node (a converged solve's check). None when no body
+        is so held (collective)."""
         return None
 
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
@@ -313,6 +315,22 @@ class IdentityCoupling(Coupling):
 
     def relative(self, u: Array) -> Array:
         return np.array(u, dtype=np.float64)
+
+    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
+                     lifted_only: bool = False) -> str | None:
+        """The body held by contact alone with no contact node closed under a load: nothing holds its free motions
+        (a solve that converged there ran off along them: a block pressed onto a plane at gap 0, held sideways
+        only, ended 2.3e12 above it with exit 0)."""
+        closed_nodes = 0 if closed is None else int(np.count_nonzero(closed))
+        if not self.free_motions or model.comm.allreduce(closed_nodes, op=MPI.SUM):
+            return None
+        load = model.total_load()  # collective, on every rank alike
+        if float(np.linalg.norm(load)) <= 1e-12 * max(float(model.load.norm()), np.finfo(float).tiny):
+            return None  # no resultant: nothing to hold (u = 0)
+        return (f"the supports leave {self.free_motions} rigid motion(s) of the body free and no contact node is "
+                f"closed: nothing holds it against the load's resultant ({', '.join(f'{c:.4g}' for c in load)}), "
+                "the loads lift it off its obstacles or the solve ran off along the free motion; support the body, "
+                "or load it onto an obstacle")
 
     def gamg_stiffness(self, model: ContactModel) -> PETSc.Mat:
         """A, or for a body its supports do not hold (A singular: the contact rows hold it in the Newton matrix, GAMG's

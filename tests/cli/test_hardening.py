@@ -603,3 +603,37 @@ radius = 0.3
     if MPI.COMM_WORLD.rank == 0:
         assert "sphere 'ball'): its centre lies inside the deformed body" in printed.err
         assert "give the motion in substeps" in printed.err
+
+
+def test_a_body_no_contact_node_holds_is_no_exit_0(mpi_tmp_path, capsys):
+    """A block on a plane at gap exactly 0, pressed by a traction, held only sideways (rollers): contact alone holds
+    it vertically. The solve ran off along that free motion (every node open) and stopped at |u| = 2.3e12 with exit 0:
+    the free motion's round-off balanced the load (reaction_balance 1.0, reported only). A converged state in which
+    no contact node holds a body that contact alone holds is now a failure (exit 3) naming the free motions and the
+    load. (With the plane 1e-6 below the block the same scene converges: 45 nodes at 0.1 GPa.)"""
+    scene = shared(mpi_tmp_path / "gap0.toml", """
+[body]
+lev = 2
+gap = "0.0*x1"
+clamped = []
+contact = ["bottom"]
+[material]
+young = 70.0
+poisson = 0.0
+[friction]
+coefficient = 0.0
+[tractions]
+top = [0.0, 0.0, -0.1]
+[roller]
+left = [0]
+sides = [1]
+""")
+    status = run("--scene", str(scene), "--out", str(mpi_tmp_path / "gap0"))
+    printed = capsys.readouterr()
+    if status != 0:
+        assert status == EXIT_DIVERGED
+        if MPI.COMM_WORLD.rank == 0:
+            assert "rigid motion(s) of the body free and no contact node is closed" in printed.err
+    else:  # the solve found the contact: the load on the plane
+        data = json.loads((mpi_tmp_path / "gap0" / "summary.json").read_text())
+        assert data["contact_nodes"] == 45 and abs(data["contact_force"][2] - 0.2) <= 1e-6

@@ -400,7 +400,8 @@ class PairCoupling(Coupling):
                                                    given["weights"], f"{model.prefix}given_")
         return linearized_pair_gaps(model.configuration, given, self._given_coupling, u)
 
-    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None) -> str | None:
+    def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
+                     lifted_only: bool = False) -> str | None:
         if not self.held_by_contact or self.pairing is None:
             return None
         labels = [f"{pair.label} {i + 1}" for i, pair in enumerate(self.pairs)]
@@ -411,8 +412,9 @@ class PairCoupling(Coupling):
         counts = np.bincount(self.pairing.pair_index[mine], minlength=len(self.pairs)).astype(np.int64)
         counts = np.ascontiguousarray(counts[:len(self.pairs)])
         model.comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
-        return "; ".join(held.describe_lost(labels, int(counts[list(held.pairs)].sum()))
-                         for held in self.held_by_contact)
+        lost = [held.describe_lost(labels, int(counts[list(held.pairs)].sum())) for held in self.held_by_contact
+                if not lifted_only or not counts[list(held.pairs)].sum()]
+        return "; ".join(lost) or None
 
     def _free_penetration(self, model: ContactModel, u: Array, tol: float = 1e-8) -> tuple[int, float]:
         """(the number of free slave nodes whose gap is below −tol × the mesh size, the deepest penetration
