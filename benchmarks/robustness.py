@@ -209,12 +209,11 @@ class Run:
     def balance(self) -> float:
         """The global force balance of the last solve: |Σ reactions + obstacle contact forces + applied load|
         relative to the largest of them, and each pair's action-reaction balance (a pair's forces are internal
-        to the two bodies: its slave-side force is taken out of the contact force)."""
+        to the two bodies: the written contact force is the obstacles')."""
         last = self.steps[-1]
         try:
             pairs = self.summary.get("contact_pairs", [])
-            obstacles = np.array(last["contact_force"]) - sum((np.array(p["contact_force"]) for p in pairs),
-                                                             np.zeros(3))
+            obstacles = np.array(last["contact_force"])
             terms = [np.array(v) for v in last["reactions"].values()] + [obstacles, np.array(last["applied_load"])]
         except KeyError:
             return float("nan")

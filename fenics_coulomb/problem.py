@@ -446,9 +446,8 @@ class ContactProblem(SlidingSolve):
         rtol = result.rtol or self.settings.reduction
         failure = physics_failure(result.checks, rtol)
         model = self.model
-        if not failure and self.finite_sliding:  # a body moved through a cored obstacle in one solve
-            failure = model.placement.buried(model.obstacles, model.V, model.ghosted(model.physical(
-                np.asarray(result.displacement, dtype=np.float64))))
+        if not failure and self.finite_sliding:  # a body moved onto or past a cored obstacle in one solve
+            failure = self._moved_through(result)
         if not failure:  # a body held by contact alone that no contact node holds
             failure = model.coupling.lost_support(model, np.asarray(result.states) != OPEN, lifted_only=True) or ""
         depth = result.checks.get("support_penetration", 0.0)

@@ -54,6 +54,7 @@ class SlidingSolve:
     settings: SolverSettings
     p: int
     _previous: npt.NDArray[np.float64] | None
+    _previous_delta: npt.NDArray[np.float64] | None
     #: (u, the pairing of X + u) last computed by the geometry iteration (finite sliding with contact pairs).
     _known: tuple[npt.NDArray[np.float64], Pairing] | None
 
@@ -135,6 +136,17 @@ class SlidingSolve:
             return u, None
         assert known is not None
         return known[0], known[1]
+
+    def _moved_through(self, result: SolveResult) -> str:
+        """"" unless the body moved onto or past an obstacle's core within the solve (its contact nodes, all on one
+        side, never met it: :meth:`~fenics_coulomb.model.placement.ObstaclePlacement.buried`), else what
+        (collective)."""
+        model = self.model
+        u = model.physical(np.asarray(result.displacement, dtype=np.float64)).reshape(-1, 3)
+        moved = u - (0.0 if self._previous is None else self._previous.reshape(-1, 3))
+        shift = model.comm.allreduce(moved.sum(axis=0)) / max(model.comm.allreduce(len(moved)), 1)
+        return model.placement.buried(model.obstacles, model.V, model.ghosted(u.ravel()), shift,
+                                      self._previous_delta)
 
     def _solve_finite(self, u0: dolfinx.fem.Function | None) -> tuple[dolfinx.fem.Function, SolveResult]:
         """Finite sliding: iterate the geometry (:class:`~fenics_coulomb.model.sliding.GeometryIteration`): solve

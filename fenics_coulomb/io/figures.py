@@ -331,7 +331,10 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
     stick/slip nodes against the step.
     """
     plt = _pyplot()
-    force = np.array([[0.0, 0.0, 0.0]] + [s["contact_force"] for s in steps])
+    # the obstacles' force on the body, or without obstacles the contact pairs' force on their slave bodies
+    pairs_only = bool(steps) and not steps[0]["obstacle_displacements"] and bool(steps[0].get("pair_forces"))
+    force = np.array([[0.0, 0.0, 0.0]] + [np.sum(s["pair_forces"], axis=0) if pairs_only else s["contact_force"]
+                                          for s in steps])
     names = list(steps[0]["obstacle_displacements"]) if steps else []
     deltas = {n: np.array([[0.0, 0.0, 0.0]] + [s["obstacle_displacements"][n] for s in steps]) for n in names}
     ranges = {(n, c): float(np.ptp(d[:, c])) for n, d in deltas.items() for c in range(3)}
@@ -358,7 +361,8 @@ def plot_path(steps: list[dict], path: Path, title: str = "") -> None:
         for c in range(3):
             ax.plot(x, force[:, c], label=f"F{c + 1}", **marker)
         ax.set_xlabel("load factor" if ramp else "step")
-        ax.set_ylabel("total contact force on the body (GPa·L²)")
+        ax.set_ylabel("contact pairs' force on their slave bodies (GPa·L²)" if pairs_only
+                      else "total contact force on the body (GPa·L²)")
     if groups:  # per obstacle and contact pair against the path's time
         t = np.array([0.0] + [s["time"] for s in steps])
 

@@ -89,22 +89,33 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     data["reactions"] = {name: [float(c) for c in v] for name, v in report.reactions.items()}
     data["contact_force"] = [float(c) for c in report.total_force]
     data["applied_load"] = [float(c) for c in report.applied_load]
-    _reaction_balance(data)
+    _reaction_balance(data, _force_floor(model, result))
     if wall_start is not None:
         data["wall_time_s"] = comm.allreduce(time.perf_counter() - wall_start, op=MPI.MAX)
     return _finish(directory, data, comm, files, timings, started)
 
 
-def _reaction_balance(data: dict[str, Any]) -> None:
+def _force_floor(model: Any, result: SolveResult) -> float:
+    """The forces that are round-off for ``result`` (:func:`~fenics_coulomb.model.checks.force_floor`; collective)."""
+    from fenics_coulomb.model.checks import displacement_scale, force_floor
+
+    unknown = result.relative_displacement if result.relative_displacement is not None else result.displacement
+    # at least the forces of a displacement of 1e-12 of the body's size (an unloaded state: u = 0 and no gap)
+    scale = max(displacement_scale(model, np.asarray(unknown, dtype=np.float64)), 1e-2 * model.placement.size)
+    return force_floor(model, scale)
+
+
+def _reaction_balance(data: dict[str, Any], floor: float) -> None:
     """``physics_checks.reaction_balance`` from the written forces when the result set names supports: ‖Σ reactions
-    + contact force + applied load‖ over the largest of ‖applied load‖, ‖contact force‖ and Σ ‖reaction‖ (the
-    command names every support; an API result set those its ``reactions`` name)."""
+    + contact force + applied load‖ over the largest of ‖applied load‖, ‖contact force‖, Σ ‖reaction‖ and the
+    forces that are round-off (``floor``: a state without forces balances) (the command names every support; an API
+    result set those its ``reactions`` name)."""
     if not data.get("reactions"):
         return
     reactions = [np.asarray(v, dtype=np.float64) for v in data["reactions"].values()]
     contact, applied = np.asarray(data["contact_force"]), np.asarray(data["applied_load"])
     scale = max(float(np.linalg.norm(applied)), float(np.linalg.norm(contact)),
-                sum(float(np.linalg.norm(r)) for r in reactions), np.finfo(float).tiny)
+                sum(float(np.linalg.norm(r)) for r in reactions), floor)
     data.setdefault("physics_checks", {})["reaction_balance"] = \
         float(np.linalg.norm(sum(reactions) + contact + applied)) / scale
 
@@ -188,7 +199,7 @@ class PathResultSet:
         data["reactions"] = steps[-1]["reactions"]
         data["contact_force"] = steps[-1]["contact_force"]
         data["applied_load"] = steps[-1]["applied_load"]
-        _reaction_balance(data)
+        _reaction_balance(data, _force_floor(model, result))
         # the solves' time over the whole path (the phases of timings_s add up over every solve too)
         data["timings_s"]["total"] = float(sum(s["wall_time_s"] for s in steps))
         data["newton_iterations_total"] = sum(s["newton_iterations"] for s in steps)

@@ -54,7 +54,8 @@ from fenics_coulomb.model.obstacle_checks import obstacle_depths
 
 __all__ = ["FORCE_FLOOR", "residual", "unconstrained_residual", "physics_residuals", "SLIP_RESOLUTION", "PHYSICS_TOL",
            "PHYSICS_PER_RTOL", "PHYSICS_LOOSEST", "DECISIVE_CHECKS", "physics_failure", "boundary_reactions",
-           "constrained_mask", "support_dofs", "total_contact_force", "ONE_CONSTRAINT", "physics_bound"]
+           "constrained_mask", "support_dofs", "total_contact_force", "ONE_CONSTRAINT", "physics_bound", "force_floor",
+           "displacement_scale"]
 
 
 #: Forces below this fraction of (largest diagonal of A) × (displacement scale) count as round-off in the relative
@@ -110,6 +111,20 @@ def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.flo
     return full
 
 
+def force_floor(model: ContactModel, scale: float) -> float:
+    """Forces below FORCE_FLOOR × (largest diagonal of A) × ``scale`` (the displacement scale) are round-off: a body
+    moved rigidly by its prescribed values carries no force at all (collective)."""
+    diagonal = model.A.getDiagonal()
+    floor = FORCE_FLOOR * _gmax(model.comm, np.abs(diagonal.getArray(readonly=True))) * scale
+    diagonal.destroy()
+    return max(floor, np.finfo(float).tiny)
+
+
+def displacement_scale(model: ContactModel, displacement: npt.NDArray[np.float64]) -> float:
+    """The largest initial gap or displacement (a zero gap profile has no gap scale; collective)."""
+    return max(_gmax(model.comm, np.abs(model.contact.gap)), _gmax(model.comm, np.abs(displacement)))
+
+
 def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64],
                       balance: bool = True, accuracy: float = 0.0) -> dict[str, float]:
     """Relative residuals of equilibrium, Signorini, Coulomb and global balance (see module docstring).
@@ -139,13 +154,9 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     free[model.dirichlet_rows] = False
     load_scale = _gmax(comm, np.abs(model.load.getArray(readonly=True)))
     # displacement scale: the largest initial gap or displacement (a zero gap profile has no gap scale)
-    gap_scale = max(_gmax(comm, np.abs(cmap.gap)), _gmax(comm, np.abs(displacement)))
-    # forces below FORCE_FLOOR × (largest diagonal of A) × (displacement scale) are round-off: a body moved
-    # rigidly by its prescribed values carries no force at all, and its residuals are round-off of round-off
-    diagonal = model.A.getDiagonal()
+    gap_scale = displacement_scale(model, displacement)
     tiny = np.finfo(float).tiny
-    force_tiny = max(FORCE_FLOOR * _gmax(comm, np.abs(diagonal.getArray(readonly=True))) * gap_scale, tiny)
-    diagonal.destroy()
+    force_tiny = force_floor(model, gap_scale)
     # force scale: the largest contact force, or the largest nodal load when nothing touches
     lam_scale = max(_gmax(comm, lam), load_scale)
     out: dict[str, float] = {}
@@ -171,7 +182,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     checked = contact | ~np.isin(blocks, cmap.blocks)  # not the pairs' slave nodes (shared_penetration's)
     contact_depth, support_depth = obstacle_depths(model.obstacles, x[checked],
                                                    physical.reshape(-1, 3)[blocks[checked]], contact[checked],
-                                                   model.sliding == "finite")
+                                                   model.sliding == "finite", 1e-12 * model.placement.size)
     out["obstacle_penetration"] = _gmax(comm, contact_depth) / max(gap_scale, tiny)
     out["support_penetration"] = _gmax(comm, support_depth) / max(gap_scale, tiny)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)

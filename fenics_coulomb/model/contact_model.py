@@ -139,7 +139,8 @@ class ContactModel:
         bad_obstacles = [o for o in self.obstacles if not isinstance(o, Obstacle)]
         if bad_obstacles:
             raise InputError(f"obstacles: {bad_obstacles[0]!r} is not a Plane, Sphere or Cylinder")
-        check_obstacle_names(self.obstacles)
+        check_obstacle_names(self.obstacles, reserved=[q.name if (q.name or "").startswith("pair ") else
+                                                       f"pair {q.name or k + 1}" for k, q in enumerate(pairs)])
         if not isinstance(friction, dolfinx.fem.Function):
             validate_friction(friction)
         if L is None:

@@ -237,7 +237,7 @@ def check_solid_side(obstacles: Sequence[Obstacle], x: npt.ArrayLike, comm: Any,
 
 
 def obstacle_depths(obstacles: Sequence[Obstacle], x: npt.ArrayLike, u: npt.ArrayLike, contact: npt.ArrayLike,
-                    finite: bool = False) -> tuple[Array, Array]:
+                    finite: bool = False, roundoff: float = 0.0) -> tuple[Array, Array]:
     """How deep each node ends inside each obstacle, max(−g_o, 0) over the obstacles o: under finite sliding g_o the
     signed distance of x + u from o, under small sliding its linearization about the reference, g_o(x) +
     n_o(x)·u (the small-sliding model's gap). For the obstacle a contact node belongs to this is (to the geometry's
@@ -250,6 +250,8 @@ def obstacle_depths(obstacles: Sequence[Obstacle], x: npt.ArrayLike, u: npt.Arra
         u: Their displacements, shape (m, 3).
         contact: Which nodes are contact nodes, shape (m,).
         finite: Finite sliding (the distance at x + u) or small sliding (linearized about x).
+        roundoff: Depths up to this count as touching (round-off below a surface: mesh generators place nodes
+            1e-17 below a plane they lie on, as the placement forgives).
 
     Returns:
         (the deepest of each contact node over the obstacles, the deepest of each other node), shapes
@@ -265,6 +267,7 @@ def obstacle_depths(obstacles: Sequence[Obstacle], x: npt.ArrayLike, u: npt.Arra
             g, n, _ = obstacle.evaluate(x)
             g = g + np.einsum("ij,ij->i", n, u)
         np.maximum(depth, -g, out=depth)
+    depth[depth <= roundoff] = 0.0
     return depth[contact], depth[~contact]
 
 

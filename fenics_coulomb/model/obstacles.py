@@ -391,10 +391,16 @@ def obstacle_names(obstacles: Sequence[Obstacle]) -> list[str]:
     return [getattr(o, "name", None) or f"{o.kind} {i + 1}" for i, o in enumerate(obstacles)]
 
 
-def check_obstacle_names(obstacles: Sequence[Obstacle], where: str = "obstacles") -> None:
-    """InputError unless the obstacles' output names (:func:`obstacle_names`) are distinct: a repeated name kept one
-    obstacle's entry in summary.json and the report and lost the other's force (pure)."""
+def check_obstacle_names(obstacles: Sequence[Obstacle], where: str = "obstacles",
+                         reserved: Sequence[str] = ()) -> None:
+    """InputError unless the obstacles' output names (:func:`obstacle_names`) are distinct, and distinct from the
+    contact pairs' (``reserved``: "pair NAME", or "pair N" unnamed): a repeated name kept one entry in summary.json,
+    path.csv and the report and lost the other's force (pure)."""
     names = obstacle_names(obstacles)
+    clash = [name for name in names if name in reserved]
+    if clash:
+        raise InputError(f"{where}: obstacle {names.index(clash[0]) + 1} is called {clash[0]!r}, the name of a contact "
+                         "pair in the outputs: give it another name")
     for i, name in enumerate(names):
         if name in names[:i]:
             j = names.index(name)

@@ -93,26 +93,31 @@ class ObstaclePlacement:
     def check_supported(self, obstacles: Sequence[Obstacle], V: dolfinx.fem.FunctionSpace,
                         facet_tags: dolfinx.mesh.MeshTags, markers: Sequence[int], held: npt.NDArray[np.bool_],
                         dirichlet_rows: npt.NDArray[np.int32], values: npt.NDArray[np.float64]) -> None:
-        """InputError on every rank (collective) for a node of the obstacles' contact boundary whose three components
-        the supports hold (no contact node) at a position inside an obstacle: a support that drives the body into
-        the obstacle (a clamped node inside an obstacle moved onto it). ``held`` per local node and component,
-        ``values`` the supports' values at ``dirichlet_rows``."""
+        """InputError on every rank (collective) for a node of the obstacles' contact boundary that the supports hold
+        inside an obstacle, whatever its free components do: its three components held, or against a plane the
+        components along the plane's normal (a support that drives the body into the obstacle; a clamped node inside
+        an obstacle moved onto it). ``held`` per local node and component, ``values`` the supports' values at
+        ``dirichlet_rows``."""
         blocks, x = self.boundary(V, facet_tags, markers)
-        whole = held[blocks].all(axis=1)
+        some = held[blocks].any(axis=1)
         u = np.zeros(3 * V.dofmap.index_map.size_local)
         u[dirichlet_rows] = values
-        at = x[whole] + u.reshape(-1, 3)[blocks[whole]]
+        at = x[some] + u.reshape(-1, 3)[blocks[some]]
+        free = ~held[blocks][some]
         message, worst = "", 1e-8 * self.size
         for obstacle in obstacles:
-            g = obstacle.evaluate(at)[0] if at.size else np.zeros(0)
+            g, n, _ = obstacle.evaluate(at) if at.size else (np.zeros(0), np.zeros((0, 3)), None)
+            # the free components cannot move the node off: none (three held), or a plane's normal has none
+            fixed = ~free.any(axis=1) | (obstacle.affine & ~np.any(free & (np.abs(n) > 1e-12), axis=1))
+            g = np.where(fixed, g, np.inf)
             if g.size and -g.min() > worst:
                 i = int(np.argmin(g))
                 worst = -float(g[i])
-                where = ", ".join(f"{c:.6g}" for c in x[whole][i])
+                where = ", ".join(f"{c:.6g}" for c in x[some][i])
                 message = (f"the supports hold the contact-boundary node at ({where}) {worst:.4g} inside obstacle "
-                           f"{obstacle.label} (all its components held, it is no contact node): a prescribed or "
-                           "clamped boundary that drives the body into an obstacle; move the support off the "
-                           "obstacle, or leave the node out of it")
+                           f"{obstacle.label} (the components they hold put it there, and it is no contact node): a "
+                           "prescribed or clamped boundary that drives the body into an obstacle; move the support "
+                           "off the obstacle, or leave the node out of it")
         everyone = [(d, m) for d, m in self.comm.allgather((worst, message)) if m]
         check_all(self.comm, not everyone, max(everyone)[1] if everyone else "")
 
@@ -222,23 +227,30 @@ class ObstaclePlacement:
                         "an obstacle buried in the body, or indenting it too deep")
             raise InputError(f"obstacle {k + 1} ({obstacle.label}): {what}")
 
-    def buried(self, obstacles: Sequence[Obstacle], V: dolfinx.fem.FunctionSpace, u: npt.NDArray[np.float64]) -> str:
-        """"" unless an obstacle's core lies inside the body at X + ``u`` (the ghosted physical displacement), else
-        what: a body moved through an obstacle within one solve, whose contact nodes, all on one side, never met
-        it (collective)."""
+    def buried(self, obstacles: Sequence[Obstacle], V: dolfinx.fem.FunctionSpace, u: npt.NDArray[np.float64],
+               shift: npt.ArrayLike = (0.0, 0.0, 0.0), previous: npt.ArrayLike | None = None) -> str:
+        """"" unless an obstacle's core lies inside the body at X + ``u`` (the ghosted physical displacement), or
+        passed through it on the body's motion within the solve (``shift``: the body's mean displacement over the
+        solve, ``previous`` the obstacles' δ before it, default theirs now: relative to the body at its end each core
+        came from previous δ + shift to its place), else what: a body moved onto or past
+        an obstacle within one solve, whose contact nodes, all on one side, never met it (collective)."""
         if self._locator is None:
             return ""
         with displaced_geometry(V, u):
             loc = BodyLocator(self.mesh)
             for k, obstacle in enumerate(obstacles):
-                points, _ = core_path(obstacle, obstacle, loc.lo, loc.hi, 0.5 * loc.spacing)
+                start = np.asarray(obstacle.displacement if previous is None else np.asarray(previous)[k], dtype=float)
+                before = obstacle.moved(start + np.asarray(shift, dtype=np.float64))
+                points, _ = core_path(before, obstacle, loc.lo, loc.hi, 0.5 * loc.spacing)
                 hit = loc.first_inside(points) if points.size else -1
                 if hit >= 0:
                     core = {"sphere": "centre", "cylinder": "axis"}.get(obstacle.kind, "deepest part")
                     where = ", ".join(f"{c:.6g}" for c in points[hit])
                     return (f"obstacle {k + 1} ({obstacle.label}): its {core} lies inside the deformed body at "
-                            f"({where}): the body moved through the obstacle within one solve, its contact nodes "
-                            "never met it; give the motion in substeps ([[path.step]] substeps)")
+                            f"({where}), or passed through it as the body moved (by "
+                            f"({', '.join(f'{c:.4g}' for c in np.asarray(shift, dtype=np.float64))}) on "
+                            "average) within one solve, its contact nodes never meeting it; give the motion in "
+                            "substeps ([[path.step]] substeps)")
         return ""
 
     def place(self, cmap: ContactMap, rigid: npt.NDArray[np.intp], obstacles: Sequence[Obstacle],

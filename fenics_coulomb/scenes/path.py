@@ -144,6 +144,8 @@ class StepRecord:
     #: Per obstacle (its name) and contact pair ("pair NAME"): normal and tangential force, peak pressure, contact
     #: area, nodes in contact, open/stick/slip nodes (:func:`contact_groups`).
     groups: dict[str, dict[str, Any]] = field(default_factory=dict)
+    #: Contact pairs: the force on each pair's slave body (its master body takes the opposite).
+    pair_forces: list[list[float]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         """The record as plain data (summary.json "steps")."""
@@ -156,6 +158,7 @@ class StepRecord:
             "contact_force": self.contact_force, "applied_load": self.applied_load, "reactions": self.reactions,
             "obstacle_displacements": self.obstacle_displacements, "obstacle_rotations": self.obstacle_rotations,
             "groups": self.groups, "wall_time_s": self.wall_time_s,
+            **({"pair_forces": self.pair_forces} if self.pair_forces else {}),
             "residual_history": self.residual_history,
             **({"free_slave_penetration": dict(self.free_slave_penetration)} if self.free_slave_penetration else {}),
         }
@@ -271,7 +274,8 @@ def run_path(
             obstacle_rotations={name: plain_rotation(r) for name, r in zip(labels, rotations, strict=True)},
             wall_time_s=wall, residual_history=[float(r) for r in step_result.residual_history],
             geometry_updates=int(step_result.geometry_updates), groups=contact_groups(model, step_result),
-            free_slave_penetration=dict(step_result.free_penetration))
+            free_slave_penetration=dict(step_result.free_penetration),
+            pair_forces=[[float(c) for c in p["force_on_slave_body"]] for p in report.pair_forces])
         records.append(record)
         if solve.substeps == 1:
             where = f"step {solve.step}/{last_step} (load factor {solve.load_factor:.4g})"
@@ -282,11 +286,13 @@ def run_path(
         left = len(solves) - i - 1
         eta = f", about {remaining_time(walls, left):.1f} s left" if left and not failure else ""
         updates = f", {record.geometry_updates} geometry update(s)" if record.geometry_updates else ""
-        logger.info("solve %d/%d, %s: %s, %d Newton / %d Krylov iterations%s, open/stick/slip %d/%d/%d, contact "
-                    "force (%s), %.2f s%s", i + 1, len(solves), where,
-                    "converged" if not failure else f"NOT converged ({failure})",
+        forces = [f"contact force ({', '.join(f'{c:.6g}' for c in record.contact_force)})"] if model.obstacles else []
+        forces += [f"pair {k + 1} on the slave side ({', '.join(f'{c:.6g}' for c in f)})"
+                   for k, f in enumerate(record.pair_forces)]
+        logger.info("solve %d/%d, %s: %s, %d Newton / %d Krylov iterations%s, open/stick/slip %d/%d/%d, %s, %.2f s%s",
+                    i + 1, len(solves), where, "converged" if not failure else f"NOT converged ({failure})",
                     record.newton_iterations, record.krylov_iterations, updates, counts["open"], counts["stick"],
-                    counts["slip"], ", ".join(f"{c:.6g}" for c in record.contact_force), wall, eta)
+                    counts["slip"], ", ".join(forces) or "no contact force", wall, eta)
         if on_solve is not None:
             on_solve(solve, record, step_result)
         result = step_result

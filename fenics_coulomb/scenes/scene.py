@@ -78,6 +78,7 @@ from fenics_coulomb.scenes.cuboid import FACE_NAMES, paper_tractions
 from fenics_coulomb.scenes.expression import parse_point_expression
 from fenics_coulomb.scenes.sections import (KINDS, MAX_SCENE_BYTES, YOUNG_RANGE, MAX_LOAD, MAX_LEV, FREE, OPTIONAL,
                                             MAX_PATH_SOLVES, FLAGS, held_components, check_kind, check_kinds,
+                                            check_support_tables,
                                             check_gap_values, BodySection, MaterialSection, FrictionSection,
                                             ContactSection, LoadSection, PathStep, check_table, path_steps_from_toml,
                                             PairSection, pairs_from_toml, _number, _surface_file_beside, _vector)
@@ -308,6 +309,7 @@ class Scene:
         if not (self.body.clamped or self.prescribed or self.roller):
             raise InputError("no Dirichlet boundary: name clamped, [prescribed] or [roller] boundaries "
                              "(rigid motions)")
+        check_support_tables(list(self.body.clamped), list(self.prescribed), list(self.roller))
         for name, value in self.prescribed.items():
             check_kind(f"prescribed displacement on {name!r}", value, "prescription")
         for name, components in self.roller.items():

@@ -25,7 +25,7 @@ from fenics_coulomb.settings import SolverSettings, setting_kinds
 __all__ = ["KINDS", "MAX_SCENE_BYTES", "YOUNG_RANGE", "MAX_LOAD", "MAX_LEV", "FREE", "OPTIONAL", "MAX_PATH_SOLVES",
            "FLAGS", "held_components", "check_kind", "check_kinds", "check_gap_values", "BodySection",
            "MaterialSection", "FrictionSection", "ContactSection", "LoadSection", "PathStep", "check_table",
-           "path_steps_from_toml", "PairSection", "pairs_from_toml"]
+           "path_steps_from_toml", "PairSection", "pairs_from_toml", "check_support_tables"]
 
 
 def _number(name: str, value: Any) -> float:
@@ -94,6 +94,19 @@ __all__ += ["FREE", "held_components"]
 def held_components(value: Sequence[Any]) -> list[int]:
     """The components a ``[prescribed]`` value holds (its numbers; "free" entries are not held)."""
     return [i for i, c in enumerate(value) if c != FREE]
+
+
+def check_support_tables(clamped: Sequence[str], prescribed: Sequence[str], roller: Sequence[str]) -> None:
+    """InputError for a boundary named in two support tables: its conditions and reaction were one table's (a
+    clamped face also a roller kept the reaction of neither; a prescribed face also clamped lost its motion)."""
+    tables = (("[body] clamped", list(clamped)), ("[prescribed]", list(prescribed)), ("[roller]", list(roller)))
+    for i, (first, a) in enumerate(tables):
+        for second, b in tables[i + 1:]:
+            both = [name for name in a if name in b]
+            if both:
+                raise InputError(f"boundary {both[0]!r} is in {first} and in {second}: name each boundary in one "
+                                 "support table (a roller's or a free component's hold is a [prescribed] value with "
+                                 "\"free\" entries)")
 
 
 def check_kind(where: str, value: Any, kind: str) -> None:
