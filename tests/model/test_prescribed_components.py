@@ -58,14 +58,18 @@ def write(comm, path, text):
     comm.barrier()
 
 
+def build(comm, path, text):
+    """The scene ``text`` written to ``path`` by rank 0 and built on every rank."""
+    write(comm, path, text)
+    return build_problem(Scene.from_toml(path))
+
+
 def test_free_components_are_not_held(mpi_tmp_path):
     """The held components take their values bit for bit, the free ones move; each reaction in summary.json equals
     our assembly over the held components of its nodes (1e-10) and is exactly 0 in the free ones; supports, floor
     balance (no applied load)."""
     comm = MPI.COMM_WORLD
-    path = mpi_tmp_path / "free.toml"
-    write(comm, path, SCENE)
-    built = build_problem(Scene.from_toml(path))
+    built = build(comm, mpi_tmp_path / "free.toml", SCENE)
     with built.problem as problem:
         uh, result = problem.solve()
         assert result.converged and result.counts["open"] < problem.p
@@ -145,9 +149,7 @@ def test_a_node_on_two_supports_is_held_by_both(mpi_tmp_path):
     alone). The block, pressed 0.01 onto a frictionless floor through the height 0.99, is then in uniform plane
     strain: σ₃₃ = E/(1 − ν²)·ε₃₃, the top's reaction σ₃₃·2 (exact in Q1, to the solve's accuracy)."""
     comm = MPI.COMM_WORLD
-    path = mpi_tmp_path / "shared.toml"
-    write(comm, path, SHARED)
-    built = build_problem(Scene.from_toml(path))
+    built = build(comm, mpi_tmp_path / "shared.toml", SHARED)
     with built.problem as problem:
         uh, result = problem.solve()
         assert result.converged
