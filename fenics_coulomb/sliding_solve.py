@@ -145,6 +145,8 @@ class SlidingSolve:
         u = model.physical(np.asarray(result.displacement, dtype=np.float64)).reshape(-1, 3)
         moved = u - (0.0 if self._previous is None else self._previous.reshape(-1, 3))
         shift = model.comm.allreduce(moved.sum(axis=0)) / max(model.comm.allreduce(len(moved)), 1)
+        if getattr(model.coupling, "num_bodies", 1) > 1:  # bodies moving apart have no one motion to sweep along
+            shift = np.zeros(3)
         return model.placement.buried(model.obstacles, model.V, model.ghosted(u.ravel()), shift,
                                       self._previous_delta)
 
