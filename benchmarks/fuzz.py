@@ -99,6 +99,7 @@ SCENE_BAD = [
     "[prescribed]\ntop = [0.01, 'loose', 0]\n", "[prescribed]\ntop = [nan, 'free', 'free']\n",
     "[prescribed]\ntop = ['free', 'free', 'free']\n", "[prescribed]\ntop = [0.01, 'free']\n",
     "[prescribed]\ntop = [0.01, 'free', 0]\n[[path.step]]\nprescribed = { top = [0.02, 0, 0] }\n",
+    "[body]\nclamped = ['left']\n[roller]\nleft = [0]\n", "[prescribed]\ntop = [0, 0, -0.01]\n[roller]\ntop = [0]\n",
 ]
 SCENE_GOOD = [
     "[body]\nlev = 1\n", "[body]\nlev = 1\ngap = 'd2'\n[friction]\ncoefficient = 0.5\n",
@@ -154,6 +155,16 @@ def hostile_cases() -> list[tuple[list[str], dict[str, str]]]:
         "type = 'surface'\nfile = 'up.stl'\ndisplacement = [0, 0, -0.01]\n",
     ]
     cases = [(["--scene", "{dir}/scene.toml"], {"scene.toml": block + text, **stl}) for text in scenes]
+    free = "[body]\nlev = 2\ngap = '0.0*x1'\nclamped = []\ncontact = {}\n[friction]\ncoefficient = 0.0\n[tractions]\n"
+    cases += [(["--scene", "{dir}/scene.toml"], {"scene.toml": text}) for text in (
+        # a face driven into the floor by its supports (exit 2); the edge of a floor and a wall (exit 3)
+        free.format("['bottom']") + "[prescribed]\nleft = ['free', 0.0, -0.02]\n",
+        free.format("['bottom', 'right']") + "[prescribed]\ntop = ['free', 'free', -0.01]\nleft = [0.01, 'free', "
+        "'free']\n[[obstacle]]\ntype = 'plane'\npoint = [0, 0, 0]\nnormal = [0, 0, 1]\n[[obstacle]]\ntype = 'plane'\n"
+        "point = [2, 0, 0]\nnormal = [-1, 0, 0]\n",
+        # the body moved past a ball within one solve (exit 3)
+        free.format("['bottom', 'right', 'sides', 'left']") + "[prescribed]\ntop = [3.0, 0.0, 0.0]\n[[obstacle]]\n"
+        "type = 'sphere'\ncenter = [2.5, 0.5, 0.5]\nradius = 0.3\n")]
     mesh = ("[body]\nshape = 'mesh'\nmesh = 'cube.msh'\nclamped = ['face5']\ncontact = ['face6']\n[boundaries]\n"
             + "".join(f"face{i} = {i}\n" for i in range(1, 7)) + "[tractions]\n[[obstacle]]\ntype = 'plane'\n"
             "point = [0, 0, 1.0]\nnormal = [0, 0, -1]\ndisplacement = [0, 0, -0.01]\n")

@@ -40,6 +40,7 @@ from fenics_coulomb.io.results import ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_path_csv, write_summary
 from fenics_coulomb.io.view import contact_bodies, largest_force_normal, warp_scale, write_view_script
 from fenics_coulomb.io.xdmf import XDMFTimeSeries, write_initial_grid, write_result_grid, write_xdmf
+from fenics_coulomb.model.checks import displacement_scale, force_floor
 from fenics_coulomb.report import make_report
 from fenics_coulomb.scd.records import SolveResult
 
@@ -97,8 +98,6 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
 
 def _force_floor(model: Any, result: SolveResult) -> float:
     """The forces that are round-off for ``result`` (:func:`~fenics_coulomb.model.checks.force_floor`; collective)."""
-    from fenics_coulomb.model.checks import displacement_scale, force_floor
-
     unknown = result.relative_displacement if result.relative_displacement is not None else result.displacement
     # at least the forces of a displacement of 1e-12 of the body's size (an unloaded state: u = 0 and no gap)
     scale = max(displacement_scale(model, np.asarray(unknown, dtype=np.float64)), 1e-2 * model.placement.size)
