@@ -340,6 +340,7 @@ def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int
         held = comm.allreduce(int(np.sum(model.contact.held_components.any(axis=1))), op=MPI.SUM)
         unknowns, p_nodes = problem.n, result.p
         converged = bool(result.converged)
+        master_depth = float(result.checks.get("master_penetration", 0.0))
     pressure = total / (0.5 * np.pi * bore * t)
     Ep, nup = E_FIT / (1.0 - NU_FIT**2), NU_FIT / (1.0 - NU_FIT)
     hoop = Ep * mean_ur / bore - nup * pressure
@@ -347,7 +348,7 @@ def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int
     return {"pressure": pressure, "pressure_ref": p_ref, "err_pressure": pressure / p_ref - 1.0, "hoop": hoop,
             "hoop_ref": hoop_ref, "err_hoop": hoop / hoop_ref - 1.0, "unknowns": int(unknowns),
             "contact_nodes": int(p_nodes), "held": held, "converged": converged, "h": (shaft_h, ring_h),
-            "value": pressure, "wall": time.perf_counter() - t0}
+            "value": pressure, "wall": time.perf_counter() - t0, "master_penetration": master_depth}
 
 
 def _indented_block(comm: MPI.Comm, level: int | tuple[float, float]) -> tuple[Any, ...]:

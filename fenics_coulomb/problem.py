@@ -39,7 +39,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
-from fenics_coulomb.model.checks import physics_bound, physics_failure, physics_residuals
+from fenics_coulomb.model.checks import physics_failure, physics_residuals, reported_warnings
 from fenics_coulomb.model.contact_model import ContactModel, Friction
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.obstacles import Obstacle, _vector
@@ -450,11 +450,9 @@ class ContactProblem(SlidingSolve):
             failure = self._moved_through(result)
         if not failure:  # a body held by contact alone that no contact node holds
             failure = model.coupling.lost_support(model, np.asarray(result.states) != OPEN, lifted_only=True) or ""
-        depth = result.checks.get("support_penetration", 0.0)
-        if result.converged and not failure and depth > physics_bound(rtol) and self.model.comm.rank == 0:
-            logger.warning("nodes of the contact boundary that a support holds (no contact nodes: a support moving "
-                           "them along or into the contact) end inside an obstacle, by up to %.3g of the displacement "
-                           "scale: leave them out of the support or out of the contact boundary", depth)
+        if result.converged and not failure and self.model.comm.rank == 0:
+            for warning in reported_warnings(result.checks, rtol):
+                logger.warning(warning)
         if result.converged and failure:
             result.converged, result.reason = False, "physics_check"
             self._finish(result)

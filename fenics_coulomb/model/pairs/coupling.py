@@ -34,6 +34,7 @@ from fenics_coulomb.model.nullspace import HELD_BODY_SHIFT, shift_diagonal
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 from fenics_coulomb.model.pairs.forces import pair_forces
+from fenics_coulomb.model.pairs.master_nodes import master_excess
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
@@ -444,6 +445,12 @@ class PairCoupling(Coupling):
         _, gap, _, _ = closest_obstacle(model.obstacles, x)
         depth = max(float(np.max(-gap, initial=0.0)), float(np.max(-self._given_gaps(model, u), initial=0.0)))
         return float(model.comm.allreduce(depth, op=MPI.MAX))
+
+    def master_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None]:
+        x = model.V.tabulate_dof_coordinates() + model.ghosted(u).reshape(-1, 3)
+        assert self.pairing is not None
+        nodes = [self.pairing.blocks[self.pairing.pair_index == i] for i in range(len(self.pairs))]
+        return master_excess(model.V, list(self.pairs), x, nodes)
 
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""

@@ -1,0 +1,144 @@
+r"""The master nodes of a contact pair against its slave body after a solve: what a one-pass pair does not see.
+
+A pair keeps its slave nodes out of the master body (node-to-surface: each node against the master surface; dual
+mortar: the weighted gaps of the fully covered nodes); nothing keeps the master's nodes out of the slave body. Where
+the master surface ends over the slave surface — a master smaller than the slave, the master's border under a slave
+that hangs over it — a master node sinks into the slave body unseen: the slide-off blocks pressed with the roles
+swapped (the larger lower block's top the slave) end with the upper block's border 4.1e-3 inside the lower block
+and the normal force −16 % (node-to-surface), −76 % (mortar), exit 0.
+
+:func:`master_excess` measures it in the configuration X + u: every owned master node over the gathered slave surface
+S — its closest point on S in S's normal cone, within the pair's search distance and within the thickness of the
+slave's cell layer under that point (the rules of the reference-configuration overlap check,
+:func:`fenics_coulomb.model.pairs.pairing.pair_surfaces`) — and its depth −g inside the slave body, less what the
+facetting of two curved surfaces gives a master node without any error of the solve:
+
+* the slave nodes rest on the master facets (g = 0 where they press); two of them on the facets either side of a
+  master vertex V, at distances a and b from V, span a chord that passes below V by a·b·sin α / |AB| ≈ a b α/(a + b)
+  ≤ h_s α/4 (α the turn of the master's normals at V, h_s ≥ a + b the slave facet's size);
+* taken with a factor 2 for slave facets that are no straight chords (bilinear quadrilaterals, a triangle around
+  V): the allowance h_s α/2, with α = twice the largest angle between a master facet's normal at V and their mean
+  (an upper bound of the largest angle between two of them). A flat master has α = 0: its nodes get no allowance.
+
+Derived on the slide-off blocks (flat: no allowance) and measured against curved pairs with the slave the finer
+or the larger surface (tests/model/test_master_nodes.py): the Hertz pair and the shrink fit stay below the bound.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from mpi4py import MPI
+
+import dolfinx.fem
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.model.pairs.pair import ContactPair
+from fenics_coulomb.model.pairs.projection import (Surface, dot, facet_data, facet_ranks, facet_sizes,
+                                                   gather_surface, local_facets, norm, outward_normals, project)
+
+__all__ = ["FACETTING_ALLOWANCE", "SLAVE_FACTOR", "turn_angles", "master_excess"]
+
+Array = npt.NDArray[np.float64]
+
+#: The allowance of a master node is this × (the slave facet's size) × (the master's turn α at the node): twice the
+#: chord's h_s α/4 (the module docstring).
+FACETTING_ALLOWANCE = 0.5
+#: ... and at least this × the deepest pointwise penetration of the pair's own contact nodes into the master body
+#: (dual mortar meets the gaps weakly: both sides' nodes then lie inside the other by the method's own error; as the
+#: reference-configuration overlap check of :func:`fenics_coulomb.model.pairs.pairing.pair_surfaces`).
+SLAVE_FACTOR = 2.0
+
+
+def turn_angles(surface: Surface) -> tuple[npt.NDArray[np.int64], Array]:
+    """(the surface's vertices as global blocks, ascending; α at each): twice the largest angle between the outward
+    normal of a facet at its centre and the mean of those normals over the facets sharing the vertex (0 where one
+    facet, or coplanar facets, meet)."""
+    k, nv = surface.blocks.shape
+    if k == 0:
+        return np.zeros(0, np.int64), np.zeros(0)
+    normals = outward_normals(surface.X, np.full((k, nv), 1.0 / nv), surface.sign)
+    vertices, inverse = np.unique(surface.blocks.ravel(), return_inverse=True)
+    per = np.repeat(normals, nv, axis=0)
+    mean = np.zeros((vertices.size, 3))
+    np.add.at(mean, inverse, per)
+    mean /= np.maximum(norm(mean), np.finfo(float).tiny)[:, None]
+    angle = np.zeros(vertices.size)
+    np.maximum.at(angle, inverse, np.arccos(np.clip(dot(per, mean[inverse]), -1.0, 1.0)))
+    return vertices, 2.0 * angle
+
+
+def _thickness(surface: Surface, centroids: Array) -> Array:
+    """Twice the distance of each facet's cell centroid from the facet's centre along its normal."""
+    nv = surface.X.shape[1]
+    normal = outward_normals(surface.X, np.full((surface.X.shape[0], nv), 1.0 / nv), surface.sign) \
+        if surface.X.shape[0] else np.zeros((0, 3))
+    return 2 * np.abs(dot(centroids - surface.X.mean(axis=1), normal))
+
+
+def _gathered_with_thickness(comm: MPI.Comm, V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], x: Array,
+                             nv: int) -> tuple[Surface, Array]:
+    """The facets gathered on every rank at the coordinates ``x`` (deduplicated) and their cell layers' thickness."""
+    tdim = V.mesh.topology.dim
+    f2c = V.mesh.topology.connectivity(tdim - 1, tdim)
+    local = facet_data(V, facets, x)
+    centroid = x[V.dofmap.list[f2c.array[f2c.offsets[facets]]]].mean(axis=1) if facets.size else np.zeros((0, 3))
+    thickness = np.concatenate(comm.allgather(_thickness(local, centroid)))
+    blocks = np.concatenate(comm.allgather(local.blocks.reshape(-1, nv)))
+    _, first = np.unique(np.sort(blocks, axis=1), axis=0, return_index=True)
+    return gather_surface(comm, local, nv), thickness[first]
+
+
+def _slave_depth(y: Array, master: Surface, search: float) -> float:
+    """The deepest of the points ``y`` (a pair's contact nodes) inside the master body, pointwise (their
+    node-to-surface gap on the master surface, where they lie in its normal cone within the search distance)."""
+    if y.shape[0] == 0:
+        return 0.0
+    res = project(y, master, facet_sizes(master), facet_ranks(master))
+    g = dot(y - res["closest"], res["normal"])
+    inside = np.asarray(res["paired"], dtype=bool) & (np.abs(g) <= search)
+    return float(np.max(-g[inside], initial=0.0))
+
+
+def master_excess(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], x: Array,
+                  slave_nodes: list[npt.NDArray[np.int32]]) -> tuple[float, Array | None]:
+    """The deepest excess depth of a master node inside its pair's slave body (the module docstring's depth less
+    its allowance) over every pair and rank in the configuration ``x`` (the positions of V's local DOF blocks, owned
+    and ghost), and where that master node is (None when no master node is inside beyond its allowance; collective).
+    ``slave_nodes[i]``: the owned contact nodes (local blocks) of pair i, whose own depth inside the master body
+    bounds the allowance from below."""
+    comm = V.mesh.comm
+    tdim = V.mesh.topology.dim
+    V.mesh.topology.create_connectivity(tdim - 1, tdim)
+    imap = V.dofmap.index_map
+    lo, hi = imap.local_range
+    nv = 4 if V.mesh.topology.cell_name() == "hexahedron" else 3
+    best: tuple[float, Array | None] = (0.0, None)
+    for pair, nodes in zip(pairs, slave_nodes, strict=True):
+        slave, thickness = _gathered_with_thickness(comm, V, local_facets(pair.facet_tags, pair.slave_tags), x, nv)
+        master = gather_surface(comm, facet_data(V, local_facets(pair.facet_tags, pair.master_tags), x), nv)
+        if slave.X.shape[0] == 0 or master.X.shape[0] == 0:
+            continue
+        points = master.X.reshape(-1, 3)
+        search = pair.search_distance if pair.search_distance is not None else \
+            0.1 * float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+        floor = comm.allreduce(_slave_depth(x[nodes], master, search), op=MPI.MAX)
+        vertices, alpha = turn_angles(master)
+        _, first = np.unique(master.blocks.ravel(), return_index=True)
+        mine = (vertices >= lo) & (vertices < hi)
+        y = points[first[mine]]
+        if y.shape[0] == 0:
+            continue
+        sizes = facet_sizes(slave)
+        res = project(y, slave, sizes, facet_ranks(slave))
+        depth = -dot(y - res["closest"], res["normal"])
+        over = np.asarray(res["paired"], dtype=bool) & (np.abs(depth) <= search) & (depth < thickness[res["facet"]])
+        allowed = np.maximum(FACETTING_ALLOWANCE * sizes[res["facet"]] * alpha[mine], SLAVE_FACTOR * floor)
+        excess = np.where(over, depth - allowed, 0.0)
+        if excess.size and excess.max() > best[0]:
+            k = int(np.argmax(excess))
+            best = (float(excess[k]), y[k])
+    everyone: list[tuple[float, Any]] = comm.allgather(best)
+    deepest, at = max(everyone, key=lambda item: item[0])
+    return (float(deepest), np.asarray(at)) if at is not None else (0.0, None)
