@@ -341,6 +341,8 @@ def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int
         unknowns, p_nodes = problem.n, result.p
         converged = bool(result.converged)
         master_depth = float(result.checks.get("master_penetration", 0.0))
+        nodal = problem.report(result).nodes.pressure
+        nodal = nodal[nodal > 0]  # the contact_pressure field over the pressed bore nodes
     pressure = total / (0.5 * np.pi * bore * t)
     Ep, nup = E_FIT / (1.0 - NU_FIT**2), NU_FIT / (1.0 - NU_FIT)
     hoop = Ep * mean_ur / bore - nup * pressure
@@ -348,7 +350,8 @@ def shrink_fit(comm: MPI.Comm, method: str, level: int | tuple[float, float, int
     return {"pressure": pressure, "pressure_ref": p_ref, "err_pressure": pressure / p_ref - 1.0, "hoop": hoop,
             "hoop_ref": hoop_ref, "err_hoop": hoop / hoop_ref - 1.0, "unknowns": int(unknowns),
             "contact_nodes": int(p_nodes), "held": held, "converged": converged, "h": (shaft_h, ring_h),
-            "value": pressure, "wall": time.perf_counter() - t0, "master_penetration": master_depth}
+            "value": pressure, "wall": time.perf_counter() - t0, "master_penetration": master_depth,
+            "nodal_pressure": (float(nodal.min()), float(nodal.max()), float(nodal.std()))}
 
 
 def _indented_block(comm: MPI.Comm, level: int | tuple[float, float]) -> tuple[Any, ...]:
