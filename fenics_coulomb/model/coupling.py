@@ -198,6 +198,10 @@ class Coupling:
         is so held (collective)."""
         return None
 
+    def holds_by_contact(self) -> bool:
+        """Whether some body has rigid motions that its supports leave free and contact alone holds."""
+        return False
+
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
         """The number of free slave nodes penetrating their master surface (collective; 0 for one body)."""
         return 0
@@ -321,6 +325,9 @@ class IdentityCoupling(Coupling):
 
     def relative(self, u: Array) -> Array:
         return np.array(u, dtype=np.float64)
+
+    def holds_by_contact(self) -> bool:
+        return bool(self.free_motions)
 
     def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
                      lifted_only: bool = False) -> str | None:

@@ -18,6 +18,15 @@ bounded (entries in [−1, 1] up to F) as the slip s → 0.
 
 Without friction (F = 0) the graph of Q̃ is smooth at every pressed node, so pressed nodes at rest (M3−)
 use the same formulas as M1 with F = 0 (a = 1, b = 0): tangentially free, normally fixed.
+
+Biactive nodes (v3 = 0 and ϑ = 0: M2, M4) lie where the free and the pressed branches of the graph meet, and the
+SCD derivative there holds the limits of both: the free rge(I, 0) above (the limit from L, the paper's choice), and
+the limits from the pressed side — M1's bases as ϑ → 0⁻ (t → 0: a = 1, b = 0, with n = v12/‖v12‖ on M2) and M3's
+rge(0, I) as ϑ → 0⁻ at v = 0 (M4; with F = 0 M3's frictionless form, tangentially free). :func:`pressed_branch`
+maps M2 to M1 and M4 to M3+ so that the same formulas give those limits (tests/scd/test_derivatives.py checks them
+against bases at pressed points ϑ = −ε). The solver takes the pressed branch on problems with a body held by contact
+alone (:mod:`fenics_coulomb.scd.newton`): the free branch at every node of a body resting on its obstacle at gap 0
+leaves its rigid motion in the Newton matrix's null space.
 """
 
 from __future__ import annotations
@@ -25,9 +34,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.scd.resolvent import SET_M1, SET_M3M, SET_M3P
+from fenics_coulomb.scd.resolvent import SET_M1, SET_M2, SET_M3M, SET_M3P, SET_M4
 
-__all__ = ["sstar_blocks", "s_blocks"]
+__all__ = ["sstar_blocks", "s_blocks", "pressed_branch"]
 
 Array = npt.NDArray[np.float64]
 
@@ -99,3 +108,11 @@ def sstar_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float
 def s_blocks(v: Array, z: Array, sets: npt.NDArray[np.int8], friction: float | Array) -> tuple[Array, Array]:
     """Return (X, Y), shape (m, 3, 3) each, with rge(X, Y) ∈ SQ̃(v, z) node-wise."""
     return _blocks(v, z, sets, friction, adjoint=False)
+
+
+def pressed_branch(sets: npt.NDArray[np.int8]) -> npt.NDArray[np.int8]:
+    """The sets with the biactive nodes on the pressed branch (module docstring): M2 → M1, M4 → M3+ (a copy)."""
+    out = np.array(sets, dtype=np.int8, copy=True)
+    out[sets == SET_M2] = SET_M1
+    out[sets == SET_M4] = SET_M3P
+    return out

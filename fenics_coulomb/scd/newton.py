@@ -37,6 +37,7 @@ from fenics_coulomb.errors import InputError, SolverError
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.frames import conjugate, to_global, to_local
 from fenics_coulomb.scd.contact_rows import ContactRows
+from fenics_coulomb.scd.derivatives import pressed_branch
 from fenics_coulomb.scd.forcing import forcing_term, terminal_forcing
 from fenics_coulomb.scd.linear_solves import NewtonLinearSolves
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
@@ -51,6 +52,11 @@ from fenics_coulomb.scd.stopping import StoppingRule
 from fenics_coulomb.settings import COMMAND_PREFIX, SolverSettings, check_fixed_gamma
 
 __all__ = ["line_search_steps", "Iterate", "Direction", "SCDNewtonSolver"]
+
+#: With a body held by contact alone, v3 ≤ this × the mesh's size (its coordinates' round-off) touches, and biactive
+#: nodes take the pressed branch (:func:`~fenics_coulomb.scd.derivatives.pressed_branch`; docs/robustness: a block
+#: meshed onto its floor, held sideways only, had a singular Newton matrix and ran off).
+TOUCHING = 1e-12
 
 logger = logging.getLogger(__name__)
 
@@ -114,6 +120,7 @@ class SCDNewtonSolver(NewtonLinearSolves):
         self.step = STEPS[settings.variant]()
         self.A = model.A
         self.timings: dict[str, float] = {}
+        self._pressed_branch = model.coupling.holds_by_contact()  #: :data:`TOUCHING`
 
         t0 = time.perf_counter()
         self.gamma = (
@@ -220,6 +227,8 @@ class SCDNewtonSolver(NewtonLinearSolves):
         if held is not None:  # the law of the free components (model/frames.py, "held components")
             w[held[0]] = 0.0
         v, z = resolvent(w, gamma, self.model.friction)
+        if self._pressed_branch:  # round-off above the obstacle touches it (a body meshed onto its floor: 1e-16)
+            v[(v[:, 2] > 0.0) & (v[:, 2] <= TOUCHING * self.model.mesh_size), 2] = 0.0
         e[self.cdofs] = uc - to_global(self.frames, v)
         if held is not None:  # e = r/γᵢ on a held DOF, as on a DOF without contact
             nodes = np.flatnonzero(held[1].any(axis=1))
@@ -267,6 +276,8 @@ class SCDNewtonSolver(NewtonLinearSolves):
         """Solve the Newton system of the variant at the approximation step of ``it`` to tolerance ``eta``."""
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
+        if self._pressed_branch:
+            sets = pressed_branch(sets)
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.node_gamma)
         held = self._held
         if held is not None:  # held local components: the rows of a DOF without contact, (B, C) = (1, 0)

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fenics_coulomb.scd.derivatives import s_blocks, sstar_blocks
-from fenics_coulomb.scd.resolvent import SET_M1, classify, resolvent
+from fenics_coulomb.scd.derivatives import pressed_branch, s_blocks, sstar_blocks
+from fenics_coulomb.scd.resolvent import SET_M1, SET_M2, SET_M4, classify, resolvent
 
 pytestmark = pytest.mark.serial
 
@@ -105,7 +105,8 @@ def test_scaled_bases_stay_bounded(s):
 
 
 def test_smooth_and_boundary_sets():
-    """(6.10), (6.11), (6.16): open and grazing nodes rge(I, 0), sticking nodes rge(0, I)."""
+    """(6.10), (6.11), (6.16): open and grazing nodes rge(I, 0), sticking nodes rge(0, I) (the paper's free branch at
+    the grazing, biactive points; the pressed one: the test below)."""
     F, gamma = 0.5, 2.0
     w = np.array([[1.0, 2.0, 3.0], [1.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.5, 0.0, -2.0], [0.6, 0.8, -2.0]])
     v, z = resolvent(w, gamma, F)
@@ -129,3 +130,27 @@ def test_frictionless_pressed_node_is_free_tangentially():
     for i in range(2):
         assert np.allclose(X[i], np.diag([1, 1, 0])) and np.allclose(Y[i], np.diag([0, 0, 1]))
         assert np.allclose(W[i], np.diag([1, 1, 0])) and np.allclose(U[i], np.diag([0, 0, 1]))
+
+
+@pytest.mark.parametrize("F", [0.0, 0.4])
+@pytest.mark.parametrize("adjoint", [True, False])
+def test_the_pressed_branch_at_biactive_points_is_a_limit_of_pressed_points(F, adjoint):
+    """Biactive points (v3 = 0, ϑ = 0): grazing while moving (M2: v12 ≠ 0) and grazing at rest (M4: v = 0). Their
+    pressed branch (:func:`pressed_branch`: M2 → M1, M4 → M3+) gives the subspaces of the pressed points nearby,
+    ϑ = −ε with the same v (sliding at M2's slip; sticking inside the cone at M4: z12 = 0), as ε → 0: an element of
+    the SCD derivative at the biactive point, like the paper's free branch rge(I, 0), the limit from the open side."""
+    blocks = sstar_blocks if adjoint else s_blocks
+    v = np.array([[0.3, -0.4, 0.0], [0.0, 0.0, 0.0]])
+    z = np.zeros((2, 3))
+    sets = classify(v, z, F)
+    assert list(sets) == [SET_M2, SET_M4]
+    A, B = blocks(v, z, pressed_branch(sets), F)
+    for eps in (1e-6, 1e-9, 1e-12):
+        zp = np.array([[F * eps * 0.6, F * eps * -0.8, -eps], [0.0, 0.0, -eps]])  # z12 = −F·ϑ·v12/‖v12‖ on M2
+        pressed = classify(v, zp, F)
+        Ap, Bp = blocks(v, zp, pressed, F)
+        for i in range(2):
+            assert same_range(np.vstack([A[i], B[i]]), np.vstack([Ap[i], Bp[i]]), tol=1e-5), (i, eps)
+    # the free branch (the paper's, rge(I, 0)) is what the sets themselves give
+    A0, B0 = blocks(v, z, sets, F)
+    assert np.array_equal(A0, np.broadcast_to(np.eye(3), (2, 3, 3))) and not B0.any()

@@ -401,6 +401,9 @@ class PairCoupling(Coupling):
                                                    given["weights"], f"{model.prefix}given_")
         return linearized_pair_gaps(model.configuration, given, self._given_coupling, u)
 
+    def holds_by_contact(self) -> bool:
+        return bool(self.held_by_contact)
+
     def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
                      lifted_only: bool = False) -> str | None:
         if not self.held_by_contact or self.pairing is None:
