@@ -342,7 +342,8 @@ class ContactProblem(SlidingSolve):
 
     # -- solving -----------------------------------------------------------------------------------
     #: The start of the last :meth:`initial_displacement`: "zero" (the paper's, ũ = −d), "undeformed" (ũ = 0),
-    #: "previous" (a load path's previous step) or "given" (``u0``); None before the first.
+    #: "approach" (onto the obstacles, :mod:`~fenics_coulomb.model.rigid_approach`), "previous" (a load path's previous
+    #: step) or "given" (``u0``); None before the first.
     last_start: str | None = None
 
     def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:
@@ -360,6 +361,10 @@ class ContactProblem(SlidingSolve):
             self.last_start = self.start_rule()
             shift = model.shift.getArray(readonly=True)
             start = -shift.copy() if self.last_start == "zero" else np.zeros_like(shift)
+            approach = model.coupling.approach(model)
+            if approach is not None:  # a body held by contact alone: onto its obstacles first
+                start, self.last_start = approach, "approach"
+                self._log("start: the body brought onto its obstacles along its free rigid motion(s)")
         start[model.dirichlet_rows] = model.dirichlet_values  # as assemble_load (in _place) read them
         return start
 

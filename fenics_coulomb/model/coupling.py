@@ -37,10 +37,12 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap
-from fenics_coulomb.model.nullspace import HELD_BODY_SHIFT, free_rigid_motions, rigid_body_modes, shift_diagonal
+from fenics_coulomb.model.nullspace import (HELD_BODY_SHIFT, FreeMotions, free_rigid_motions, rigid_body_modes,
+                                             shift_diagonal)
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle
 from fenics_coulomb.model.reproducible import assemble_matrix
+from fenics_coulomb.model.rigid_approach import rigid_approach
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel, Friction
@@ -202,6 +204,11 @@ class Coupling:
         """Whether some body has rigid motions that its supports leave free and contact alone holds."""
         return False
 
+    def approach(self, model: ContactModel) -> Array | None:
+        """The start of a body held by contact alone brought onto its obstacles along its free rigid motions (owned
+        DOF values; :mod:`fenics_coulomb.model.rigid_approach`), or None (collective)."""
+        return None
+
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
         """The number of free slave nodes penetrating their master surface (collective; 0 for one body)."""
         return 0
@@ -264,8 +271,9 @@ class IdentityCoupling(Coupling):
     contact alone) gives GAMG A with its diagonal raised by HELD_BODY_SHIFT (:meth:`gamg_stiffness`)."""
 
     def __init__(self) -> None:
-        #: The number of rigid motions the supports leave free (known after :meth:`build`).
+        #: The number of rigid motions the supports leave free and those motions (known after :meth:`build`).
         self.free_motions = 0
+        self.motions: FreeMotions | None = None
         self._gamg_stiffness: PETSc.Mat | None = None
 
     def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
@@ -301,7 +309,8 @@ class IdentityCoupling(Coupling):
         check_not_overlapping(model.obstacles, model.contact.coordinates, comm=model.comm)
         model.friction = model.friction_at_nodes(friction)
         body = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts, dtype=np.int64)
-        self.free_motions = int(free_rigid_motions(model.V, body, 1, model.dirichlet_rows).free.sum())
+        self.motions = free_rigid_motions(model.V, body, 1, model.dirichlet_rows)
+        self.free_motions = int(self.motions.free.sum())
         if self.free_motions and model.comm.rank == 0:
             logger.info("%d rigid motion(s) left free by the supports are held by contact alone", self.free_motions)
 
@@ -328,6 +337,9 @@ class IdentityCoupling(Coupling):
 
     def holds_by_contact(self) -> bool:
         return bool(self.free_motions)
+
+    def approach(self, model: ContactModel) -> Array | None:
+        return rigid_approach(model, self.motions) if self.free_motions and self.motions is not None else None
 
     def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
                      lifted_only: bool = False) -> str | None:

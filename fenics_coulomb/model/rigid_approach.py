@@ -1,0 +1,74 @@
+r"""The rigid approach: a body held by contact alone brought onto its obstacles along its free rigid motions.
+
+A body whose supports leave rigid motions free (a block on a floor held sideways by rollers, pressed by a
+traction) is held along them by contact alone. Started with its contact nodes open — any positive gap — the
+Newton matrix of the first SCD step is the stiffness with those motions in its null space, and GMRES returns a
+direction of arbitrary size and sign along them: measured on such a block (lev 2) at gaps 1e-3, 1e-5, 1e-8, 1e-10
+the solve ran off (exit 3), at 1e-4 and 1e-6 it converged, by chance. No start of the paper's places the body
+on its obstacles: ũ = −d (the paper's u⁽⁰⁾ = 0) moves the contact nodes alone, whose elastic force then opens them
+again.
+
+The approach is the rigid motion m = Σₖ cₖ rₖ in the span of the free modes rₖ (:mod:`fenics_coulomb.model.nullspace`)
+that the loads would do the most work along without any contact node passing its obstacle, to first order — the
+linear program
+
+    maximize  f·c,   fₖ = Σ l̃ · rₖ  (over the DOFs the supports do not hold)
+    subject to  nᵢ·m(xᵢ) ≥ −gᵢ  at every contact node i (gᵢ its gap at the placement, nᵢ its obstacle's normal),
+
+solved on every rank alike (the constraints gathered; at most six unknowns). Its optimum touches the obstacles
+where the body comes to rest on them (a flat bottom: every node; an off-centre load with a free tilt: the edge
+beneath it), so the first SCD step starts from touching nodes (round-off: ``scd/newton.TOUCHING``) on the pressed
+branch of the derivative. Unbounded — the loads lift the body off, or push it along a free motion no obstacle
+blocks — there is no approach (None): the solve then fails naming the free motion. The approach is a start only:
+the solution does not depend on it (the same problem is solved from another first iterate).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from mpi4py import MPI
+
+import numpy as np
+import numpy.typing as npt
+
+from fenics_coulomb.model.nullspace import FreeMotions, rigid_modes_at
+
+if TYPE_CHECKING:
+    from fenics_coulomb.model.contact_model import ContactModel
+
+__all__ = ["rigid_approach"]
+
+Array = npt.NDArray[np.float64]
+
+
+def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
+    """The owned DOF values of the rigid approach of the model's one body (module docstring), or None when there is
+    none: no free motion, no load along one, or an unbounded program (collective)."""
+    if not motions.free[0].any():
+        return None
+    comm = model.comm
+    V = model.V
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    basis = motions.eigenvectors[0][:, motions.free[0]]  # (6, k): the free motions' mode coefficients
+    modes = np.einsum("nia,ak->nik", rigid_modes_at((x - motions.centroid[0]) / motions.extent[0]), basis)
+    load = model.load.getArray(readonly=True).copy()
+    load[model.dirichlet_rows[model.dirichlet_rows < 3 * n]] = 0.0
+    work = np.einsum("ni,nik->k", load.reshape(-1, 3), modes)
+    work = np.asarray(comm.allreduce(work))
+    cmap = model.contact
+    normals = cmap.frames[:, :, 2]
+    rows = np.einsum("mi,mik->mk", normals, modes[cmap.blocks])  # nᵢ·rₖ(xᵢ)
+    gaps = model.local_shift[:, 2] if cmap.size else np.zeros(0)  # the normal gap at the placement
+    rows = np.concatenate(comm.allgather(rows.reshape(-1, basis.shape[1])))
+    gaps = np.concatenate(comm.allgather(np.asarray(gaps, dtype=np.float64)))
+    scale = comm.allreduce(float(np.abs(load).max(initial=0.0)), op=MPI.MAX)
+    if rows.shape[0] == 0 or float(np.linalg.norm(work)) <= 1e-12 * max(scale, np.finfo(float).tiny):
+        return None
+    from scipy.optimize import linprog  # scipy only where used (fenics_coulomb/__init__.py)
+
+    program = linprog(-work, A_ub=-rows, b_ub=gaps, bounds=[(None, None)] * work.size, method="highs")
+    if program.status != 0:
+        return None
+    return np.ascontiguousarray(np.einsum("nik,k->ni", modes, program.x).ravel())
