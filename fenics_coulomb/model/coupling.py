@@ -42,7 +42,7 @@ from fenics_coulomb.model.nullspace import (HELD_BODY_SHIFT, FreeMotions, free_r
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle
 from fenics_coulomb.model.reproducible import assemble_matrix
-from fenics_coulomb.model.rigid_approach import rigid_approach
+from fenics_coulomb.model.rigid_approach import loads_the_free_motions, rigid_approach
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel, Friction
@@ -347,11 +347,11 @@ class IdentityCoupling(Coupling):
         (a solve that converged there ran off along them: a block pressed onto a plane at gap 0, held sideways
         only, ended 2.3e12 above it with exit 0)."""
         closed_nodes = 0 if closed is None else int(np.count_nonzero(closed))
-        if not self.free_motions or model.comm.allreduce(closed_nodes, op=MPI.SUM):
+        if not self.free_motions or self.motions is None or model.comm.allreduce(closed_nodes, op=MPI.SUM):
             return None
+        if not loads_the_free_motions(model, self.motions):
+            return None  # no load along the free motions (none, or along what the supports hold): nothing to hold
         load = model.total_load()  # collective, on every rank alike
-        if float(np.linalg.norm(load)) <= 1e-12 * max(float(model.load.norm()), np.finfo(float).tiny):
-            return None  # no resultant: nothing to hold (u = 0)
         return (f"the supports leave {self.free_motions} rigid motion(s) of the body free and no contact node is "
                 f"closed: nothing holds it against the load's resultant ({', '.join(f'{c:.4g}' for c in load)}), "
                 "the loads lift it off its obstacles or the solve ran off along the free motion; support the body, "

@@ -37,9 +37,38 @@ from fenics_coulomb.model.nullspace import FreeMotions, rigid_modes_at
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel
 
-__all__ = ["rigid_approach"]
+__all__ = ["rigid_approach", "free_work", "loads_the_free_motions"]
 
 Array = npt.NDArray[np.float64]
+
+
+def _free_modes(model: ContactModel, motions: FreeMotions) -> Array:
+    """The free rigid motions of the model's one body at its owned DOF blocks, shape (blocks, 3, k)."""
+    V = model.V
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    basis = motions.eigenvectors[0][:, motions.free[0]]  # (6, k): the free motions' mode coefficients
+    return np.einsum("nia,ak->nik", rigid_modes_at((x - motions.centroid[0]) / motions.extent[0]), basis)
+
+
+def free_work(model: ContactModel, motions: FreeMotions, modes: Array | None = None) -> tuple[Array, float]:
+    """(fₖ = Σ l̃·rₖ over the DOFs the supports do not hold: the loads' work along each free motion, the largest
+    nodal load) on every rank alike (collective). A body whose loads do no work along its free motions needs nothing
+    to hold them: at rest, or loaded only along what its supports hold."""
+    modes = _free_modes(model, motions) if modes is None else modes
+    n = modes.shape[0]
+    load = model.load.getArray(readonly=True).copy()
+    load[model.dirichlet_rows[model.dirichlet_rows < 3 * n]] = 0.0
+    work = np.asarray(model.comm.allreduce(np.einsum("ni,nik->k", load.reshape(-1, 3), modes)))
+    return work, model.comm.allreduce(float(np.abs(load).max(initial=0.0)), op=MPI.MAX)
+
+
+def loads_the_free_motions(model: ContactModel, motions: FreeMotions) -> bool:
+    """Whether the loads do work along a free motion (:func:`free_work` above round-off; collective)."""
+    if not motions.free[0].any():
+        return False
+    work, scale = free_work(model, motions)
+    return float(np.linalg.norm(work)) > 1e-12 * max(scale, np.finfo(float).tiny)
 
 
 def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
@@ -48,22 +77,14 @@ def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
     if not motions.free[0].any():
         return None
     comm = model.comm
-    V = model.V
-    n = V.dofmap.index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n]
-    basis = motions.eigenvectors[0][:, motions.free[0]]  # (6, k): the free motions' mode coefficients
-    modes = np.einsum("nia,ak->nik", rigid_modes_at((x - motions.centroid[0]) / motions.extent[0]), basis)
-    load = model.load.getArray(readonly=True).copy()
-    load[model.dirichlet_rows[model.dirichlet_rows < 3 * n]] = 0.0
-    work = np.einsum("ni,nik->k", load.reshape(-1, 3), modes)
-    work = np.asarray(comm.allreduce(work))
+    modes = _free_modes(model, motions)
+    work, scale = free_work(model, motions, modes)
     cmap = model.contact
     normals = cmap.frames[:, :, 2]
     rows = np.einsum("mi,mik->mk", normals, modes[cmap.blocks])  # nᵢ·rₖ(xᵢ)
     gaps = model.local_shift[:, 2] if cmap.size else np.zeros(0)  # the normal gap at the placement
-    rows = np.concatenate(comm.allgather(rows.reshape(-1, basis.shape[1])))
+    rows = np.concatenate(comm.allgather(rows.reshape(-1, work.size)))
     gaps = np.concatenate(comm.allgather(np.asarray(gaps, dtype=np.float64)))
-    scale = comm.allreduce(float(np.abs(load).max(initial=0.0)), op=MPI.MAX)
     if rows.shape[0] == 0 or float(np.linalg.norm(work)) <= 1e-12 * max(scale, np.finfo(float).tiny):
         return None
     from scipy.optimize import linprog  # scipy only where used (fenics_coulomb/__init__.py)

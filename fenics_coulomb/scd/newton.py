@@ -227,8 +227,6 @@ class SCDNewtonSolver(NewtonLinearSolves):
         if held is not None:  # the law of the free components (model/frames.py, "held components")
             w[held[0]] = 0.0
         v, z = resolvent(w, gamma, self.model.friction)
-        if self._pressed_branch:  # round-off above the obstacle touches it (a body meshed onto its floor: 1e-16)
-            v[(v[:, 2] > 0.0) & (v[:, 2] <= TOUCHING * self.model.mesh_size), 2] = 0.0
         e[self.cdofs] = uc - to_global(self.frames, v)
         if held is not None:  # e = r/γᵢ on a held DOF, as on a DOF without contact
             nodes = np.flatnonzero(held[1].any(axis=1))
@@ -276,8 +274,10 @@ class SCDNewtonSolver(NewtonLinearSolves):
         """Solve the Newton system of the variant at the approximation step of ``it`` to tolerance ``eta``."""
         t0 = time.perf_counter()
         sets = classify(it.v, it.z, self.model.friction)
-        if self._pressed_branch:
-            sets = pressed_branch(sets)
+        if self._pressed_branch:  # round-off above the obstacle touches it (a body meshed onto its floor: 1e-16)
+            v = it.v.copy()
+            v[v[:, 2] <= TOUCHING * self.model.mesh_size, 2] = 0.0
+            sets = pressed_branch(classify(v, it.z, self.model.friction))
         left, right = self.step.rows(it.v, it.z, sets, self.model.friction, self.node_gamma)
         held = self._held
         if held is not None:  # held local components: the rows of a DOF without contact, (B, C) = (1, 0)

@@ -28,7 +28,7 @@ poisson = 0.0
 [friction]
 coefficient = {friction}
 [tractions]
-top = [0.0, 0.0, {press}]
+top = [{shear}, 0.0, {press}]
 [roller]
 {rollers}
 {extra}
@@ -44,10 +44,11 @@ radius = 0.5
 
 
 def scene(tmp: Path, name: str, gap: float = 0.0, friction: float = 0.0, press: float = -0.1,
-          rollers: str = SIDEWAYS, extra: str = "", lev: int = 2) -> Scene:
+          rollers: str = SIDEWAYS, extra: str = "", lev: int = 2, shear: float = 0.0) -> Scene:
     path = tmp / f"{name}.toml"
     if MPI.COMM_WORLD.rank == 0:
-        path.write_text(BLOCK.format(gap=gap, friction=friction, press=press, rollers=rollers, extra=extra, lev=lev))
+        path.write_text(BLOCK.format(gap=gap, friction=friction, press=press, rollers=rollers, extra=extra, lev=lev,
+                                     shear=shear))
     MPI.COMM_WORLD.barrier()
     return Scene.from_toml(path)
 
@@ -106,3 +107,21 @@ def test_a_tilt_left_free_over_a_cylinder(mpi_tmp_path):
         ruled = (result.iterations, MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM))
     assert approached[0] < ruled[0]
     assert np.linalg.norm(approached[1] - ruled[1]) <= 1e-6 * np.linalg.norm(ruled[1])
+
+
+def test_no_load_along_the_free_motion_needs_no_contact(mpi_tmp_path):
+    """Unloaded, the block at rest on its floor is the solution: 0 Newton steps (a round-off gap counted as touching
+    must not make the start's residual non-zero: it did, and 10 steps ended at exit 3 on negative_pressure 1.03).
+    Sheared along x only, which the left roller holds, the loads do no work along the free vertical motion: no
+    contact force is needed, and the lost-support check (a load's resultant) must not fail it (it did: exit 3)."""
+    with build_problem(scene(mpi_tmp_path, "rest", 0.0, 0.3, press=0.0), MPI.COMM_WORLD).problem as problem:
+        u, result = problem.solve()
+        assert result.converged and result.iterations == 0 and not np.any(u.x.array)
+    with build_problem(scene(mpi_tmp_path, "shear", 0.0, 0.3, press=0.0, shear=0.05, lev=3),
+                       MPI.COMM_WORLD).problem as problem:
+        assert rigid_approach(problem.model, problem.model.coupling.motions) is None
+        _, result = problem.solve()
+        assert result.converged
+        force = MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM)
+        assert np.linalg.norm(force) <= 1e-9
+        assert problem.checks(result)["reaction_balance"] <= 1e-6
