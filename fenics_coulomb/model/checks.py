@@ -19,7 +19,8 @@ thresholds do not depend on units:
 * ``master_penetration`` (reported, not decisive): the same for the master nodes of the pairs inside their slave body
   in X + u, less the depth the facetting of curved surfaces allows (:mod:`fenics_coulomb.model.pairs.master_nodes`;
   a pair does not constrain its master's nodes: a master smaller than the slave, or its border under a slave that
-  hangs over it), and ``master_penetration_at``, the deepest one's position;
+  hangs over it), ``master_penetration_at``, the deepest one's position, and ``master_penetration_facet``, the largest
+  such depth over the slave facet's size there (not relative to δ: a slide far along the contact dilutes δ);
 * ``support_penetration`` (reported, not decisive): the same for the nodes of the obstacles' contact boundary that
   a support holds and that are therefore no contact nodes (a support moving a node along or into the contact);
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
@@ -190,8 +191,9 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["obstacle_penetration"] = _gmax(comm, contact_depth) / max(gap_scale, tiny)
     out["support_penetration"] = _gmax(comm, support_depth) / max(gap_scale, tiny)
     # a pair keeps its slave nodes out of the master body, not the master's nodes out of the slave body
-    master_depth, master_at = model.coupling.master_depth(model, physical)
+    master_depth, master_at, master_facet = model.coupling.master_depth(model, physical)
     out["master_penetration"] = master_depth / max(gap_scale, tiny)
+    out["master_penetration_facet"] = master_facet
     if master_at is not None:
         out["master_penetration_at"] = [float(c) for c in master_at]  # type: ignore[assignment]
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)
@@ -303,14 +305,15 @@ def reported_warnings(checks: dict[str, Any], rtol: float) -> list[str]:
         out.append(f"nodes of the contact boundary that a support holds (no contact nodes: a support moving them along "
                    f"or into the contact) end inside an obstacle, by up to {depth:.3g} of the displacement scale: "
                    "leave them out of the support or out of the contact boundary")
-    depth = checks.get("master_penetration", 0.0)
-    if depth > MASTER_WARNING:
+    depth, facet = checks.get("master_penetration", 0.0), checks.get("master_penetration_facet", 0.0)
+    if depth > MASTER_WARNING or facet > MASTER_WARNING:
         at = "(" + ", ".join(f"{c:.6g}" for c in checks.get("master_penetration_at", [])) + ")"
         out.append(f"a master node of a contact pair ends inside the slave body, by up to {depth:.3g} of the "
-                   f"displacement scale (at {at}): a pair keeps its slave nodes out of the master body, not the "
-                   "master's nodes out of the slave's — make the smaller surface the slave (and under mortar a slave "
-                   "that hangs over the master's border drops the nodes whose facets straddle it: node-to-surface "
-                   "keeps them)")
+                   f"displacement scale and {facet:.3g} of the slave facet above it (at {at}): a pair keeps its slave "
+                   "nodes out of the master body, not the master's nodes out of the slave's — make the smaller "
+                   "surface the slave, meshed at least as finely as the master, or use mortar (and under mortar a "
+                   "slave that hangs over the master's border drops the nodes whose facets straddle it: "
+                   "node-to-surface keeps them)")
     return out
 
 

@@ -226,11 +226,11 @@ class Coupling:
         """The deepest penetration of a free slave node, max(−g, 0) over all ranks (collective; 0 for one body)."""
         return 0.0
 
-    def master_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None]:
+    def master_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None, float]:
         """The deepest master node inside its pair's slave body in X + u (``u`` physical) beyond the facetting's
-        allowance, and where it is (:mod:`fenics_coulomb.model.pairs.master_nodes`; collective; (0, None) for one
-        body)."""
-        return 0.0, None
+        allowance, where it is, and the largest such depth over the slave facet's size
+        (:func:`fenics_coulomb.model.pairs.master_nodes.master_excess`; collective; (0, None, 0) for one body)."""
+        return 0.0, None, 0.0
 
     def contact_areas(self, areas: Array) -> Array:
         """The contact nodes' areas with the coupling's own (mortar D_j) where its method gives them."""

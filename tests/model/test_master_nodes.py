@@ -118,7 +118,7 @@ def test_a_master_smaller_than_the_slave_against_a_brute_force(mpi_tmp_path, mon
         monkeypatch.setattr(master_nodes, "FACETTING_ALLOWANCE", 0.0)
         monkeypatch.setattr(master_nodes, "SLAVE_FACTOR", 0.0)
         model = problem.model
-        raw, at = model.coupling.master_depth(model, result.displacement)
+        raw, at, _ = model.coupling.master_depth(model, result.displacement)
         expected = brute_force_depth(problem, 1, 2)  # lower_top = 1, upper_bottom = 2
     assert at is not None
     assert min(abs(at[0] - 1.5), abs(at[0] - 0.5), abs(at[1] - 0.25), abs(at[1] - 0.75)) < 1e-2, at  # its border
@@ -145,3 +145,27 @@ def test_the_right_roles_leave_no_master_node_inside(mpi_tmp_path, capsys):
     if MPI.COMM_WORLD.rank == 0:
         assert "a master node of a contact pair ends inside the slave body" in printed.out + printed.err
         assert "make the smaller surface the slave" in printed.out + printed.err
+
+
+@pytest.mark.parametrize("case", ["sides", "slid"])
+def test_a_master_border_the_allowance_and_the_scale_hid(mpi_tmp_path, capsys, case):
+    """Found by a review, both with the upper block's border 3.3e-3 inside the lower block and exit 0 without a word:
+    the master surface named as the upper block's bottom AND sides turns by 90° at the edge, which counted as
+    facetting (the allowance 0.78 h_s hid it) — now only the master facets facing the slave count; and the block
+    pressed and slid 0.45 in one solve: 3.2e-3 inside is 0.007 of a displacement scale the slide makes 0.45 — now
+    also judged against the slave facet's size (1.5 % of it)."""
+    text = press("lower_top", "upper_bottom", "node-to-surface")
+    if case == "sides":
+        text = text.replace('master = "upper_bottom"', 'master = ["upper_bottom", "upper_sides"]')
+    else:
+        text = text.replace("upper_top = [0.0, 0.0, -0.01]", "upper_top = [0.45, 0.0, -0.01]")
+    assert text != press("lower_top", "upper_bottom", "node-to-surface")
+    scene = write(mpi_tmp_path / f"{case}.toml", text)
+    out = mpi_tmp_path / case
+    assert main(["--scene", str(scene), "--out", str(out), "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    checks = json.loads((out / "summary.json").read_text())["physics_checks"]
+    assert checks["master_penetration_facet"] > MASTER_WARNING, checks
+    printed = capsys.readouterr()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "a master node of a contact pair ends inside the slave body" in printed.out + printed.err

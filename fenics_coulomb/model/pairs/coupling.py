@@ -449,7 +449,7 @@ class PairCoupling(Coupling):
         depth = max(float(np.max(-gap, initial=0.0)), float(np.max(-self._given_gaps(model, u), initial=0.0)))
         return float(model.comm.allreduce(depth, op=MPI.MAX))
 
-    def master_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None]:
+    def master_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None, float]:
         x = model.V.tabulate_dof_coordinates() + model.ghosted(u).reshape(-1, 3)
         assert self.pairing is not None
         nodes = [self.pairing.blocks[self.pairing.pair_index == i] for i in range(len(self.pairs))]
