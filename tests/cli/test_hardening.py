@@ -605,57 +605,6 @@ radius = 0.3
         assert "give the motion in substeps" in printed.err
 
 
-GAP0 = """
-[body]
-lev = 2
-gap = "0.0*x1"
-clamped = []
-contact = ["bottom"]
-[material]
-young = 70.0
-poisson = 0.0
-[friction]
-coefficient = {friction}
-[tractions]
-top = [{push}, 0.0, {press}]
-[roller]
-left = [0]
-sides = [1]
-"""
-
-
-@pytest.mark.parametrize(("friction", "push"), [(0.0, 0.0), (0.3, 0.02)])
-def test_a_block_meshed_onto_its_floor_and_pressed_converges(mpi_tmp_path, friction, push):
-    """A block on a plane at gap 0 (its bottom nodes 2e-17–3.5e-16 above it: the mesh's round-off), pressed by a
-    traction, held only sideways (rollers): contact alone holds it vertically. Every node was open at ũ = 0, the
-    Newton matrix singular along the vertical motion, and the solve ran off to |u| = 2.3e12 (exit 0, then exit 3 by the
-    lost-support check). Now round-off touches and biactive nodes take the pressed branch (scd/derivatives.py): the
-    load on the plane, 0.1 GPa at each of the 45 nodes; with friction and a sideways push as well."""
-    scene = shared(mpi_tmp_path / "gap0.toml", GAP0.format(friction=friction, push=push, press=-0.1))
-    out = mpi_tmp_path / "gap0"
-    assert run("--scene", str(scene), "--out", str(out)) == 0
-    data = json.loads((out / "summary.json").read_text())
-    assert data["contact_nodes"] == 45 and data["newton_iterations"] <= 8
-    assert abs(data["contact_force"][2] - 0.2) <= 1e-6 and data["physics_checks"]["reaction_balance"] <= 1e-6
-    if push == 0.0:
-        assert abs(data["peak_pressure"] - 0.1) <= 1e-6
-    else:  # the push shared by the left roller and the floor's friction
-        assert data["state_counts"]["stick"] + data["state_counts"]["slip"] == 45
-
-
-def test_a_body_no_contact_node_holds_is_no_exit_0(mpi_tmp_path, capsys):
-    """The same block pulled up off the plane: nothing holds its vertical motion; the solve runs off along it. A
-    converged state in which no contact node holds a body that contact alone holds would balance the load with the
-    free motion's round-off (|u| = 2.3e12, reaction_balance 1.0, exit 0 before): a failure (exit 3) naming the free
-    motions and the load."""
-    scene = shared(mpi_tmp_path / "lift.toml", GAP0.format(friction=0.0, push=0.0, press=0.1))
-    status = run("--scene", str(scene), "--out", str(mpi_tmp_path / "lift"))
-    printed = capsys.readouterr()
-    assert status == EXIT_DIVERGED
-    if MPI.COMM_WORLD.rank == 0:
-        assert "rigid motion(s) of the body free and no contact node is closed" in printed.err
-
-
 def test_an_unloaded_step_passes_the_checks(mpi_tmp_path):
     """A block pressed onto the plane, then unloaded: ũ = 0 meets the stopping rule, and a bottom node 4.5e-17 below
     the plane (the mesh generator's round-off) made obstacle_penetration 2.6 of a displacement scale that is itself

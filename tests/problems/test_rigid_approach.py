@@ -5,6 +5,7 @@ at 1e-4 and 1e-6 by chance; a block over a cylinder with its tilt free as well t
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from mpi4py import MPI
@@ -12,6 +13,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
+from fenics_coulomb.cli import EXIT_DIVERGED, main
 from fenics_coulomb.model.rigid_approach import rigid_approach
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.scene import Scene
@@ -43,14 +45,18 @@ radius = 0.5
 """
 
 
-def scene(tmp: Path, name: str, gap: float = 0.0, friction: float = 0.0, press: float = -0.1,
-          rollers: str = SIDEWAYS, extra: str = "", lev: int = 2, shear: float = 0.0) -> Scene:
+def scene_file(tmp: Path, name: str, gap: float = 0.0, friction: float = 0.0, press: float = -0.1,
+               rollers: str = SIDEWAYS, extra: str = "", lev: int = 2, shear: float = 0.0) -> Path:
     path = tmp / f"{name}.toml"
     if MPI.COMM_WORLD.rank == 0:
         path.write_text(BLOCK.format(gap=gap, friction=friction, press=press, rollers=rollers, extra=extra, lev=lev,
                                      shear=shear))
     MPI.COMM_WORLD.barrier()
-    return Scene.from_toml(path)
+    return path
+
+
+def scene(*args: object, **kwargs: object) -> Scene:
+    return Scene.from_toml(scene_file(*args, **kwargs))  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize("gap", [0.0, 1e-10, 1e-3])
@@ -125,3 +131,34 @@ def test_no_load_along_the_free_motion_needs_no_contact(mpi_tmp_path):
         force = MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM)
         assert np.linalg.norm(force) <= 1e-9
         assert problem.checks(result)["reaction_balance"] <= 1e-6
+
+
+@pytest.mark.parametrize(("friction", "shear"), [(0.0, 0.0), (0.3, 0.02)])
+def test_a_block_meshed_onto_its_floor_and_pressed_converges(mpi_tmp_path, friction, shear):
+    """The real command. The block meshed onto its plane (its bottom nodes 2e-17–3.5e-16 above it), pressed, held only
+    sideways: every node was open at ũ = 0, the Newton matrix singular along the vertical motion, and the solve ran off
+    to |u| = 2.3e12 (exit 0, then exit 3 by the lost-support check). Now: the load on the plane, 0.1 GPa at each of the
+    45 nodes; with friction and a sideways push as well."""
+    path = scene_file(mpi_tmp_path, f"floor{friction}", 0.0, friction, shear=shear)
+    out = mpi_tmp_path / f"floor{friction}"
+    assert main(["--scene", str(path), "--out", str(out), "--no-plots", "--quiet"]) == 0
+    MPI.COMM_WORLD.barrier()
+    data = json.loads((out / "summary.json").read_text())
+    assert data["contact_nodes"] == 45 and data["newton_iterations"] <= 8
+    assert abs(data["contact_force"][2] - 0.2) <= 1e-6 and data["physics_checks"]["reaction_balance"] <= 1e-6
+    if shear == 0.0:
+        assert abs(data["peak_pressure"] - 0.1) <= 1e-6
+    else:  # the push shared by the left roller and the floor's friction
+        assert data["state_counts"]["stick"] + data["state_counts"]["slip"] == 45
+
+
+def test_a_body_no_contact_node_holds_is_no_exit_0(mpi_tmp_path, capsys):
+    """The same block pulled up off the plane: nothing holds its vertical motion and the solve runs off along it. A
+    converged state in which no contact node holds a body that contact alone holds would balance the load with the
+    free motion's round-off (|u| = 2.3e12, reaction_balance 1.0, exit 0 once): a failure (exit 3) naming the free
+    motions and the load."""
+    path = scene_file(mpi_tmp_path, "lift", 0.0, press=0.1)
+    assert main(["--scene", str(path), "--out", str(mpi_tmp_path / "lift"), "--no-plots"]) == EXIT_DIVERGED
+    printed = capsys.readouterr()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "rigid motion(s) of the body free and no contact node is closed" in printed.err
