@@ -28,23 +28,30 @@ BODIES = {"lower": 1, "upper": 2}
 TAGS = {"lower_top": 1, "upper_bottom": 2, "lower_bottom": 3, "upper_top": 4, "lower_sides": 5, "upper_sides": 6}
 
 
-def build(path: Path, lower: float = 0.2, upper: float = 0.125) -> None:
-    """Mesh both blocks and write ``path`` (gmsh 4.1)."""
+def build(path: Path, lower: float = 0.2, upper: float = 0.125, layer: float = 0.0) -> None:
+    """Mesh both blocks and write ``path`` (gmsh 4.1); ``layer`` > 0: the lower block with a top layer that thick
+    (two volumes sharing their interface, one body: cells as thin as the layer under the lower block's top)."""
     with gmsh_session("slide_off"):
         occ = gmsh.model.occ
-        boxes = {"lower": (occ.addBox(0.0, 0.0, 0.0, 2.0, 1.0, 0.5), 0.0, 0.5, lower),
-                 "upper": (occ.addBox(0.5, 0.25, 0.502, 1.0, 0.5, 0.5), 0.502, 1.002, upper)}
+        if layer > 0.0:
+            pieces, _ = occ.fragment([(3, occ.addBox(0.0, 0.0, 0.0, 2.0, 1.0, 0.5 - layer))],
+                                     [(3, occ.addBox(0.0, 0.0, 0.5 - layer, 2.0, 1.0, layer))])
+            bulk = [tag for _, tag in pieces]
+        else:
+            bulk = [occ.addBox(0.0, 0.0, 0.0, 2.0, 1.0, 0.5)]
+        boxes = {"lower": (bulk, 0.0, 0.5, lower),
+                 "upper": ([occ.addBox(0.5, 0.25, 0.502, 1.0, 0.5, 0.5)], 0.502, 1.002, upper)}
         occ.synchronize()
-        for name, (volume, bottom, top, size) in boxes.items():
-            gmsh.model.addPhysicalGroup(3, [volume], BODIES[name], name=name)
+        for name, (volumes, bottom, top, size) in boxes.items():
+            gmsh.model.addPhysicalGroup(3, volumes, BODIES[name], name=name)
             faces: dict[str, list[int]] = {f"{name}_top": [], f"{name}_bottom": [], f"{name}_sides": []}
-            for _, tag in gmsh.model.getBoundary([(3, volume)], oriented=False):
+            for _, tag in gmsh.model.getBoundary([(3, v) for v in volumes], oriented=False):
                 _, _, z = occ.getCenterOfMass(2, tag)
                 key = "top" if abs(z - top) < 1e-9 else "bottom" if abs(z - bottom) < 1e-9 else "sides"
                 faces[f"{name}_{key}"].append(tag)
             for face, tags in faces.items():
                 gmsh.model.addPhysicalGroup(2, tags, TAGS[face], name=face)
-            points = gmsh.model.getBoundary([(3, volume)], combined=False, oriented=False, recursive=True)
+            points = gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False, recursive=True)
             gmsh.model.mesh.setSize(points, size)
         write_volume_mesh(path)
 
@@ -53,6 +60,7 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--lower", type=float, default=0.2, help="element size of the lower block")
     parser.add_argument("--upper", type=float, default=0.125, help="element size of the upper block")
+    parser.add_argument("--layer", type=float, default=0.0, help="a top layer of the lower block this thick")
     parser.add_argument("--out", default="slide_off.msh")
     args = parser.parse_args()
-    build(Path(args.out), args.lower, args.upper)
+    build(Path(args.out), args.lower, args.upper, args.layer)

@@ -169,3 +169,28 @@ def test_a_master_border_the_allowance_and_the_scale_hid(mpi_tmp_path, capsys, c
     printed = capsys.readouterr()
     if MPI.COMM_WORLD.rank == 0:
         assert "a master node of a contact pair ends inside the slave body" in printed.out + printed.err
+
+
+def test_a_master_sunk_deeper_than_the_slaves_top_cell_layer(mpi_tmp_path, capsys):
+    """Found by a review: the lower block with a top layer 0.004 thick (meshes/slide_off.py --layer), the roles
+    swapped, pressed 0.02: the upper block's border ends 9e-3 inside the lower block (the force 17.6 % low), deeper
+    than the slave's cell layer under it, where the side of the slave surface does not tell the inside of the body
+    from the space beyond a thin one — it was dropped: 0 reported. Such nodes are now located in the deformed slave
+    body's cells."""
+    from meshes.slide_off import build
+
+    mesh = mpi_tmp_path / "layer.msh"
+    if MPI.COMM_WORLD.rank == 0:
+        build(mesh, layer=0.004)
+    MPI.COMM_WORLD.barrier()
+    text = press("lower_top", "upper_bottom", "node-to-surface").replace(f"{ROOT}/meshes/slide_off.msh", str(mesh))
+    text = text.replace("upper_top = [0.0, 0.0, -0.01]", "upper_top = [0.0, 0.0, -0.02]")
+    assert str(mesh) in text and "-0.02]" in text
+    scene = write(mpi_tmp_path / "layer.toml", text)
+    out = mpi_tmp_path / "layer"
+    assert main(["--scene", str(scene), "--out", str(out), "--no-plots"]) == 0
+    MPI.COMM_WORLD.barrier()
+    checks = json.loads((out / "summary.json").read_text())["physics_checks"]
+    assert checks["master_penetration"] > 0.2 and checks["master_penetration_facet"] > MASTER_WARNING, checks
+    at = checks["master_penetration_at"]
+    assert min(abs(at[0] - 1.5), abs(at[0] - 0.5)) < 1e-2 and 0.5 - at[2] > 0.004  # the border, below the layer

@@ -39,7 +39,7 @@ from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
 from fenics_coulomb.model.reproducible import TripleProduct, assemble_matrix, same_pattern
-from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies,
+from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies, lost_support,
                                                  coupling_matrix, linearized_pair_gaps)
 
 if TYPE_CHECKING:
@@ -408,17 +408,8 @@ class PairCoupling(Coupling):
                      lifted_only: bool = False) -> str | None:
         if not self.held_by_contact or self.pairing is None:
             return None
-        labels = [f"{pair.label} {i + 1}" for i, pair in enumerate(self.pairs)]
-        if closed is None:  # no last iterate (e.g. a linear solve that broke down)
-            return "; ".join(held.describe(labels) for held in self.held_by_contact) + (
-                ": if the loads lift it off, nothing holds its rigid motion (support it, or load it onto its partner)")
-        mine = np.asarray(closed, dtype=bool)[self._paired]
-        counts = np.bincount(self.pairing.pair_index[mine], minlength=len(self.pairs)).astype(np.int64)
-        counts = np.ascontiguousarray(counts[:len(self.pairs)])
-        model.comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
-        lost = [held.describe_lost(labels, int(counts[list(held.pairs)].sum())) for held in self.held_by_contact
-                if not lifted_only or not counts[list(held.pairs)].sum()]
-        return "; ".join(lost) or None
+        mine = None if closed is None else np.asarray(closed, dtype=bool)[self._paired]
+        return lost_support(model.comm, self.held_by_contact, self.pairs, self.pairing.pair_index, mine, lifted_only)
 
     def _free_penetration(self, model: ContactModel, u: Array, tol: float = 1e-8) -> tuple[int, float]:
         """(the number of free slave nodes whose gap is below −tol × the mesh size, the deepest penetration
@@ -450,10 +441,10 @@ class PairCoupling(Coupling):
         return float(model.comm.allreduce(depth, op=MPI.MAX))
 
     def master_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None, float]:
-        x = model.V.tabulate_dof_coordinates() + model.ghosted(u).reshape(-1, 3)
-        assert self.pairing is not None
+        assert self.pairing is not None and self.body_of_block is not None
         nodes = [self.pairing.blocks[self.pairing.pair_index == i] for i in range(len(self.pairs))]
-        return master_excess(model.V, list(self.pairs), x, nodes)
+        return master_excess(model.V, list(self.pairs), model.V.tabulate_dof_coordinates()
+                             + model.ghosted(u).reshape(-1, 3), nodes, self.body_of_block)
 
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""

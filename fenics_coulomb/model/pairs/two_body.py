@@ -69,7 +69,7 @@ from fenics_coulomb.model.nullspace import free_rigid_motions, rigid_modes_at
 if TYPE_CHECKING:
     from fenics_coulomb.model.pairs.pair import ContactPair
 
-__all__ = ["HELD_FRACTION", "HeldByContact", "connected_bodies", "check_rigid_support", "held_fraction",
+__all__ = ["HELD_FRACTION", "HeldByContact", "connected_bodies", "check_rigid_support", "held_fraction", "lost_support",
            "coupling_matrix", "linearized_pair_gaps", "body_rigid_modes"]
 
 logger = logging.getLogger(__name__)
@@ -200,6 +200,24 @@ class HeldByContact:
         return self.describe(labels) + (f": {closed} contact node(s) of it closed in the last iterate — if the loads "
                                         "lift it off, nothing holds its rigid motion (support it, or load it onto its "
                                         "partner)")
+
+
+def lost_support(comm: MPI.Comm, held_by_contact: Sequence[HeldByContact], pairs: Sequence[ContactPair],
+                 pair_index: npt.NDArray[np.intp], closed: npt.NDArray[np.bool_] | None,
+                 lifted_only: bool = False) -> str | None:
+    """Why a solve failed or must not pass, for the bodies held by contact alone: each such body, with how many of
+    its pairs' contact nodes are closed (``closed``: the pairing's nodes' mask in the last iterate; None: no iterate);
+    ``lifted_only``: only the bodies with none closed (a converged solve's check). None when none is named
+    (collective)."""
+    labels = [f"{pair.label} {i + 1}" for i, pair in enumerate(pairs)]
+    if closed is None:  # no last iterate (e.g. a linear solve that broke down)
+        return "; ".join(held.describe(labels) for held in held_by_contact) + (
+            ": if the loads lift it off, nothing holds its rigid motion (support it, or load it onto its partner)")
+    counts = np.ascontiguousarray(np.bincount(pair_index[closed], minlength=len(pairs)).astype(np.int64)[:len(pairs)])
+    comm.Allreduce(MPI.IN_PLACE, counts, op=MPI.SUM)
+    lost = [held.describe_lost(labels, int(counts[list(held.pairs)].sum())) for held in held_by_contact
+            if not lifted_only or not counts[list(held.pairs)].sum()]
+    return "; ".join(lost) or None
 
 
 def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
