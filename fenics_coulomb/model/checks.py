@@ -23,6 +23,8 @@ thresholds do not depend on units:
   such depth over the slave facet's size there (not relative to δ: a slide far along the contact dilutes δ);
 * ``support_penetration`` (reported, not decisive): the same for the nodes of the obstacles' contact boundary that
   a support holds and that are therefore no contact nodes (a support moving a node along or into the contact);
+* ``free_balance``: along the rigid motions the supports leave free (a body held by contact alone), how far the
+  contact forces are from balancing the loads, ‖f + c‖ / max(‖f‖, ‖c‖) (:mod:`fenics_coulomb.model.rigid_approach`);
 * ``negative_pressure``: max(−λ, 0) / max λ  (λ ≥ 0);
 * ``complementarity``: max |gap·λ| / (δ · max λ)  (gap·λ = 0);
 * ``cone``: max(‖t‖ − F λ, 0) / max λ  (‖t‖ ≤ F λ);
@@ -196,6 +198,7 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["master_penetration_facet"] = master_facet
     if master_at is not None:
         out["master_penetration_at"] = [float(c) for c in master_at]  # type: ignore[assignment]
+    out["free_balance"] = model.coupling.free_balance(model, f)
     out["negative_pressure"] = _gmax(comm, -lam) / max(lam_scale, force_tiny)
     out["complementarity"] = _gmax(comm, np.abs(gap * lam)) / max(gap_scale * max(lam_scale, force_tiny), tiny)
     tnorm = np.hypot(t[:, 0], t[:, 1])
@@ -252,7 +255,7 @@ PHYSICS_LOOSEST = 1e-2
 #: mismatch of up to F·1e-3 of the largest force from the solve's own error, and reaction_balance divides
 #: by the supports' own forces, which are the solver's noise when a prescribed motion is rigid.
 DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "shared_penetration", "obstacle_penetration",
-                   "negative_pressure", "complementarity", "cone")
+                   "free_balance", "negative_pressure", "complementarity", "cone")
 
 
 #: ``master_penetration`` is warned above this: dual mortar meets the gaps weakly, and a master node at the border of
@@ -292,6 +295,9 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
                      "constraint (the smallest gap), and a node between two obstacles (a corner, an edge resting on "
                      "two) needs both: this model cannot; keep the contact boundary of each obstacle apart (e.g. the "
                      "faces meeting the wall and the floor without their common edge)" if key == "obstacle_penetration"
+                     else "the loads push the body along a motion its supports leave free and its contacts do not hold "
+                     "(e.g. sideways on a frictionless floor): the solve ran off along it; support that motion"
+                     if key == "free_balance"
                      else "a degenerate mesh cell or a load too large for floating point?")
             return f"the physics checks fail: {key} residual {value:.3g} > {bound:.3g} ({cause})"
     return ""

@@ -42,7 +42,7 @@ from fenics_coulomb.model.nullspace import (HELD_BODY_SHIFT, FreeMotions, free_r
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle
 from fenics_coulomb.model.reproducible import assemble_matrix
-from fenics_coulomb.model.rigid_approach import loads_the_free_motions, rigid_approach
+from fenics_coulomb.model.rigid_approach import free_motion_balance, loads_the_free_motions, rigid_approach
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel, Friction
@@ -204,6 +204,11 @@ class Coupling:
         """Whether some body has rigid motions that its supports leave free and contact alone holds."""
         return False
 
+    def free_balance(self, model: ContactModel, contact_force: Array) -> float:
+        """How far the contact forces are from balancing the loads along the motions the supports leave free
+        (:func:`~fenics_coulomb.model.rigid_approach.free_motion_balance`; collective; 0 where none is free)."""
+        return 0.0
+
     def approach(self, model: ContactModel) -> Array | None:
         """The start of a body held by contact alone brought onto its obstacles along its free rigid motions (owned
         DOF values; :mod:`fenics_coulomb.model.rigid_approach`), or None (collective)."""
@@ -340,6 +345,9 @@ class IdentityCoupling(Coupling):
 
     def approach(self, model: ContactModel) -> Array | None:
         return rigid_approach(model, self.motions) if self.free_motions and self.motions is not None else None
+
+    def free_balance(self, model: ContactModel, contact_force: Array) -> float:
+        return free_motion_balance(model, self.motions, contact_force) if self.motions is not None else 0.0
 
     def lost_support(self, model: ContactModel, closed: npt.NDArray[np.bool_] | None,
                      lifted_only: bool = False) -> str | None:

@@ -37,7 +37,7 @@ from fenics_coulomb.model.nullspace import FreeMotions, rigid_modes_at
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel
 
-__all__ = ["rigid_approach", "free_work", "loads_the_free_motions"]
+__all__ = ["rigid_approach", "free_work", "loads_the_free_motions", "free_motion_balance"]
 
 Array = npt.NDArray[np.float64]
 
@@ -71,9 +71,37 @@ def loads_the_free_motions(model: ContactModel, motions: FreeMotions) -> bool:
     return float(np.linalg.norm(work)) > 1e-12 * max(scale, np.finfo(float).tiny)
 
 
+def free_motion_balance(model: ContactModel, motions: FreeMotions, contact_force: Array) -> float:
+    """‖f + c‖ / max(‖f‖, ‖c‖) over the free motions: f the loads' work along each (:func:`free_work`), c the contact
+    forces' (``contact_force``: A ũ − l̃ at the owned contact nodes, shape (m, 3)). Along a motion the supports leave
+    free only the contact can balance the loads: a solve that ran off along one (a frictionless sideways push) ends
+    with the round-off of K·ũ at |ũ| = 4e10 standing in for the missing force, every residual small (collective; 0
+    without free motions)."""
+    if not motions.free[0].any():
+        return 0.0
+    modes = _free_modes(model, motions)
+    work, scale = free_work(model, motions, modes)
+    cmap = model.contact
+    contact = np.asarray(model.comm.allreduce(np.einsum("mi,mik->k", np.asarray(contact_force).reshape(-1, 3),
+                                                        modes[cmap.blocks])))
+    # relative to the larger of the two, and never to less than 1e-3 of the whole load (a load along the supported
+    # motions only: the contact forces' round-off along the free ones is no imbalance)
+    total = model.comm.allreduce(float(np.abs(model.load.getArray(readonly=True)).sum()), op=MPI.SUM)
+    size = max(float(np.linalg.norm(work)), float(np.linalg.norm(contact)), 1e-3 * total)
+    if size <= 1e-12 * max(scale, np.finfo(float).tiny):
+        return 0.0
+    return float(np.linalg.norm(work + contact)) / size
+
+
 def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
     """The owned DOF values of the rigid approach of the model's one body (module docstring), or None when there is
-    none: no free motion, no load along one, or an unbounded program (collective)."""
+    none: no free motion, no load along one, or an unbounded program (collective).
+
+    Only the motions that move some contact node along its normal count (the row space of the constraints, to
+    1e-10 of their largest singular value): a free motion along the contact (a sideways push that friction holds, or
+    nothing) is no approach, and is left to the solve. Among the optimal motions the one with the smallest
+    coefficients is taken (a second program), with the constraints in the order of the nodes' global DOFs: the start
+    does not depend on the partition (a block in a symmetric groove has a tie of mirror-image corners)."""
     if not motions.free[0].any():
         return None
     comm = model.comm
@@ -83,13 +111,26 @@ def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
     normals = cmap.frames[:, :, 2]
     rows = np.einsum("mi,mik->mk", normals, modes[cmap.blocks])  # nᵢ·rₖ(xᵢ)
     gaps = model.local_shift[:, 2] if cmap.size else np.zeros(0)  # the normal gap at the placement
-    rows = np.concatenate(comm.allgather(rows.reshape(-1, work.size)))
-    gaps = np.concatenate(comm.allgather(np.asarray(gaps, dtype=np.float64)))
+    order = np.concatenate(comm.allgather(np.asarray(cmap.global_dofs[:, 0], dtype=np.int64)))
+    rows = np.concatenate(comm.allgather(rows.reshape(-1, work.size)))[np.argsort(order, kind="stable")]
+    gaps = np.concatenate(comm.allgather(np.asarray(gaps, dtype=np.float64)))[np.argsort(order, kind="stable")]
     if rows.shape[0] == 0 or float(np.linalg.norm(work)) <= 1e-12 * max(scale, np.finfo(float).tiny):
+        return None
+    _, sigma, vt = np.linalg.svd(rows, full_matrices=False)
+    basis = vt[sigma > 1e-10 * sigma[0]].T if sigma.size and sigma[0] > 0 else np.zeros((work.size, 0))
+    if basis.shape[1] == 0:
         return None
     from scipy.optimize import linprog  # scipy only where used (fenics_coulomb/__init__.py)
 
-    program = linprog(-work, A_ub=-rows, b_ub=gaps, bounds=[(None, None)] * work.size, method="highs")
+    reduced, limits = rows @ basis, -(basis.T @ work)
+    free = [(None, None)] * basis.shape[1]
+    program = linprog(limits, A_ub=-reduced, b_ub=gaps, bounds=free, method="highs")
     if program.status != 0:
         return None
-    return np.ascontiguousarray(np.einsum("nik,k->ni", modes, program.x).ravel())
+    # the smallest |y|₁ among the optima (y = p − q, p, q ≥ 0, the work at least the optimum's); the first program's
+    # vertex where the second finds none
+    k = basis.shape[1]
+    smallest = linprog(np.ones(2 * k), A_ub=np.vstack([np.hstack([-reduced, reduced]), np.hstack([limits, -limits])]),
+                       b_ub=np.concatenate([gaps, [float(program.fun)]]), bounds=[(0, None)] * (2 * k), method="highs")
+    y = smallest.x[:k] - smallest.x[k:] if smallest.status == 0 else program.x
+    return np.ascontiguousarray(np.einsum("nik,k->ni", modes, basis @ y).ravel())

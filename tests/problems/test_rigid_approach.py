@@ -162,3 +162,36 @@ def test_a_body_no_contact_node_holds_is_no_exit_0(mpi_tmp_path, capsys):
     printed = capsys.readouterr()
     if MPI.COMM_WORLD.rank == 0:
         assert "rigid motion(s) of the body free and no contact node is closed" in printed.err
+
+
+def test_a_push_along_a_motion_nothing_holds_is_no_exit_0(mpi_tmp_path, capsys):
+    """Found by a review (present before the approach): the block on a frictionless floor, held only in x2, pushed
+    sideways along x1 as well as down: nothing holds the x1 motion, the solve ran off to |u| = 4e10 and ended with
+    exit 0, every residual small (the round-off of K·ũ standing in for the missing force; contact force x −3.8e-6
+    against the 0.04 applied). Now the free motions' balance decides: exit 3, naming the cause."""
+    path = scene_file(mpi_tmp_path, "runaway", 0.0, 0.0, shear=0.02, rollers="sides = [1]", lev=3)
+    out = mpi_tmp_path / "runaway"
+    assert main(["--scene", str(path), "--out", str(out), "--no-plots"]) == EXIT_DIVERGED
+    MPI.COMM_WORLD.barrier()
+    data = json.loads((out / "summary.json").read_text())
+    assert data["reason"] == "physics_check" and data["physics_checks"]["free_balance"] > 0.1
+    printed = capsys.readouterr()
+    if MPI.COMM_WORLD.rank == 0:
+        assert "free_balance" in printed.err and "support that motion" in printed.err
+
+
+def test_friction_holds_the_sideways_motion_from_a_gap(mpi_tmp_path):
+    """Found by the same review: 1e-3 above the floor, F = 0.3, pushed sideways 0.02 and down 0.1 (friction holds the
+    push): the program maximized the work along x1 too, which no gap blocks — unbounded, so no approach at all, and
+    the solve ran off (exit 3). Only the motions that move a contact node along its normal make the approach now
+    (here the vertical one): the push on the floor, the free motions balanced, sticking."""
+    held = scene(mpi_tmp_path, "friction", 1e-3, 0.3, shear=0.02, rollers="sides = [1]")
+    with build_problem(held, MPI.COMM_WORLD).problem as problem:
+        approach = rigid_approach(problem.model, problem.model.coupling.motions)
+        assert approach is not None
+        assert np.allclose(approach.reshape(-1, 3), [0.0, 0.0, -1e-3], rtol=0.0, atol=1e-15)
+        _, result = problem.solve()
+        assert result.converged and problem.last_start == "approach"
+        force = MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM)
+        assert np.allclose(force, [-0.04, 0.0, 0.2], atol=1e-7)
+        assert result.checks["free_balance"] < 1e-6
