@@ -341,28 +341,28 @@ class ContactProblem(SlidingSolve):
         self._step += 1
 
     # -- solving -----------------------------------------------------------------------------------
-    #: The start of the last :meth:`initial_displacement`: "zero" (the paper's, ũ = −d), "undeformed" (ũ = 0),
-    #: "approach" (onto the obstacles, :mod:`~fenics_coulomb.model.rigid_approach`), "previous" (a load path's previous
-    #: step) or "given" (``u0``); None before the first.
+    #: The start of the last :meth:`initial_displacement`: "zero" (ũ = −d), "undeformed" (ũ = 0), "approach" (onto the
+    #: obstacles, :mod:`~fenics_coulomb.model.rigid_approach`), "previous" (a path's previous step) or "given" (``u0``).
     last_start: str | None = None
 
     def initial_displacement(self, u0: dolfinx.fem.Function | None = None) -> npt.NDArray[np.float64]:
-        """ũ⁽⁰⁾ on the owned DOFs: ``u0`` (on any mesh, interpolated), else the previous step's solution on a load
-        path, else the start of ``settings.start`` (:meth:`start_rule`: "zero" is the paper's u⁽⁰⁾ = 0 of the
-        shifted unknown, ũ = −d; "undeformed" is ũ = 0); the Dirichlet values of the last load assembly
-        (:meth:`solve` assembles and places first) are imposed on each (collective)."""
+        """ũ⁽⁰⁾ on the owned DOFs: ``u0`` (on any mesh, interpolated), else the previous step's solution on a load path,
+        else the start of ``settings.start`` (:meth:`start_rule`), a body held by contact alone brought onto its
+        obstacles (:attr:`last_start`); the Dirichlet values of the last load assembly imposed (collective)."""
         model = self.model
         self.last_start = "given" if u0 is not None else "previous" if self._previous is not None else None
         if u0 is not None:
             start = model.relative(interpolate_displacement(u0, model.V))
         elif self._previous is not None:
             start = self._history().copy()
+            approach = model.coupling.approach(model, start)  # a body the last step left off its obstacles
+            start = start if approach is None else start + approach
         else:
             self.last_start = self.start_rule()
             shift = model.shift.getArray(readonly=True)
             start = -shift.copy() if self.last_start == "zero" else np.zeros_like(shift)
             approach = model.coupling.approach(model)
-            if approach is not None:  # a body held by contact alone: onto its obstacles first
+            if approach is not None:  # a body held by contact alone: onto its obstacles first (not "zero")
                 start, self.last_start = approach, "approach"
                 self._log("start: the body brought onto its obstacles along its free rigid motion(s)")
         start[model.dirichlet_rows] = model.dirichlet_values  # as assemble_load (in _place) read them

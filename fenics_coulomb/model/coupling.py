@@ -209,9 +209,10 @@ class Coupling:
         (:func:`~fenics_coulomb.model.rigid_approach.free_motion_balance`; collective; 0 where none is free)."""
         return 0.0
 
-    def approach(self, model: ContactModel) -> Array | None:
-        """The start of a body held by contact alone brought onto its obstacles along its free rigid motions (owned
-        DOF values; :mod:`fenics_coulomb.model.rigid_approach`), or None (collective)."""
+    def approach(self, model: ContactModel, start: Array | None = None) -> Array | None:
+        """The rigid motion that brings a body held by contact alone from ``start`` (default ũ = 0) onto its obstacles
+        along its free rigid motions (owned DOF values; :mod:`fenics_coulomb.model.rigid_approach`), or None
+        (collective)."""
         return None
 
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
@@ -343,8 +344,15 @@ class IdentityCoupling(Coupling):
     def holds_by_contact(self) -> bool:
         return bool(self.free_motions)
 
-    def approach(self, model: ContactModel) -> Array | None:
-        return rigid_approach(model, self.motions) if self.free_motions and self.motions is not None else None
+    def approach(self, model: ContactModel, start: Array | None = None) -> Array | None:
+        if not self.free_motions or self.motions is None:
+            return None
+        motion = rigid_approach(model, self.motions, start)
+        if start is None or motion is None:
+            return motion
+        # from a previous step: only a motion above round-off (a body still on its obstacles stays where it is)
+        moved = model.comm.allreduce(float(np.abs(motion).max(initial=0.0)), op=MPI.MAX) > 1e-12 * model.mesh_size
+        return motion if moved else None
 
     def free_balance(self, model: ContactModel, contact_force: Array) -> float:
         return free_motion_balance(model, self.motions, contact_force) if self.motions is not None else 0.0

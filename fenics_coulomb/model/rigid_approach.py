@@ -93,9 +93,10 @@ def free_motion_balance(model: ContactModel, motions: FreeMotions, contact_force
     return float(np.linalg.norm(work + contact)) / size
 
 
-def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
-    """The owned DOF values of the rigid approach of the model's one body (module docstring), or None when there is
-    none: no free motion, no load along one, or an unbounded program (collective).
+def rigid_approach(model: ContactModel, motions: FreeMotions, start: Array | None = None) -> Array | None:
+    """The owned DOF values of the rigid approach of the model's one body (module docstring) from ``start`` (owned
+    DOF values of ũ; default 0: the gaps at the placement), or None when there is none: no free motion, no load along
+    one, or an unbounded program (collective).
 
     Only the motions that move some contact node along its normal count (the row space of the constraints, to
     1e-10 of their largest singular value): a free motion along the contact (a sideways push that friction holds, or
@@ -110,7 +111,9 @@ def rigid_approach(model: ContactModel, motions: FreeMotions) -> Array | None:
     cmap = model.contact
     normals = cmap.frames[:, :, 2]
     rows = np.einsum("mi,mik->mk", normals, modes[cmap.blocks])  # nᵢ·rₖ(xᵢ)
-    gaps = model.local_shift[:, 2] if cmap.size else np.zeros(0)  # the normal gap at the placement
+    gaps = model.local_shift[:, 2] if cmap.size else np.zeros(0)  # the normal gap at the placement: v3 = n·ũ + s3
+    if start is not None and cmap.size:
+        gaps = gaps + np.einsum("mi,mi->m", normals, np.asarray(start)[cmap.local_dofs])
     order = np.concatenate(comm.allgather(np.asarray(cmap.global_dofs[:, 0], dtype=np.int64)))
     rows = np.concatenate(comm.allgather(rows.reshape(-1, work.size)))[np.argsort(order, kind="stable")]
     gaps = np.concatenate(comm.allgather(np.asarray(gaps, dtype=np.float64)))[np.argsort(order, kind="stable")]

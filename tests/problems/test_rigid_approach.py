@@ -195,3 +195,19 @@ def test_friction_holds_the_sideways_motion_from_a_gap(mpi_tmp_path):
         force = MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM)
         assert np.allclose(force, [-0.04, 0.0, 0.2], atol=1e-7)
         assert result.checks["free_balance"] < 1e-6
+
+
+def test_a_path_that_unloads_and_presses_again(mpi_tmp_path):
+    """Found by the same review: pressed, unloaded (the body back at its gap: ũ = 0), pressed again — the third step
+    started from the second's solution without the approach and ran off (exit 3; the static press converges). A step
+    that starts from the previous one is brought onto the obstacles too, when its body is off them."""
+    path = scene_file(mpi_tmp_path, "repress", 1e-3, 0.3)
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(path.read_text() + '[[path.step]]\n[[path.step]]\ntractions = { top = [0.0, 0.0, 0.0] }\n'
+                        '[[path.step]]\n')
+    MPI.COMM_WORLD.barrier()
+    out = mpi_tmp_path / "repress"
+    assert main(["--scene", str(path), "--out", str(out), "--no-plots", "--quiet"]) == 0
+    MPI.COMM_WORLD.barrier()
+    data = json.loads((out / "summary.json").read_text())
+    assert abs(data["contact_force"][2] - 0.2) <= 1e-7 and data["contact_nodes"] == 45
