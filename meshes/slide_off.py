@@ -31,6 +31,9 @@ TAGS = {"lower_top": 1, "upper_bottom": 2, "lower_bottom": 3, "upper_top": 4, "l
 def build(path: Path, lower: float = 0.2, upper: float = 0.125, layer: float = 0.0) -> None:
     """Mesh both blocks and write ``path`` (gmsh 4.1); ``layer`` > 0: the lower block with a top layer that thick
     (two volumes sharing their interface, one body: cells as thin as the layer under the lower block's top)."""
+    if not 0.0 <= layer < 0.5:
+        raise ValueError(f"layer = {layer!r}: the top layer's thickness must lie in [0, 0.5) (the lower block is 0.5 "
+                         "high; 0: no layer)")
     with gmsh_session("slide_off"):
         occ = gmsh.model.occ
         if layer > 0.0:
@@ -63,4 +66,7 @@ if __name__ == "__main__":
     parser.add_argument("--layer", type=float, default=0.0, help="a top layer of the lower block this thick")
     parser.add_argument("--out", default="slide_off.msh")
     args = parser.parse_args()
-    build(Path(args.out), args.lower, args.upper, args.layer)
+    try:
+        build(Path(args.out), args.lower, args.upper, args.layer)
+    except ValueError as err:
+        parser.error(str(err))  # one line, exit 2

@@ -25,6 +25,7 @@ the solution does not depend on it (the same problem is solved from another firs
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING
 
 from mpi4py import MPI
@@ -42,8 +43,19 @@ __all__ = ["rigid_approach", "free_work", "loads_the_free_motions", "free_motion
 Array = npt.NDArray[np.float64]
 
 
+#: Per model: its free rigid motions at the owned DOF blocks (weak keys: an entry goes with its model).
+_MODES: weakref.WeakKeyDictionary[ContactModel, Array] = weakref.WeakKeyDictionary()
+
+
 def _free_modes(model: ContactModel, motions: FreeMotions) -> Array:
-    """The free rigid motions of the model's one body at its owned DOF blocks, shape (blocks, 3, k)."""
+    """The free rigid motions of the model's one body at its owned DOF blocks, shape (blocks, 3, k) (computed once per
+    model: the start, the lost-support check and the free motions' balance of every solve read them)."""
+    if model not in _MODES:
+        _MODES[model] = _modes_of(model, motions)
+    return _MODES[model]
+
+
+def _modes_of(model: ContactModel, motions: FreeMotions) -> Array:
     V = model.V
     n = V.dofmap.index_map.size_local
     x = V.tabulate_dof_coordinates()[:n]

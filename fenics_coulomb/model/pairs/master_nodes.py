@@ -38,7 +38,8 @@ import numpy.typing as npt
 from fenics_coulomb.model.mesh_checks import displaced_geometry
 from fenics_coulomb.model.pairs.pair import ContactPair
 from fenics_coulomb.model.pairs.projection import (Surface, dot, facet_data, facet_ranks, facet_sizes,
-                                                   gather_surface, local_facets, norm, outward_normals, project)
+                                                   gather_surface, layer_thickness, local_facets, norm, outward_normals,
+                                                   project)
 
 __all__ = ["FACETTING_ALLOWANCE", "SLAVE_FACTOR", "FACING", "turn_angles", "master_excess"]
 
@@ -76,27 +77,6 @@ def turn_angles(surface: Surface, towards: Array | None = None) -> tuple[npt.NDA
     angle = np.zeros(vertices.size)
     np.maximum.at(angle, inverse[counted], np.arccos(np.clip(dot(per[counted], mean[inverse[counted]]), -1.0, 1.0)))
     return vertices, 2.0 * angle
-
-
-def _thickness(surface: Surface, centroids: Array) -> Array:
-    """Twice the distance of each facet's cell centroid from the facet's centre along its normal."""
-    nv = surface.X.shape[1]
-    normal = outward_normals(surface.X, np.full((surface.X.shape[0], nv), 1.0 / nv), surface.sign) \
-        if surface.X.shape[0] else np.zeros((0, 3))
-    return 2 * np.abs(dot(centroids - surface.X.mean(axis=1), normal))
-
-
-def _gathered_with_thickness(comm: MPI.Comm, V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], x: Array,
-                             nv: int) -> tuple[Surface, Array]:
-    """The facets gathered on every rank at the coordinates ``x`` (deduplicated) and their cell layers' thickness."""
-    tdim = V.mesh.topology.dim
-    f2c = V.mesh.topology.connectivity(tdim - 1, tdim)
-    local = facet_data(V, facets, x)
-    centroid = x[V.dofmap.list[f2c.array[f2c.offsets[facets]]]].mean(axis=1) if facets.size else np.zeros((0, 3))
-    thickness = np.concatenate(comm.allgather(_thickness(local, centroid)))
-    blocks = np.concatenate(comm.allgather(local.blocks.reshape(-1, nv)))
-    _, first = np.unique(np.sort(blocks, axis=1), axis=0, return_index=True)
-    return gather_surface(comm, local, nv), thickness[first]
 
 
 def _slave_depth(y: Array, master: Surface, search: float) -> float:
@@ -157,7 +137,8 @@ def master_excess(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], x: Arr
     best: tuple[float, Array | None] = (0.0, None)
     per_facet = 0.0
     for pair, nodes in zip(pairs, slave_nodes, strict=True):
-        slave, thickness = _gathered_with_thickness(comm, V, local_facets(pair.facet_tags, pair.slave_tags), x, nv)
+        facets = local_facets(pair.facet_tags, pair.slave_tags)
+        slave, thickness = gather_surface(comm, facet_data(V, facets, x), nv), layer_thickness(comm, V, facets, x)
         master = gather_surface(comm, facet_data(V, local_facets(pair.facet_tags, pair.master_tags), x), nv)
         if slave.X.shape[0] == 0 or master.X.shape[0] == 0:
             continue

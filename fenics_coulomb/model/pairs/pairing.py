@@ -51,7 +51,7 @@ import numpy.typing as npt
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.projection import (TIE_TOL, Surface, dot, facet_data, facet_ranks, facet_sizes,
-                                                   gather_surface, local_facets, outward_normals, project, where)
+                                                   gather_surface, layer_thickness, local_facets, project, where)
 from fenics_coulomb.model.pairs.registry import pair_method
 from fenics_coulomb.model.pairs.stencils import PairInput
 from fenics_coulomb.model.pairs.two_body import connected_bodies
@@ -182,7 +182,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         per_pair.append(dict(nodes=nodes, g=g, R=stencils.frames, contact=contact, closest=stencils.closest,
                              blocks=stencils.master_blocks, weights=stencils.weights, D=stencils.area, body=body,
                              pointwise=stencils.pointwise, search=search,
-                             master_depth=_master_overlap(imap, slave(), _thickness(comm, V, slave_facets,
+                             master_depth=_master_overlap(imap, slave(), layer_thickness(comm, V, slave_facets,
                                                                                            X_dofs),
                                                           master, search) if reference else None,
                              free=dict(blocks=others[over], gap=go[over], normals=ro["normal"][over],
@@ -332,25 +332,6 @@ def _one_body(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair], labels
                     f"on one body (the connected part of the mesh through the slave node {where(points[0])}): a "
                     "contact pair joins surfaces of two different bodies")
     return ""
-
-
-def _thickness(comm: MPI.Comm, V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], X: Array) -> Array:
-    """Twice the distance of each facet's cell centroid from the facet's centre along its normal (about the
-    thickness of the cell layer under the facet), in the order of :func:`gather_surface` of the same facets."""
-    msh = V.mesh
-    tdim = msh.topology.dim
-    f2c = msh.topology.connectivity(tdim - 1, tdim)
-    surface = facet_data(V, facets, X)
-    cells = f2c.array[f2c.offsets[facets]]
-    centroid = X[V.dofmap.list[cells]].mean(axis=1)
-    nv = surface.X.shape[1]
-    normal = outward_normals(surface.X, np.full((facets.size, nv), 1.0 / nv), surface.sign) if facets.size \
-        else np.zeros((0, 3))
-    local = 2 * np.abs(dot(centroid - surface.X.mean(axis=1), normal))
-    blocks = np.concatenate(comm.allgather(surface.blocks.reshape(-1, nv)))
-    thickness = np.concatenate(comm.allgather(local))
-    _, first = np.unique(np.sort(blocks, axis=1), axis=0, return_index=True)
-    return thickness[first]
 
 
 def _master_overlap(imap: Any, slave: Surface, thickness: Array, master: Surface, search: float

@@ -84,7 +84,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals",
+__all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals", "layer_thickness",
            "local_facets", "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes",
            "facet_ranks", "empty_closest"]
 
@@ -279,6 +279,25 @@ def facet_data(V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], X_do
     imap = V.dofmap.index_map
     gblocks = imap.local_to_global(blocks.ravel().astype(np.int32)).reshape(blocks.shape).astype(np.int64)
     return Surface(X, gblocks, sign)
+
+
+def layer_thickness(comm: MPI.Comm, V: dolfinx.fem.FunctionSpace, facets: npt.NDArray[np.int32], X: Array) -> Array:
+    """Twice the distance of each facet's cell centroid from the facet's centre along its normal (about the
+    thickness of the cell layer under the facet), in the order of :func:`gather_surface` of the same facets."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    surface = facet_data(V, facets, X)
+    cells = f2c.array[f2c.offsets[facets]]
+    centroid = X[V.dofmap.list[cells]].mean(axis=1)
+    nv = surface.X.shape[1]
+    normal = outward_normals(surface.X, np.full((facets.size, nv), 1.0 / nv), surface.sign) if facets.size \
+        else np.zeros((0, 3))
+    local = 2 * np.abs(dot(centroid - surface.X.mean(axis=1), normal))
+    blocks = np.concatenate(comm.allgather(surface.blocks.reshape(-1, nv)))
+    thickness = np.concatenate(comm.allgather(local))
+    _, first = np.unique(np.sort(blocks, axis=1), axis=0, return_index=True)
+    return thickness[first]
 
 
 def _basix_cell(msh: dolfinx.mesh.Mesh) -> basix.CellType:
