@@ -230,10 +230,10 @@ def pytest_runtest_protocol(item: pytest.Item, nextitem: pytest.Item | None) -> 
             running.pop()
 
 
-#: Each module's measured share of the serial pass: CPU seconds of its tests (the pytest process and the children it
-#: waited for: mpirun, pvpython, the command), summed per module, 2026-11-26, less the 0.068 s a test that the frozen
-#: import-time objects no longer cost (docs/testing.md); a module not listed counts 0.74 s a test. Stale weights only
-#: unbalance the shards, they never change what runs.
+#: Each module's measured share of the serial pass: the seconds of its tests' setup, call and teardown (pytest
+#: --durations=0 of `make test-serial`, the children they wait for included), summed per module over the tests not
+#: marked multirank (those run alone and lengthen both shards alike), 2026-11-27; a module not listed counts 0.74 s a
+#: test. Stale weights only unbalance the shards, they never change what runs.
 SHARD_WEIGHTS = Path(__file__).with_name("shard_weights.json")
 SHARD_DEFAULT = 0.74
 

@@ -117,26 +117,36 @@ def _interrupt_after(tmp_path, earlier: Path, args: list[str], target: str, sign
     assert not [p for p in os.listdir(tmp_path) if "partial" in p]
 
 
-SIGNALS = pytest.mark.parametrize("target, signum", [("rank", signal.SIGINT), ("ranks", signal.SIGTERM)],
-                                  ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
+#: Ctrl-C in one rank's terminal (the other rank is then inside a collective call of the same solver path: the case
+#: that can hang) on every path; a batch system's SIGTERM to every rank on the paths whose work runs in Python (the
+#: matrix-free mult, the load path's steps, the pair's Python preconditioner) — on GAMG and ILU it meets the same
+#: handler inside the same PETSc calls as the one-rank signal.
+ONE_RANK, EVERY_RANK = ("rank", signal.SIGINT), ("ranks", signal.SIGTERM)
 
 
-@pytest.mark.parametrize("path", [
-    ["--lev", "4", "--pc", "none", "--tol", "1e-12"],        # the matrix-free shell, no preconditioner
-    ["--lev", "5", "--pc", "gamg", "--tol", "1e-12"],        # GAMG on A, the shell operator
-    ["--lev", "5", "--pc", "ilu", "--tol", "1e-12"],         # the explicit Newton matrix
-    ["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"],  # a load path
-], ids=["shell", "gamg", "ilu", "load-path"])
-@SIGNALS
+@pytest.mark.parametrize("path, target, signum", [
+    pytest.param(["--lev", "4", "--pc", "none", "--tol", "1e-12"], *ONE_RANK, id="shell-SIGINT-one-rank"),
+    pytest.param(["--lev", "4", "--pc", "none", "--tol", "1e-12"], *EVERY_RANK, id="shell-SIGTERM-every-rank"),
+    pytest.param(["--lev", "5", "--pc", "gamg", "--tol", "1e-12"], *ONE_RANK, id="gamg-SIGINT-one-rank"),
+    pytest.param(["--lev", "5", "--pc", "ilu", "--tol", "1e-12"], *ONE_RANK, id="ilu-SIGINT-one-rank"),
+    pytest.param(["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"], *ONE_RANK,
+                 id="load-path-SIGINT-one-rank"),
+    pytest.param(["--lev", "4", "--steps", "4", "--pc", "none", "--tol", "1e-12"], *EVERY_RANK,
+                 id="load-path-SIGTERM-every-rank"),
+])
 def test_interrupt_on_every_solver_path(tmp_path, earlier_set, path, target, signum):
+    """The matrix-free shell (no preconditioner), GAMG on A with the shell operator, the explicit Newton matrix
+    (ILU) and a load path."""
     _interrupt_after(tmp_path, earlier_set, path, target, signum)
 
 
-@pytest.mark.parametrize("scene, options", [
-    ("stl_roller_rolling", []),  # one body, an STL obstacle: GAMG on A
-    ("slide_off", ["--pc", "gamg", "--tol", "1e-12"]),  # a pair: GAMG on B inside the python PC (M⁻¹ B⁻¹ M⁻ᵀ)
-], ids=["obstacle", "pair"])
-@SIGNALS
+@pytest.mark.parametrize("scene, options, target, signum", [
+    # one body, an STL obstacle: GAMG on A
+    pytest.param("stl_roller_rolling", [], *ONE_RANK, id="obstacle-SIGINT-one-rank"),
+    # a pair: GAMG on B inside the python PC (M⁻¹ B⁻¹ M⁻ᵀ)
+    pytest.param("slide_off", ["--pc", "gamg", "--tol", "1e-12"], *ONE_RANK, id="pair-SIGINT-one-rank"),
+    pytest.param("slide_off", ["--pc", "gamg", "--tol", "1e-12"], *EVERY_RANK, id="pair-SIGTERM-every-rank"),
+])
 def test_interrupt_during_the_geometry_iteration(tmp_path, earlier_set, scene, options, target, signum):
     """Finite sliding: a signal right after a geometry update (the ranks re-pair, re-place and solve again) ends
     every rank with 128 + the signal and keeps the earlier result set (-v: a load path's updates are logged)."""

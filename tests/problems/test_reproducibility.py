@@ -1,7 +1,8 @@
 """Reproducible parallel runs: the same command on the same ranks gives the same bits (issue 17).
 
 Each case runs the real command (``mpirun -n R python3 -m fenics_coulomb ... --no-plots``, oversubscribed,
-from a directory outside the repository) twice on 2 and twice on 3 ranks, and once on 1 rank, at rtol 1e-12:
+from a directory outside the repository) twice on 2 ranks, on 3 ranks (twice for the gmsh body, whose distributed
+read orders its cells by rank) and once on 1 rank, at rtol 1e-12:
 
 * same ranks: identical summary.json histories and counts, solution.h5/.xdmf byte for byte identical;
 * 1 vs 2 vs 3 ranks: the displacements, matched by vertex coordinates, agree to 1e-8 (relative).
@@ -83,10 +84,11 @@ CASES = {
 def test_same_ranks_same_bits(case: str, tmp_path: Path) -> None:
     args = CASES[case] if CASES[case] is not None else roller_scene(tmp_path)
     outputs: dict[int, list[Path]] = {}
+    reruns = (2, 3) if case == "gmsh-roller" else (2,)
     for ranks in (1, 2, 3):
-        outputs[ranks] = [run_cli(args, ranks, tmp_path / f"n{ranks}-{k}") for k in range(1 if ranks == 1 else 2)]
+        outputs[ranks] = [run_cli(args, ranks, tmp_path / f"n{ranks}-{k}") for k in range(2 if ranks in reruns else 1)]
 
-    for ranks in (2, 3):
+    for ranks in reruns:
         first, second = outputs[ranks]
         s1 = json.loads((first / "summary.json").read_text())
         s2 = json.loads((second / "summary.json").read_text())
