@@ -58,6 +58,9 @@ class Case:
     subprocess: bool = False
     signal: int = 0
     ranks: int = 1
+    #: A signal case: signalled once the run printed a line starting with this (its first Newton iteration, or a
+    #: load path's completed solve: then its completed solves must be kept in OUT.interrupted).
+    marker: str = "it "
 
 
 # -- generators --------------------------------------------------------------------------------------------
@@ -222,6 +225,10 @@ def signal_cases() -> list[Case]:
         for signum in (signal.SIGINT, signal.SIGTERM):
             cases.append(Case(f"signal-{i}-{signal.Signals(signum).name}", path, subprocess=True, signal=signum,
                               ranks=2))
+    for signum in (signal.SIGINT, signal.SIGTERM):  # a load path after its second solve: the solves kept
+        cases.append(Case(f"signal-path-after-a-solve-{signal.Signals(signum).name}",
+                          ["--lev", "3", "--steps", "6", "--pc", "none", "--tol", "1e-12"], subprocess=True,
+                          signal=signum, ranks=2, marker="solve 2/6"))
     return cases
 
 
@@ -274,6 +281,10 @@ def run_case(case: Case, work: Path, earlier: Path) -> tuple[int, list[str]]:
             problems.append("the earlier results changed")
         if [p for p in case_dir.iterdir() if ".partial-" in p.name]:
             problems.append("a partial result set left")
+        interrupted = out.with_name(out.name + ".interrupted") / "summary.json"
+        if case.marker.startswith("solve") and (
+                not interrupted.is_file() or json.loads(interrupted.read_text()).get("reason") != "interrupted"):
+            problems.append("an interrupted path's completed solves not kept in OUT.interrupted")
         failed = out.with_name(out.name + ".not-converged") / "summary.json"
         if status == 3 and not case.subprocess and (
                 not failed.is_file() or json.loads(failed.read_text()).get("converged") is not False):
@@ -288,7 +299,7 @@ def run_case(case: Case, work: Path, earlier: Path) -> tuple[int, list[str]]:
 
 def _run_signal(case: Case, argv: list[str]) -> tuple[int, str]:
     try:
-        proc = start_in_newton([*argv, "--no-plots"], ranks=case.ranks)
+        proc = start_in_newton([*argv, "--no-plots"], ranks=case.ranks, marker=case.marker)
     except RuntimeError as err:
         return -3, str(err)
     ranks = rank_pids(proc)

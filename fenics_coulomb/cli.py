@@ -5,7 +5,8 @@ line naming the value, on every rank, before any collective call where the value
 3 no convergence, or a solution that fails the physics checks (the last iterate and the history are written);
 4 the results could not be written (disk full, a file-size limit; one line, the earlier results kept);
 128 + signal (130 SIGINT, 143 SIGTERM, 129 SIGHUP) interrupted: every rank ends, the earlier results are kept and
-no partial set is left; 1 an unexpected error (a bug: with a traceback).
+no partial set is left (a load path's completed solves go to OUT.interrupted, resumable); 1 an unexpected error (a
+bug: with a traceback).
 """
 
 from __future__ import annotations
@@ -185,7 +186,7 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
     except (KeyboardInterrupt, Interrupted) as err:  # any rank interrupted ends all ranks, none hangs
         signum = err.signum if isinstance(err, Interrupted) else signal.SIGINT
         print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all "
-              "ranks", file=sys.stderr, flush=True)
+              f"ranks{getattr(err, 'kept', '')}", file=sys.stderr, flush=True)
         comm.Abort(EXIT_INTERRUPTED + signum)
         return EXIT_INTERRUPTED + signum
     except Exception:  # an unexpected failure on any rank must end all ranks, not hang them

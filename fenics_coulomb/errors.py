@@ -74,6 +74,6 @@ EXIT_STATUSES = {
        "earlier converged set in OUT, into OUT.not-converged)",
     4: "the results could not be written (disk full, a size limit): one line; the earlier results are kept",
     130: "interrupted (128 + the signal: 143 SIGTERM, 129 SIGHUP): every rank ended; the earlier results are "
-         "kept, no partial set is left",
+         "kept, no partial set is left; a load path's completed solves are in OUT.interrupted (resumable)",
     1: "an unexpected error (a bug; it prints a traceback): please report it",
 }

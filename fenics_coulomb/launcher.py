@@ -57,17 +57,20 @@ def _finish_together(comm: MPI.Comm) -> None:
 
 
 def _end_on_signals(comm: MPI.Comm) -> dict[int, Any]:
-    """End the run at once on SIGINT, SIGTERM and SIGHUP: one line on stderr, the partial result set removed, and
+    """End the run at once on SIGINT, SIGTERM and SIGHUP: one line on stderr, the partial result set removed (a load
+    path's completed solves kept as NAME.interrupted, :func:`~fenics_coulomb.io.results.abandon_results`), and
     MPI_Abort with 128 + the signal (every rank ends; the earlier results stay untouched). Aborting from the
     handler, not by unwinding the stack: the signal may arrive inside a PETSc call (the matrix-free operator's
     mult runs in Python inside GMRES and a multigrid cycle), after which the PETSc objects are in no state to be
     destroyed collectively. Returns the previous handlers."""
     def handler(signum: int, frame: object) -> None:
-        print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all ranks",
-              file=sys.stderr, flush=True)
-        from fenics_coulomb.io.results import abandon_results
+        from fenics_coulomb.io.results import abandon_results, defer_interrupt
 
-        abandon_results()
+        if defer_interrupt(lambda: handler(signum, frame)):  # a load path writing its next solve: until it is done
+            return
+        kept = abandon_results()  # a load path's completed solves: "; … kept in NAME.interrupted …"
+        print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all "
+              f"ranks{kept}", file=sys.stderr, flush=True)
         comm.Abort(EXIT_INTERRUPTED + signum)
 
     previous: dict[int, object] = {}

@@ -24,7 +24,7 @@ import numpy as np
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.errors import EXIT_DIVERGED
-from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
+from fenics_coulomb.io.results import FAILED_SUFFIX, INTERRUPTED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
 from fenics_coulomb.io.writer import PathResultSet, write_result_set
 from fenics_coulomb.model.dof_values import set_owned_values
@@ -307,16 +307,29 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 todo = solves
             with out.writing() as tmp:
                 results = PathResultSet(tmp, problem, initial=start_step is None)
+                written: list[dict] = []  # the records of the solves written
+                about = {"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description}
 
                 def write_grid(solve: PathSolve, record: StepRecord, result: SolveResult) -> None:
+                    out.updating(tmp)
                     step = (f"step {solve.step}" if solve.substeps == 1
                             else f"step {solve.step} ({solve.substep}/{solve.substeps})")
                     results.write_solve(solve.time, step, result)
+                    if not record.converged:  # the path stops here: finish writes the set
+                        out.busy(tmp)
+                        return
+                    written.append(record.as_dict())
+                    progress = {"solves": len(solves), "steps": solves[-1].step, "completed": len(written),
+                                "start_step": start_step, "start": scene.start if start_step is not None else None,
+                                "ramp_steps": getattr(args, "steps", None)}
+                    results.write_progress(written, result, {**about, "path": progress})
+                    out.keep_on_interrupt(tmp, _interrupted_note(out, len(written), solve, solves[-1].step))
 
                 assert built.loads is not None  # a path scene's build has its load coefficients
                 records, last, failure = run_path(problem, built.loads, todo, labels,
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
+                out.busy(tmp)
                 out.failed = bool(failure)
                 path = {"solves": len(solves), "steps": solves[-1].step,
                         "completed": len(records) - bool(failure and not failure.startswith(INPUT_STOP)),
@@ -325,8 +338,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 assert last is not None  # at least one solve ran
                 data = results.finish(
                     [r.as_dict() for r in records], last, label=scene.label, plots=not args.no_plots,
-                    extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
-                           "converged": not failure, "reason": failure or "converged", "path": path},
+                    extra={**about, "converged": not failure, "reason": failure or "converged", "path": path},
                     timings={"model": t_model, "mesh": built.mesh_time, "assembly": problem.model_time}, wall_start=t0)
     finally:
         problem_logger.setLevel(level)
@@ -349,6 +361,15 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     if refused:  # the command's one error line (exit 2), after the result set of the solves before it
         raise InputError(f"{failure}; the path stops: the {len(records)} solve(s) before it are written, converged")
     return status
+
+
+def _interrupted_note(out: ResultDirectory, solves: int, last: PathSolve, steps: int) -> str:
+    """What an interrupt after the solve ``last`` (the ``solves``-th written) keeps, for the interrupt's line: where,
+    and the resume command's options when a whole step before the path's last one is done."""
+    where = f"{out.given.rstrip('/') or out.given}{INTERRUPTED_SUFFIX}"
+    step = last.step if last.substep == last.substeps else last.step - 1
+    resume = f" (resume: --start {where}/solution.xdmf --start-step {step})" if 1 <= step < steps else ""
+    return f"the {solves} completed solve(s) of the path are kept in {where}{resume}"
 
 
 def _shown(out: ResultDirectory) -> str:

@@ -2,8 +2,9 @@
 
 Every rank writes into a temporary sibling ``.NAME.partial-HOST-PID-RAND`` that replaces NAME only when
 the whole set is written (:class:`ResultDirectory`); a failed write, an interrupt or a not-converged solve
-never replaces a converged earlier set (that one is written to ``NAME.not-converged``). Files written by
-rank 0 alone carry their failure to every rank (:func:`rank0_file`)."""
+never replaces a converged earlier set (that one is written to ``NAME.not-converged``). An interrupted load path
+keeps the set of its completed solves as ``NAME.interrupted`` (:meth:`ResultDirectory.keep_on_interrupt`). Files
+written by rank 0 alone carry their failure to every rank (:func:`rank0_file`)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ import os
 import re
 import shutil
 import socket
+import time
 import uuid
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -22,10 +24,10 @@ from typing import Any
 
 from mpi4py import MPI
 
-from fenics_coulomb.errors import OutputError
+from fenics_coulomb.errors import Interrupted, OutputError
 
-__all__ = ["ResultDirectory", "abandon_results", "rank0_file", "room_for", "RESULT_FILES", "FAILED_SUFFIX",
-           "HDF5_OVERHEAD", "HDF5_OVERHEAD_PER_DATASET"]
+__all__ = ["ResultDirectory", "abandon_results", "defer_interrupt", "rank0_file", "room_for", "RESULT_FILES",
+           "FAILED_SUFFIX", "INTERRUPTED_SUFFIX", "HDF5_OVERHEAD", "HDF5_OVERHEAD_PER_DATASET"]
 
 
 class ResultDirectory:
@@ -124,12 +126,18 @@ class ResultDirectory:
         _WRITING.add(tmp_path)
         try:
             yield tmp_path
-        except BaseException:
-            shutil.rmtree(tmp_path, ignore_errors=True)
+        except BaseException as err:
+            keep = _KEEPABLE.get(tmp_path) if isinstance(err, KeyboardInterrupt | Interrupted) else None
+            kept = _settle(tmp_path, keep)
+            if kept:
+                err.kept = kept  # type: ignore[attr-defined]  # the end of the interrupt's line (cli)
             raise
         finally:
             _DEFERRED.remove(errors)
             _WRITING.discard(tmp_path)
+            _KEEPABLE.pop(tmp_path, None)
+            _UPDATING.discard(tmp_path)
+            _run_deferred()
         failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
         error = None
         if failed:
@@ -149,6 +157,33 @@ class ResultDirectory:
         error, self.committed = self.comm.bcast((error, self.committed), root=0)
         if error:
             raise OutputError(error)
+
+    def keep_on_interrupt(self, tmp: Path, note: str) -> None:
+        """Mark the temporary set ``tmp`` as complete so far: its files describe finished work (a load path's
+        completed solves, between two solves). An interrupt on this rank then moves it to ``NAME.interrupted``
+        instead of removing it (:func:`abandon_results`) and names it with ``note``; an interrupt deferred while
+        the set was :meth:`updating` ends the run now. No communication: call it on every rank after a point that
+        every rank reaches only when all of the set's files are written (a barrier)."""
+        _KEEPABLE[tmp] = (self.path, note)
+        _UPDATING.discard(tmp)
+        _run_deferred()
+
+    @staticmethod
+    def updating(tmp: Path) -> None:
+        """The set ``tmp`` is being brought from one complete state to the next (a load path writing its next solve):
+        an interrupt on this rank waits for :meth:`keep_on_interrupt` (a second interrupt ends the run at once,
+        removing the set). Every rank is in the same write — its collective calls hold the ranks together — so the
+        wait is that of one solve's output."""
+        _KEEPABLE.pop(tmp, None)
+        _UPDATING.add(tmp)
+
+    @staticmethod
+    def busy(tmp: Path) -> None:
+        """The set ``tmp`` is being written to its end (not complete before it is committed): an interrupt removes
+        it (:meth:`keep_on_interrupt`)."""
+        _KEEPABLE.pop(tmp, None)
+        _UPDATING.discard(tmp)
+        _run_deferred()
 
     def _holds_converged_set(self) -> bool:
         """Whether the output directory holds the result set of a run that converged (rank 0)."""
@@ -191,12 +226,72 @@ class ResultDirectory:
         shutil.rmtree(previous, ignore_errors=True)
 
 
-def abandon_results() -> None:
+def defer_interrupt(end: Callable[[], None]) -> bool:
+    """Whether the interrupt whose handling is ``end`` waits: a result set of this process is :meth:`updating
+    <ResultDirectory.updating>` (its files between two complete states) and no interrupt waits already. ``end`` then
+    runs when the set is complete again, or no longer kept."""
+    if not _UPDATING or _PENDING:
+        return False
+    _PENDING.append(end)
+    return True
+
+
+def _run_deferred() -> None:
+    """Run an interrupt deferred by :func:`defer_interrupt` once no set of this process is being updated."""
+    if _PENDING and not _UPDATING:
+        _PENDING.pop()()
+
+
+def abandon_results() -> str:
     """Remove the temporary directories of every result set this process is writing (for a run that ends now,
-    e.g. on a signal, without unwinding: the earlier result sets stay untouched)."""
+    e.g. on a signal, without unwinding: the earlier result sets stay untouched); one marked complete so far
+    (:meth:`ResultDirectory.keep_on_interrupt`) is moved to ``NAME.interrupted`` instead. Returns "" or, for a kept
+    set, "; " + its note (the end of the interrupt's line)."""
+    kept = ""
     for path in list(_WRITING):
-        shutil.rmtree(path, ignore_errors=True)
+        kept = _settle(path, _KEEPABLE.pop(path, None)) or kept
         _WRITING.discard(path)
+    return kept
+
+
+#: Seconds a rank that finds the temporary set already claimed by another rank of the run waits before it ends
+#: the run: the other rank's renames (:func:`_settle`) take milliseconds, and ending the run would cut them short.
+SETTLE_WAIT = 1.0
+
+
+def _settle(tmp: Path, keep: tuple[Path, str] | None) -> str:
+    """Remove the temporary set ``tmp``, or with ``keep`` = (the output directory NAME, the note) move it to
+    NAME.interrupted, replacing an earlier interrupted set (no communication). Every rank that is interrupted
+    settles the set; the first to rename it to a name of its own claims it (an atomic rename: no rank removes
+    what another keeps), the others wait :data:`SETTLE_WAIT` for it. An earlier NAME.interrupted that is not a
+    result set (no summary.json) is never replaced: the set is removed then. Returns "" or "; " + the note with
+    the place."""
+    claimed = tmp.with_name(f"{tmp.name}x{os.getpid()}")  # still .NAME.partial-HOST-PID-RAND…: clean_stale's
+    try:
+        os.rename(tmp, claimed)
+    except OSError:  # gone: another rank of the run claimed it (or it was never made)
+        if keep is not None:
+            time.sleep(SETTLE_WAIT)
+        return ""
+    if keep is None:
+        shutil.rmtree(claimed, ignore_errors=True)
+        return ""
+    out, note = keep
+    target = out.with_name(out.name + INTERRUPTED_SUFFIX)
+    earlier = None
+    try:
+        if os.path.lexists(target):
+            if target.is_symlink() or not (target / ResultDirectory.MANIFEST).is_file():
+                raise OSError(f"{target} is not a result set")
+            earlier = out.parent / f".{out.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
+            os.rename(target, earlier)
+        os.rename(claimed, target)
+    except OSError:
+        shutil.rmtree(claimed, ignore_errors=True)
+        return ""
+    if earlier is not None:
+        shutil.rmtree(earlier, ignore_errors=True)
+    return f"; {note}"
 
 
 def rank0_file(write: Callable[..., None]) -> Callable[..., None]:
@@ -228,6 +323,8 @@ RESULT_FILES = ("solution.xdmf", "solution.h5", "summary.json", "convergence.csv
 
 #: A run that did not converge writes its set here, beside the output directory, when that holds a converged set.
 FAILED_SUFFIX = ".not-converged"
+#: An interrupted load path leaves the set of its completed solves here, beside the output directory.
+INTERRUPTED_SUFFIX = ".interrupted"
 
 
 def _owner() -> str:
@@ -288,4 +385,11 @@ _DEFERRED: list[list[str]] = []
 
 #: The temporary directories of the result sets being written by this process (:func:`abandon_results`).
 _WRITING: set[Path] = set()
+#: Those of them complete so far, by their temporary directory: (the output directory, the note of the kept set)
+#: (:meth:`ResultDirectory.keep_on_interrupt`).
+_KEEPABLE: dict[Path, tuple[Path, str]] = {}
+#: Those being brought to their next complete state (:meth:`ResultDirectory.updating`).
+_UPDATING: set[Path] = set()
+#: The handling of an interrupt that waits for them (:func:`defer_interrupt`).
+_PENDING: list[Callable[[], None]] = []
 

@@ -16,7 +16,8 @@ force, the applied load, the reactions of the named supports, per-pair forces, s
 a result that did not converge goes to ``PATH.not-converged`` when PATH holds a converged set.
 
 A load path's set (:class:`PathResultSet`) grows by one grid of ``solution.xdmf`` and of ``obstacles.xdmf`` per
-solve and ends with ``path.csv`` (one row per solve, per obstacle and contact pair too), ``path.png``,
+solve, with path.csv and a provisional summary.json of the solves so far (an interrupted path keeps them:
+``OUT.interrupted``), and ends with ``path.csv`` (one row per solve, per obstacle and contact pair too), ``path.png``,
 ``convergence.csv`` of the last solve and summary.json with its ``steps``. The forces of summary.json are those of
 :class:`~fenics_coulomb.report.ContactReport` (one definition: summed in the contact nodes' global order, the
 same bits on any number of ranks).
@@ -169,6 +170,25 @@ class PathResultSet:
         if self.surfaces is not None:  # as placed for this solve
             self.surfaces.write(t, model.obstacles)
         self.seconds += time.perf_counter() - start
+
+    def write_progress(self, steps: list[dict[str, Any]], result: SolveResult, extra: Mapping[str, Any]) -> None:
+        """Make the set so far the result set of its solves ``steps`` (collective): convergence.csv of the last solve
+        ``result``, path.csv, view.py and a provisional summary.json — ``extra`` (the scene, the settings, the path)
+        with the steps, ``converged`` false and ``reason`` "interrupted" — which :meth:`finish` replaces. Ends with
+        a barrier: on return every rank's files are written (:meth:`ResultDirectory.keep_on_interrupt
+        <fenics_coulomb.io.results.ResultDirectory.keep_on_interrupt>`)."""
+        model = self.problem.model
+        comm = model.comm
+        directory = self.directory
+        write_convergence_csv(directory / "convergence.csv", result, comm)
+        write_path_csv(directory / "path.csv", steps, comm)
+        write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
+                          largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
+        files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
+        files += ["obstacles.xdmf", "obstacles.h5"] if self.surfaces is not None else []
+        data = {**extra, "converged": False, "reason": "interrupted", "steps": steps, "files": files}
+        write_summary(directory / "summary.json", data, comm)
+        comm.barrier()
 
     def finish(self, steps: list[dict[str, Any]], result: SolveResult, *, label: str = "", plots: bool = False,
                extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,

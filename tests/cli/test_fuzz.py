@@ -13,7 +13,7 @@ from benchmarks import fuzz  # noqa: E402
 pytestmark = pytest.mark.serial
 
 CASES = fuzz.generate(seed=7, count=36)
-SIGNALS = [fuzz.signal_cases()[0], fuzz.signal_cases()[-1]]  # the shell operator (SIGINT), a load path (SIGTERM)
+SIGNALS = [fuzz.signal_cases()[0], fuzz.signal_cases()[-1]]  # the shell (SIGINT), a path after a solve (SIGTERM)
 
 
 @pytest.fixture(scope="module")

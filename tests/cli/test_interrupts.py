@@ -7,7 +7,8 @@ waits for mpirun and then looks for any process left in that session (``ps -s``)
 A signal to a rank (Ctrl-C in a rank's terminal, a batch system's time limit that signals every task) ends the
 job with 128 + the signal on every solver path — the matrix-free operator (its mult runs in Python inside GMRES,
 where the interrupt used to be swallowed as a failed linear solve), GAMG, ILU and a load path — and leaves the
-earlier result set byte for byte and no partial one. A signal to mpirun itself is OpenMPI's to handle: PRRTE
+earlier result set byte for byte and no partial one; a load path's completed solves are kept in OUT.interrupted,
+from which it resumes. A signal to mpirun itself is OpenMPI's to handle: PRRTE
 sends SIGTERM to the ranks (they end with 143) and exits 1 (it does not forward SIGINT/SIGTERM, by design).
 """
 
@@ -87,10 +88,10 @@ def earlier_set(tmp_path_factory) -> Path:
 
 
 def _interrupt_after(tmp_path, earlier: Path, args: list[str], target: str, signum: int,
-                     marker: str = "it ", ranks: int = 2) -> None:
+                     marker: str = "it ", ranks: int = 2) -> str:
     """Put a copy of the result set ``earlier`` in place, start ``args`` into the same directory, signal one rank
     or every rank once the run printed ``marker``: it ends with 128 + the signal, no process is left, the earlier
-    set is kept byte for byte and no partial one is left."""
+    set is kept byte for byte and no partial one is left. Returns the run's output after the marker."""
     out = tmp_path / "out"
     shutil.copytree(earlier, out)
     before = _digest(out)
@@ -115,6 +116,7 @@ def _interrupt_after(tmp_path, earlier: Path, args: list[str], target: str, sign
     assert not left, left
     assert _digest(out) == before  # the earlier result set, byte for byte
     assert not [p for p in os.listdir(tmp_path) if "partial" in p]
+    return rest
 
 
 #: Ctrl-C in one rank's terminal (the other rank is then inside a collective call of the same solver path: the case
@@ -162,3 +164,42 @@ def test_interrupt_on_the_rank_that_read_a_gmsh_mesh(tmp_path, earlier_set):
     path = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "slide_off.toml"
     _interrupt_after(tmp_path, earlier_set, ["--scene", str(path), "--pc", "gamg", "--tol", "1e-12", "-v"], "rank",
                      signal.SIGINT, marker="finite sliding: geometry update", ranks=1)
+
+
+@pytest.mark.parametrize("target, signum", [ONE_RANK, EVERY_RANK], ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
+def test_an_interrupted_path_keeps_its_completed_solves(tmp_path, earlier_set, target, signum):
+    """A signal once the path's second solve is done (it may arrive while that solve's grid is written: the interrupt
+    then waits for the write): 128 + the signal, the earlier set byte for byte, no partial set — and the completed
+    solves in OUT.interrupted, a result set of its own (summary.json not converged, reason "interrupted", one
+    path.csv row and one XDMF grid per solve beside t = 0, every dataset the XML names in the HDF5 file), named in
+    the interrupt's line with the options that resume the path, which then runs to its end."""
+    import json
+    import xml.etree.ElementTree as ET
+
+    import h5py
+
+    path = ["--lev", "3", "--steps", "6", "--pc", "none", "--tol", "1e-12"]
+    rest = _interrupt_after(tmp_path, earlier_set, path, target, signum, marker="solve 2/6")
+    kept = tmp_path / "out.interrupted"
+    summary = json.loads((kept / "summary.json").read_text())
+    done = summary["path"]["completed"]
+    assert not summary["converged"] and summary["reason"] == "interrupted" and 2 <= done < 6
+    assert [s["step"] for s in summary["steps"]] == list(range(1, done + 1))
+    assert len((kept / "path.csv").read_text().splitlines()) == done + 1
+    grids = ET.parse(kept / "solution.xdmf").getroot().findall("Domain/Grid/Grid")
+    assert [float(g.find("Time").get("Value")) for g in grids] == [float(k) for k in range(done + 1)]
+    with h5py.File(kept / "solution.h5", "r") as h5:
+        for item in ET.parse(kept / "solution.xdmf").getroot().iter("DataItem"):
+            assert item.text.split(":")[1] in h5
+    # the rank that kept the set names it (with SIGTERM to every rank the other rank's line ends the plain way)
+    lines = [x for x in rest.splitlines() if "interrupted by" in x]
+    resume = f"(resume: --start {tmp_path / 'out'}.interrupted/solution.xdmf --start-step {done})"
+    naming = [x for x in lines if x.endswith(f"the {done} completed solve(s) of the path are kept in {kept} {resume}")]
+    assert len(naming) == 1 and len(lines) <= 2, lines
+    proc = subprocess.run([sys.executable, "-m", "fenics_coulomb", *path, "--start", str(kept / "solution.xdmf"),
+                           "--start-step", str(done), "--out", str(tmp_path / "resumed"), "--no-plots", "--quiet"],
+                          env=command_env(display=False), capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    resumed = json.loads((tmp_path / "resumed" / "summary.json").read_text())
+    assert resumed["converged"] and [s["step"] for s in resumed["steps"]] == list(range(done + 1, 7))
+
