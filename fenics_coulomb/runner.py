@@ -322,8 +322,8 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                     progress = {"solves": len(solves), "steps": solves[-1].step, "completed": len(written),
                                 "start_step": start_step, "start": scene.start if start_step is not None else None,
                                 "ramp_steps": getattr(args, "steps", None)}
-                    results.write_progress(written, result, {**about, "path": progress})
-                    out.keep_on_interrupt(tmp, _interrupted_note(out, len(written), solve, solves[-1].step))
+                    complete = results.progress(written, result, {**about, "path": progress})
+                    out.keep_on_interrupt(tmp, _interrupted_note(out, len(written), solve, solves[-1].step), complete)
 
                 assert built.loads is not None  # a path scene's build has its load coefficients
                 records, last, failure = run_path(problem, built.loads, todo, labels,

@@ -158,13 +158,14 @@ class ResultDirectory:
         if error:
             raise OutputError(error)
 
-    def keep_on_interrupt(self, tmp: Path, note: str) -> None:
-        """Mark the temporary set ``tmp`` as complete so far: its files describe finished work (a load path's
-        completed solves, between two solves). An interrupt on this rank then moves it to ``NAME.interrupted``
-        instead of removing it (:func:`abandon_results`) and names it with ``note``; an interrupt deferred while
-        the set was :meth:`updating` ends the run now. No communication: call it on every rank after a point that
-        every rank reaches only when all of the set's files are written (a barrier)."""
-        _KEEPABLE[tmp] = (self.path, note)
+    def keep_on_interrupt(self, tmp: Path, note: str, complete: Callable[[Path], None]) -> None:
+        """Mark the temporary set ``tmp`` as complete so far but for the files ``complete`` writes (on this rank
+        alone, into the directory it is given): its files describe finished work (a load path's completed solves,
+        between two solves). An interrupt on this rank then completes it and moves it to ``NAME.interrupted``
+        instead of removing it (:func:`abandon_results`), naming it with ``note``; an interrupt deferred while the
+        set was :meth:`updating` ends the run now. No communication: call it on every rank after a point that every
+        rank reaches only when all of the set's files are written (a barrier)."""
+        _KEEPABLE[tmp] = (self.path, note, complete)
         _UPDATING.discard(tmp)
         _run_deferred()
 
@@ -259,13 +260,13 @@ def abandon_results() -> str:
 SETTLE_WAIT = 1.0
 
 
-def _settle(tmp: Path, keep: tuple[Path, str] | None) -> str:
-    """Remove the temporary set ``tmp``, or with ``keep`` = (the output directory NAME, the note) move it to
-    NAME.interrupted, replacing an earlier interrupted set (no communication). Every rank that is interrupted
-    settles the set; the first to rename it to a name of its own claims it (an atomic rename: no rank removes
-    what another keeps), the others wait :data:`SETTLE_WAIT` for it. An earlier NAME.interrupted that is not a
-    result set (no summary.json) is never replaced: the set is removed then. Returns "" or "; " + the note with
-    the place."""
+def _settle(tmp: Path, keep: Keep | None) -> str:
+    """Remove the temporary set ``tmp``, or with ``keep`` = (the output directory NAME, the note, the function that
+    writes the rest of the set) complete it and move it to NAME.interrupted, replacing an earlier interrupted set
+    (no communication). Every rank that is interrupted settles the set; the first to rename it to a name of its own
+    claims it (an atomic rename: no rank removes what another keeps), the others wait :data:`SETTLE_WAIT` for it.
+    An earlier NAME.interrupted that is not a result set (no summary.json) is never replaced, and a set whose rest
+    cannot be written is not kept: the set is removed then. Returns "" or "; " + the note."""
     claimed = tmp.with_name(f"{tmp.name}x{os.getpid()}")  # still .NAME.partial-HOST-PID-RAND…: clean_stale's
     try:
         os.rename(tmp, claimed)
@@ -276,17 +277,18 @@ def _settle(tmp: Path, keep: tuple[Path, str] | None) -> str:
     if keep is None:
         shutil.rmtree(claimed, ignore_errors=True)
         return ""
-    out, note = keep
+    out, note, complete = keep
     target = out.with_name(out.name + INTERRUPTED_SUFFIX)
     earlier = None
     try:
+        complete(claimed)
         if os.path.lexists(target):
             if target.is_symlink() or not (target / ResultDirectory.MANIFEST).is_file():
                 raise OSError(f"{target} is not a result set")
             earlier = out.parent / f".{out.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
             os.rename(target, earlier)
         os.rename(claimed, target)
-    except OSError:
+    except (OSError, ValueError, TypeError):  # a file of the rest (disk full, …), or the earlier set
         shutil.rmtree(claimed, ignore_errors=True)
         return ""
     if earlier is not None:
@@ -385,9 +387,10 @@ _DEFERRED: list[list[str]] = []
 
 #: The temporary directories of the result sets being written by this process (:func:`abandon_results`).
 _WRITING: set[Path] = set()
-#: Those of them complete so far, by their temporary directory: (the output directory, the note of the kept set)
-#: (:meth:`ResultDirectory.keep_on_interrupt`).
-_KEEPABLE: dict[Path, tuple[Path, str]] = {}
+#: Those of them complete so far, by their temporary directory: (the output directory, the note of the kept set,
+#: the function that writes the rest of it) (:meth:`ResultDirectory.keep_on_interrupt`).
+Keep = tuple[Path, str, Callable[[Path], None]]
+_KEEPABLE: dict[Path, Keep] = {}
 #: Those being brought to their next complete state (:meth:`ResultDirectory.updating`).
 _UPDATING: set[Path] = set()
 #: The handling of an interrupt that waits for them (:func:`defer_interrupt`).

@@ -16,8 +16,8 @@ force, the applied load, the reactions of the named supports, per-pair forces, s
 a result that did not converge goes to ``PATH.not-converged`` when PATH holds a converged set.
 
 A load path's set (:class:`PathResultSet`) grows by one grid of ``solution.xdmf`` and of ``obstacles.xdmf`` per
-solve, with path.csv and a provisional summary.json of the solves so far (an interrupted path keeps them:
-``OUT.interrupted``), and ends with ``path.csv`` (one row per solve, per obstacle and contact pair too), ``path.png``,
+solve (an interrupted path keeps its completed solves as ``OUT.interrupted``, with the files below, :meth:`progress`)
+and ends with ``path.csv`` (one row per solve, per obstacle and contact pair too), ``path.png``,
 ``convergence.csv`` of the last solve and summary.json with its ``steps``. The forces of summary.json are those of
 :class:`~fenics_coulomb.report.ContactReport` (one definition: summed in the contact nodes' global order, the
 same bits on any number of ranks).
@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -171,24 +171,34 @@ class PathResultSet:
             self.surfaces.write(t, model.obstacles)
         self.seconds += time.perf_counter() - start
 
-    def write_progress(self, steps: list[dict[str, Any]], result: SolveResult, extra: Mapping[str, Any]) -> None:
-        """Make the set so far the result set of its solves ``steps`` (collective): convergence.csv of the last solve
-        ``result``, path.csv, view.py and a provisional summary.json — ``extra`` (the scene, the settings, the path)
-        with the steps, ``converged`` false and ``reason`` "interrupted" — which :meth:`finish` replaces. Ends with
-        a barrier: on return every rank's files are written (:meth:`ResultDirectory.keep_on_interrupt
-        <fenics_coulomb.io.results.ResultDirectory.keep_on_interrupt>`)."""
+    def progress(self, steps: list[dict[str, Any]], result: SolveResult,
+                 extra: Mapping[str, Any]) -> Callable[[Path], None]:
+        """What makes the set so far the result set of its solves ``steps`` (collective: the parts that need every
+        rank are computed now, and a barrier ends it — on return every rank's grids are written): a function that
+        writes, on this rank alone, into a directory, convergence.csv of the last solve ``result``, path.csv,
+        view.py and a summary.json of ``extra`` (the scene, the settings, the path) with the steps, ``converged``
+        false and ``reason`` "interrupted". An interrupt between two solves calls it
+        (:meth:`ResultDirectory.keep_on_interrupt <fenics_coulomb.io.results.ResultDirectory.keep_on_interrupt>`):
+        nothing is written per solve beyond its grids. ``steps`` is read when it writes (its first entries as now)."""
         model = self.problem.model
-        comm = model.comm
-        directory = self.directory
-        write_convergence_csv(directory / "convergence.csv", result, comm)
-        write_path_csv(directory / "path.csv", steps, comm)
-        write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
-                          largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
+        count = len(steps)
+        scale = warp_scale(model, [result.displacement])
+        normal = largest_force_normal(model, result.contact_force)
+        bodies = contact_bodies(model)
         files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
         files += ["obstacles.xdmf", "obstacles.h5"] if self.surfaces is not None else []
-        data = {**extra, "converged": False, "reason": "interrupted", "steps": steps, "files": files}
-        write_summary(directory / "summary.json", data, comm)
-        comm.barrier()
+        model.comm.barrier()
+        alone = MPI.COMM_SELF
+
+        def write(directory: Path) -> None:
+            done = steps[:count]
+            _raising(write_convergence_csv)(directory / "convergence.csv", result, alone)
+            _raising(write_path_csv)(directory / "path.csv", done, alone)
+            _raising(write_view_script)(directory / "view.py", scale, normal, alone, bodies)
+            data = {**extra, "converged": False, "reason": "interrupted", "steps": done, "files": files}
+            _raising(write_summary)(directory / "summary.json", data, alone)
+
+        return write
 
     def finish(self, steps: list[dict[str, Any]], result: SolveResult, *, label: str = "", plots: bool = False,
                extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
@@ -226,6 +236,12 @@ class PathResultSet:
         if wall_start is not None:
             data["wall_time_s"] = comm.allreduce(time.perf_counter() - wall_start, op=MPI.MAX)
         return _finish(directory, data, comm, files, timings, started, self.seconds)
+
+
+def _raising(write: Callable[..., None]) -> Callable[..., None]:
+    """A rank-0 file writer (:func:`~fenics_coulomb.io.results.rank0_file`) as it is, raising its OSError at once
+    (the interrupt's handler writes the rest of a kept set on one rank, and must know whether it could)."""
+    return write.__wrapped__  # type: ignore[attr-defined]
 
 
 #: summary.json's entries that ``extra`` may not replace: what the solve says about itself.
