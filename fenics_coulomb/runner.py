@@ -12,8 +12,10 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import shlex
 import time
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -24,7 +26,7 @@ import numpy as np
 
 from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.errors import EXIT_DIVERGED
-from fenics_coulomb.io.results import FAILED_SUFFIX, INTERRUPTED_SUFFIX, ResultDirectory
+from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
 from fenics_coulomb.io.writer import PathResultSet, write_result_set
 from fenics_coulomb.model.dof_values import set_owned_values
@@ -316,20 +318,20 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                             else f"step {solve.step} ({solve.substep}/{solve.substeps})")
                     results.write_solve(solve.time, step, result)
                     if not record.converged:  # the path stops here: finish writes the set
-                        out.busy(tmp)
                         return
                     written.append(record.as_dict())
                     progress = {"solves": len(solves), "steps": solves[-1].step, "completed": len(written),
                                 "start_step": start_step, "start": scene.start if start_step is not None else None,
                                 "ramp_steps": getattr(args, "steps", None)}
                     complete = results.progress(written, result, {**about, "path": progress})
-                    out.keep_on_interrupt(tmp, _interrupted_note(out, len(written), solve, solves[-1].step), complete)
+                    note = _interrupted_note(len(written), solve, solves[-1].step, start_step, scene.start)
+                    out.keep_on_interrupt(tmp, note, complete)
 
                 assert built.loads is not None  # a path scene's build has its load coefficients
                 records, last, failure = run_path(problem, built.loads, todo, labels,
                                                     built.dirichlet_groups or {}, u0, write_grid,
                                                     last_step=solves[-1].step)
-                out.busy(tmp)
+                out.updating(tmp)  # to its end: an interrupt now waits for the commit
                 out.failed = bool(failure)
                 path = {"solves": len(solves), "steps": solves[-1].step,
                         "completed": len(records) - bool(failure and not failure.startswith(INPUT_STOP)),
@@ -363,13 +365,24 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     return status
 
 
-def _interrupted_note(out: ResultDirectory, solves: int, last: PathSolve, steps: int) -> str:
-    """What an interrupt after the solve ``last`` (the ``solves``-th written) keeps, for the interrupt's line: where,
-    and the resume command's options when a whole step before the path's last one is done."""
-    where = f"{out.given.rstrip('/') or out.given}{INTERRUPTED_SUFFIX}"
-    step = last.step if last.substep == last.substeps else last.step - 1
-    resume = f" (resume: --start {where}/solution.xdmf --start-step {step})" if 1 <= step < steps else ""
-    return f"the {solves} completed solve(s) of the path are kept in {where}{resume}"
+def _interrupted_note(solves: int, last: PathSolve, steps: int, start_step: int | None,
+                      start: str) -> Callable[[str], str]:
+    """What an interrupt after the solve ``last`` (the ``solves``-th this run wrote) keeps, for the interrupt's line,
+    given the place it is kept in (quoted): the place and the options that resume the path — from the kept set
+    when it holds a whole step before the path's last one, else (a resumed run interrupted within its first step)
+    from this run's own start ``start`` after its ``start_step``, which is left in place."""
+    whole = last.step if last.substep == last.substeps else last.step - 1
+
+    def note(where: str) -> str:
+        if whole > (start_step or 0) and whole < steps:
+            resume = f" (resume: --start {where}/solution.xdmf --start-step {whole})"
+        elif start_step is not None:
+            resume = f" (resume: --start {shlex.quote(start)} --start-step {start_step})"
+        else:
+            resume = ""
+        return f"the {solves} completed solve(s) of the path are kept in {where}{resume}"
+
+    return note
 
 
 def _shown(out: ResultDirectory) -> str:

@@ -9,11 +9,13 @@ written by rank 0 alone carry their failure to every rank (:func:`rank0_file`)."
 from __future__ import annotations
 
 import contextlib
+import errno
 import functools
 import glob
 import json
 import os
 import re
+import shlex
 import shutil
 import socket
 import time
@@ -63,7 +65,7 @@ class ResultDirectory:
             if final.is_symlink():
                 self.path = Path(os.path.realpath(final)).absolute()
             message = self._check()
-        message = comm.bcast(message, root=0)
+        message, self.path = comm.bcast((message, self.path), root=0)  # a symlink resolved on rank 0: every rank's
         check_all(comm, not message, message)
 
     def _check_name(self) -> str:
@@ -131,13 +133,23 @@ class ResultDirectory:
             kept = _settle(tmp_path, keep)
             if kept:
                 err.kept = kept  # type: ignore[attr-defined]  # the end of the interrupt's line (cli)
+            _UPDATING.discard(tmp_path)
             raise
         finally:
             _DEFERRED.remove(errors)
             _WRITING.discard(tmp_path)
             _KEEPABLE.pop(tmp_path, None)
+            _run_deferred()
+        try:
+            self._commit_set(tmp_path, errors)
+        finally:  # an interrupt that waited for the set (a load path's last write) ends the run now
+            if tmp_path in _UPDATING and _PENDING and self.committed.exists():
+                _COMMITTED.append(f"; the path had finished: its results are in {self.committed}")
             _UPDATING.discard(tmp_path)
             _run_deferred()
+
+    def _commit_set(self, tmp_path: Path, errors: list[str]) -> None:
+        """Commit the written set ``tmp_path`` (collective; :meth:`writing`)."""
         failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
         error = None
         if failed:
@@ -158,33 +170,26 @@ class ResultDirectory:
         if error:
             raise OutputError(error)
 
-    def keep_on_interrupt(self, tmp: Path, note: str, complete: Callable[[Path], None]) -> None:
+    def keep_on_interrupt(self, tmp: Path, note: Callable[[str], str], complete: Callable[[Path], None]) -> None:
         """Mark the temporary set ``tmp`` as complete so far but for the files ``complete`` writes (on this rank
         alone, into the directory it is given): its files describe finished work (a load path's completed solves,
-        between two solves). An interrupt on this rank then completes it and moves it to ``NAME.interrupted``
-        instead of removing it (:func:`abandon_results`), naming it with ``note``; an interrupt deferred while the
-        set was :meth:`updating` ends the run now. No communication: call it on every rank after a point that every
-        rank reaches only when all of the set's files are written (a barrier)."""
+        between two solves). An interrupt on this rank then completes it and moves it to the first free name of
+        ``NAME.interrupted``, ``NAME.interrupted-2``, … (no earlier set is replaced) instead of removing it
+        (:func:`abandon_results`), naming it with ``note(the place, quoted for a shell)``; an interrupt deferred while
+        the set was :meth:`updating` ends the run now. No communication: call it on every rank after a point that
+        every rank reaches only when all of the set's files are written (a barrier)."""
         _KEEPABLE[tmp] = (self.path, note, complete)
         _UPDATING.discard(tmp)
         _run_deferred()
 
     @staticmethod
     def updating(tmp: Path) -> None:
-        """The set ``tmp`` is being brought from one complete state to the next (a load path writing its next solve):
-        an interrupt on this rank waits for :meth:`keep_on_interrupt` (a second interrupt ends the run at once,
-        removing the set). Every rank is in the same write — its collective calls hold the ranks together — so the
-        wait is that of one solve's output."""
+        """The set ``tmp`` is being written (a load path's next solve, or its end): an interrupt on this rank waits
+        for :meth:`keep_on_interrupt`, or for the set's commit (then the run ends with the whole set in place); a
+        second interrupt ends the run at once, removing the set. Every rank is in the same write — its collective
+        calls hold the ranks together — so the wait is that of one solve's output."""
         _KEEPABLE.pop(tmp, None)
         _UPDATING.add(tmp)
-
-    @staticmethod
-    def busy(tmp: Path) -> None:
-        """The set ``tmp`` is being written to its end (not complete before it is committed): an interrupt removes
-        it (:meth:`keep_on_interrupt`)."""
-        _KEEPABLE.pop(tmp, None)
-        _UPDATING.discard(tmp)
-        _run_deferred()
 
     def _holds_converged_set(self) -> bool:
         """Whether the output directory holds the result set of a run that converged (rank 0)."""
@@ -201,7 +206,11 @@ class ResultDirectory:
             prefix = f".{self.path.name}.{kind}-"
             for entry in self.path.parent.glob(f"{glob.escape(prefix)}*"):
                 owner_host, pid = _split_owner(entry.name[len(prefix):])
-                if owner_host != host or not pid.isdigit() or int(pid) == os.getpid():
+                if owner_host != host or not pid.isdigit():
+                    continue
+                if int(pid) == os.getpid():  # this process's number: ours, or a killed run's in a reused pid space
+                    if not any(entry.name.startswith(w.name) for w in _WRITING):  # (a sandbox's rank 0 is pid 6)
+                        shutil.rmtree(entry, ignore_errors=True)
                     continue
                 try:
                     os.kill(int(pid), 0)
@@ -228,9 +237,12 @@ class ResultDirectory:
 
 
 def defer_interrupt(end: Callable[[], None]) -> bool:
-    """Whether the interrupt whose handling is ``end`` waits: a result set of this process is :meth:`updating
-    <ResultDirectory.updating>` (its files between two complete states) and no interrupt waits already. ``end`` then
-    runs when the set is complete again, or no longer kept."""
+    """Whether the interrupt whose handling is ``end`` is not handled now: an interrupt is being handled already
+    (it ends the run: a second signal must not cut its renames short), or a result set of this process is
+    :meth:`updating <ResultDirectory.updating>` and no interrupt waits yet (``end`` then runs when the set is
+    complete again or committed)."""
+    if _SETTLING:
+        return True
     if not _UPDATING or _PENDING:
         return False
     _PENDING.append(end)
@@ -246,9 +258,10 @@ def _run_deferred() -> None:
 def abandon_results() -> str:
     """Remove the temporary directories of every result set this process is writing (for a run that ends now,
     e.g. on a signal, without unwinding: the earlier result sets stay untouched); one marked complete so far
-    (:meth:`ResultDirectory.keep_on_interrupt`) is moved to ``NAME.interrupted`` instead. Returns "" or, for a kept
-    set, "; " + its note (the end of the interrupt's line)."""
-    kept = ""
+    (:meth:`ResultDirectory.keep_on_interrupt`) is kept as ``NAME.interrupted`` instead. Returns "" or "; " + what
+    became of the work (the end of the interrupt's line)."""
+    _SETTLING.append(True)
+    kept = _COMMITTED.pop() if _COMMITTED else ""
     for path in list(_WRITING):
         kept = _settle(path, _KEEPABLE.pop(path, None)) or kept
         _WRITING.discard(path)
@@ -262,11 +275,11 @@ SETTLE_WAIT = 1.0
 
 def _settle(tmp: Path, keep: Keep | None) -> str:
     """Remove the temporary set ``tmp``, or with ``keep`` = (the output directory NAME, the note, the function that
-    writes the rest of the set) complete it and move it to NAME.interrupted, replacing an earlier interrupted set
-    (no communication). Every rank that is interrupted settles the set; the first to rename it to a name of its own
-    claims it (an atomic rename: no rank removes what another keeps), the others wait :data:`SETTLE_WAIT` for it.
-    An earlier NAME.interrupted that is not a result set (no summary.json) is never replaced, and a set whose rest
-    cannot be written is not kept: the set is removed then. Returns "" or "; " + the note."""
+    writes the rest of the set) complete it and move it to the first free name of NAME.interrupted,
+    NAME.interrupted-2, … (no communication; no earlier set is replaced). Every rank that is interrupted settles the
+    set; the first to rename it to a name of its own claims it (an atomic rename: no rank removes what another
+    keeps), the others wait :data:`SETTLE_WAIT` for it. A set whose rest cannot be written is removed, and the line
+    says so. Returns "" or "; " + what became of it."""
     claimed = tmp.with_name(f"{tmp.name}x{os.getpid()}")  # still .NAME.partial-HOST-PID-RAND…: clean_stale's
     try:
         os.rename(tmp, claimed)
@@ -278,22 +291,24 @@ def _settle(tmp: Path, keep: Keep | None) -> str:
         shutil.rmtree(claimed, ignore_errors=True)
         return ""
     out, note, complete = keep
-    target = out.with_name(out.name + INTERRUPTED_SUFFIX)
-    earlier = None
     try:
         complete(claimed)
-        if os.path.lexists(target):
-            if target.is_symlink() or not (target / ResultDirectory.MANIFEST).is_file():
-                raise OSError(f"{target} is not a result set")
-            earlier = out.parent / f".{out.name}.previous-{_owner()}-{uuid.uuid4().hex[:8]}"
-            os.rename(target, earlier)
-        os.rename(claimed, target)
-    except (OSError, ValueError, TypeError):  # a file of the rest (disk full, …), or the earlier set
+        for k in range(1, 1000):
+            target = out.with_name(out.name + INTERRUPTED_SUFFIX + (f"-{k}" if k > 1 else ""))
+            if os.path.lexists(target):
+                continue
+            try:
+                os.rename(claimed, target)  # onto a name made meanwhile by another process: that one is kept
+                break
+            except OSError as err:
+                if err.errno not in (errno.EEXIST, errno.ENOTEMPTY, errno.EISDIR, errno.ENOTDIR):
+                    raise
+        else:
+            raise OSError(f"{out.name}{INTERRUPTED_SUFFIX}-1 … -999 all exist")
+    except (OSError, ValueError, TypeError) as err:  # a file of the rest (disk full, …)
         shutil.rmtree(claimed, ignore_errors=True)
-        return ""
-    if earlier is not None:
-        shutil.rmtree(earlier, ignore_errors=True)
-    return f"; {note}"
+        return f"; its completed solves could not be kept ({getattr(err, 'strerror', None) or err})"
+    return f"; {note(shlex.quote(str(target)))}"
 
 
 def rank0_file(write: Callable[..., None]) -> Callable[..., None]:
@@ -389,10 +404,14 @@ _DEFERRED: list[list[str]] = []
 _WRITING: set[Path] = set()
 #: Those of them complete so far, by their temporary directory: (the output directory, the note of the kept set,
 #: the function that writes the rest of it) (:meth:`ResultDirectory.keep_on_interrupt`).
-Keep = tuple[Path, str, Callable[[Path], None]]
+Keep = tuple[Path, Callable[[str], str], Callable[[Path], None]]
 _KEEPABLE: dict[Path, Keep] = {}
 #: Those being brought to their next complete state (:meth:`ResultDirectory.updating`).
 _UPDATING: set[Path] = set()
 #: The handling of an interrupt that waits for them (:func:`defer_interrupt`).
 _PENDING: list[Callable[[], None]] = []
+#: An interrupt is being handled (:func:`abandon_results`): a second signal leaves it to end the run.
+_SETTLING: list[bool] = []
+#: What a waiting interrupt reports when the set it waited for was committed (:meth:`ResultDirectory.writing`).
+_COMMITTED: list[str] = []
 

@@ -1,6 +1,7 @@
 """An interrupted load path keeps the result set of its completed solves (io/results.py): the set is kept only in a
-complete state, an interrupt during an update waits for it, one rank claims the set, and nothing that is not a
-result set is replaced. Rank-local file operations (the real command on 2 ranks: tests/cli/test_interrupts.py)."""
+complete state, an interrupt during an update waits for it (and for the commit of the path's end), one rank claims
+the set, a second signal does not cut the first one's handling short, and no earlier set or directory is replaced.
+Rank-local file operations (the real command on 2 ranks: tests/cli/test_interrupts.py)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,16 @@ class Ended(Exception):
     """Stands for MPI_Abort: the interrupt's handling ends the run here."""
 
 
+@pytest.fixture(autouse=True)
+def _fresh(monkeypatch):
+    """No waiting for another rank, and the module's state of an interrupt being handled reset after each test."""
+    monkeypatch.setattr(results, "SETTLE_WAIT", 0.0)
+    yield
+    results._SETTLING.clear()
+    results._PENDING.clear()
+    results._COMMITTED.clear()
+
+
 def _ending(record: list[str]):
     def end() -> None:
         record.append(abandon_results())
@@ -38,92 +49,118 @@ def _rest(directory) -> None:
     _write(directory, "view.py", "# kept")
 
 
+def _note(where: str) -> str:
+    return f"kept in {where}"
+
+
 def test_the_interrupt_waits_for_the_update_and_keeps_the_complete_set(tmp_path):
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
     ended: list[str] = []
     with pytest.raises(Ended), out.writing() as tmp:
         _write(tmp, "summary.json", json.dumps({"converged": False}))
-        out.keep_on_interrupt(tmp, "one solve kept", _rest)
+        out.keep_on_interrupt(tmp, _note, _rest)
         out.updating(tmp)
         assert defer_interrupt(_ending(ended))  # the set is between two complete states: the interrupt waits
         assert not defer_interrupt(_ending(ended))  # a second interrupt does not
         assert ended == []
         _write(tmp, "path.csv", "solve\n1\n2\n")
-        out.keep_on_interrupt(tmp, "two solves kept", _rest)  # complete again: the waiting interrupt ends the run now
-    assert ended == ["; two solves kept"]
+        out.keep_on_interrupt(tmp, _note, _rest)  # complete again: the waiting interrupt ends the run now
     kept = tmp_path / "out.interrupted"
+    assert ended == [f"; kept in {kept}"]
     assert sorted(p.name for p in kept.iterdir()) == ["path.csv", "summary.json", "view.py"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.interrupted"]  # no partial set, no output yet
 
 
-def test_a_set_written_to_its_end_is_removed(tmp_path):
-    """After the last solve the set is written to its end (not complete before its commit): an interrupt that waited
-    for an update, or one that comes then, removes it, as an interrupt of a static solve does."""
+def test_an_interrupt_while_the_end_is_written_waits_for_the_commit(tmp_path):
+    """After the last solve the set is written to its end: an interrupt then waits for the commit, and the run ends
+    with the whole set in place, saying so."""
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
     ended: list[str] = []
     with pytest.raises(Ended), out.writing() as tmp:
-        _write(tmp, "summary.json")
-        out.keep_on_interrupt(tmp, "kept", _rest)
+        _write(tmp, "summary.json", json.dumps({"converged": True}))
+        out.keep_on_interrupt(tmp, _note, _rest)
         out.updating(tmp)
         assert defer_interrupt(_ending(ended))
-        out.busy(tmp)
-    assert ended == [""] and list(tmp_path.iterdir()) == []
+        _write(tmp, "path.csv")
+    assert ended == [f"; the path had finished: its results are in {tmp_path / 'out'}"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["path.csv", "summary.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
-def test_an_earlier_interrupted_set_is_replaced_but_nothing_else(tmp_path, monkeypatch):
-    monkeypatch.setattr(results, "SETTLE_WAIT", 0.0)
-    earlier = tmp_path / "out.interrupted"
-    earlier.mkdir()
-    _write(earlier, "summary.json", json.dumps({"converged": False, "old": True}))
+def test_a_second_signal_does_not_cut_the_handling_short(tmp_path):
+    """A signal that arrives while the first one's handling writes and moves the set is left to it."""
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
-    with pytest.raises(KeyboardInterrupt), out.writing() as tmp:  # Ctrl-C without the command's handler
-        _write(tmp, "summary.json", json.dumps({"converged": False, "new": True}))
-        out.keep_on_interrupt(tmp, "new set", _rest)
-        raise KeyboardInterrupt
-    assert json.loads((earlier / "summary.json").read_text()) == {"converged": False, "new": True}
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.interrupted"]
-    # a directory of that name that is not a result set is the user's: never replaced, the set is removed
-    shutil.rmtree(earlier)
-    earlier.mkdir()
-    _write(earlier, "notes.txt", "mine")
     ended: list[str] = []
+    seen: list[bool] = []
+
+    def rest(directory) -> None:
+        seen.append(defer_interrupt(_ending(ended)))  # the second signal, inside the first one's handling
+        _rest(directory)
+
     with pytest.raises(Ended), out.writing() as tmp:
         _write(tmp, "summary.json")
-        out.keep_on_interrupt(tmp, "kept", _rest)
+        out.keep_on_interrupt(tmp, _note, rest)
         _ending(ended)()
-    assert ended == [""] and [p.name for p in earlier.iterdir()] == ["notes.txt"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.interrupted"]
+    assert seen == [True] and ended == [f"; kept in {tmp_path / 'out.interrupted'}"]
 
 
-def test_one_rank_claims_the_set(tmp_path, monkeypatch):
-    """Every interrupted rank settles the set (SIGTERM to every rank); the first rename claims it: the second rank
-    neither keeps nor removes anything."""
-    monkeypatch.setattr(results, "SETTLE_WAIT", 0.0)
-    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
-    with pytest.raises(Ended), out.writing() as tmp:
-        _write(tmp, "summary.json")
-        keep = (out.path, "kept", _rest)
-        assert results._settle(tmp, keep) == "; kept"
-        assert results._settle(tmp, keep) == "" and results._settle(tmp, None) == ""
-        raise Ended
-    assert sorted(p.name for p in (tmp_path / "out.interrupted").iterdir()) == ["summary.json", "view.py"]
-
-
-def test_a_set_whose_rest_cannot_be_written_is_not_kept(tmp_path, monkeypatch):
-    """The rest of the set fails (a full disk): nothing is kept, nothing named, the earlier interrupted set stays."""
-    monkeypatch.setattr(results, "SETTLE_WAIT", 0.0)
+def test_no_earlier_set_or_directory_is_replaced(tmp_path):
+    """An earlier interrupted set (with the user's own files in it) and a directory of the user's of the next name
+    stay as they are: the set goes to the first free name."""
     earlier = tmp_path / "out.interrupted"
     earlier.mkdir()
     _write(earlier, "summary.json", json.dumps({"old": True}))
+    _write(earlier, "NOTES.txt", "mine")
+    (tmp_path / "out.interrupted-2").mkdir()
+    _write(tmp_path / "out.interrupted-2", "notes.txt", "mine too")
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with pytest.raises(KeyboardInterrupt) as caught, out.writing() as tmp:  # Ctrl-C without the command's handler
+        _write(tmp, "summary.json", json.dumps({"new": True}))
+        out.keep_on_interrupt(tmp, _note, _rest)
+        raise KeyboardInterrupt
+    third = tmp_path / "out.interrupted-3"
+    assert caught.value.kept == f"; kept in {third}"
+    assert json.loads((third / "summary.json").read_text()) == {"new": True}
+    assert sorted(p.name for p in earlier.iterdir()) == ["NOTES.txt", "summary.json"]
+    assert [p.name for p in (tmp_path / "out.interrupted-2").iterdir()] == ["notes.txt"]
 
+
+def test_a_set_whose_rest_cannot_be_written_is_not_kept_and_the_line_says_so(tmp_path):
     def full(directory) -> None:
         raise OSError(28, "No space left on device")
 
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
     ended: list[str] = []
     with pytest.raises(Ended), out.writing() as tmp:
-        out.keep_on_interrupt(tmp, "kept", full)
+        _write(tmp, "summary.json")
+        out.keep_on_interrupt(tmp, _note, full)
         _ending(ended)()
-    assert ended == [""] and json.loads((earlier / "summary.json").read_text()) == {"old": True}
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.interrupted"]
+    assert ended == ["; its completed solves could not be kept (No space left on device)"]
+    assert list(tmp_path.iterdir()) == []
 
+
+def test_one_rank_claims_the_set(tmp_path):
+    """Every interrupted rank settles the set (SIGTERM to every rank); the first rename claims it: the second rank
+    neither keeps nor removes anything."""
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with pytest.raises(Ended), out.writing() as tmp:
+        _write(tmp, "summary.json")
+        keep = (out.path, _note, _rest)
+        assert results._settle(tmp, keep) == f"; kept in {tmp_path / 'out.interrupted'}"
+        assert results._settle(tmp, keep) == "" and results._settle(tmp, None) == ""
+        raise Ended
+    assert sorted(p.name for p in (tmp_path / "out.interrupted").iterdir()) == ["summary.json", "view.py"]
+
+
+def test_a_killed_run_of_the_same_process_number_is_cleaned(tmp_path):
+    """In a sandbox rank 0 has the same process number in every run (6): a partial set a killed run left under this
+    process's number, and not one this process writes, is removed by the next run."""
+    import os
+
+    left = tmp_path / f".out.partial-{results._owner()}-deadbeefx{os.getpid()}"
+    left.mkdir()
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with out.writing() as tmp:
+        assert not left.exists() and tmp.exists()
+        _write(tmp, "summary.json", json.dumps({"converged": True}))
+    shutil.rmtree(tmp_path / "out")
