@@ -166,13 +166,14 @@ def test_interrupt_on_the_rank_that_read_a_gmsh_mesh(tmp_path, earlier_set):
                      signal.SIGINT, marker="finite sliding: geometry update", ranks=1)
 
 
-@pytest.mark.parametrize("target, signum", [ONE_RANK, EVERY_RANK], ids=["SIGINT-one-rank", "SIGTERM-every-rank"])
-def test_an_interrupted_path_keeps_its_completed_solves(tmp_path, earlier_set, target, signum):
-    """A signal once the path's second solve is done (it may arrive while that solve's grid is written: the interrupt
-    then waits for the write): 128 + the signal, the earlier set byte for byte, no partial set — and the completed
+def test_an_interrupted_path_keeps_its_completed_solves(tmp_path, earlier_set):
+    """Ctrl-C on one rank once the path's second solve is done (it may arrive while that solve's grid is written:
+    the interrupt then waits for the write): 130, the earlier set byte for byte, no partial set — and the completed
     solves in OUT.interrupted, a result set of its own (summary.json not converged, reason "interrupted", one
     path.csv row and one XDMF grid per solve beside t = 0, every dataset the XML names in the HDF5 file), named in
-    the interrupt's line with the options that resume the path, which then runs to its end."""
+    the interrupt's line with the options that resume the path, which then runs to its end. SIGTERM to every rank
+    at the same moment: tests/cli/test_fuzz.py's case signal-path-after-a-solve-SIGTERM."""
+    target, signum = ONE_RANK
     import json
     import xml.etree.ElementTree as ET
 
@@ -191,7 +192,6 @@ def test_an_interrupted_path_keeps_its_completed_solves(tmp_path, earlier_set, t
     with h5py.File(kept / "solution.h5", "r") as h5:
         for item in ET.parse(kept / "solution.xdmf").getroot().iter("DataItem"):
             assert item.text.split(":")[1] in h5
-    # the rank that kept the set names it (with SIGTERM to every rank the other rank's line ends the plain way)
     lines = [x for x in rest.splitlines() if "interrupted by" in x]
     resume = f"(resume: --start {tmp_path / 'out'}.interrupted/solution.xdmf --start-step {done})"
     naming = [x for x in lines if x.endswith(f"the {done} completed solve(s) of the path are kept in {kept} {resume}")]

@@ -53,14 +53,19 @@ def _note(where: str) -> str:
     return f"kept in {where}"
 
 
+def _kept_then_updated(out: ResultDirectory, tmp, ended: list[str], converged: bool) -> None:
+    """A set kept after a solve, then updated again, and an interrupt in the update: it waits."""
+    _write(tmp, "summary.json", json.dumps({"converged": converged}))
+    out.keep_on_interrupt(tmp, _note, _rest)
+    out.updating(tmp)
+    assert defer_interrupt(_ending(ended))
+
+
 def test_the_interrupt_waits_for_the_update_and_keeps_the_complete_set(tmp_path):
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
     ended: list[str] = []
     with pytest.raises(Ended), out.writing() as tmp:
-        _write(tmp, "summary.json", json.dumps({"converged": False}))
-        out.keep_on_interrupt(tmp, _note, _rest)
-        out.updating(tmp)
-        assert defer_interrupt(_ending(ended))  # the set is between two complete states: the interrupt waits
+        _kept_then_updated(out, tmp, ended, converged=False)  # between two complete states: the interrupt waits
         assert not defer_interrupt(_ending(ended))  # a second interrupt does not
         assert ended == []
         _write(tmp, "path.csv", "solve\n1\n2\n")
@@ -77,10 +82,7 @@ def test_an_interrupt_while_the_end_is_written_waits_for_the_commit(tmp_path):
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
     ended: list[str] = []
     with pytest.raises(Ended), out.writing() as tmp:
-        _write(tmp, "summary.json", json.dumps({"converged": True}))
-        out.keep_on_interrupt(tmp, _note, _rest)
-        out.updating(tmp)
-        assert defer_interrupt(_ending(ended))
+        _kept_then_updated(out, tmp, ended, converged=True)
         _write(tmp, "path.csv")
     assert ended == [f"; the path had finished: its results are in {tmp_path / 'out'}"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["path.csv", "summary.json"]
