@@ -140,11 +140,15 @@ class ResultDirectory:
             _WRITING.discard(tmp_path)
             _KEEPABLE.pop(tmp_path, None)
             _run_deferred()
+        committed = False
         try:
             self._commit_set(tmp_path, errors)
+            committed = True
         finally:  # an interrupt that waited for the set (a load path's last write) ends the run now
-            if tmp_path in _UPDATING and _PENDING and self.committed.exists():
-                _COMMITTED.append(f"; the path had finished: its results are in {self.committed}")
+            if tmp_path in _UPDATING and _PENDING:
+                _COMMITTED.append(f"; the path had finished: its results are in {self.committed}" if committed else
+                                  "; the path had finished, but its results could not be written (the earlier "
+                                  "results are kept)")
             _UPDATING.discard(tmp_path)
             _run_deferred()
 
@@ -186,7 +190,8 @@ class ResultDirectory:
     def updating(tmp: Path) -> None:
         """The set ``tmp`` is being written (a load path's next solve, or its end): an interrupt on this rank waits
         for :meth:`keep_on_interrupt`, or for the set's commit (then the run ends with the whole set in place); a
-        second interrupt ends the run at once, removing the set. Every rank is in the same write — its collective
+        second interrupt within :data:`REPEAT_WINDOW` is the same one, a later one ends the run at once, removing
+        the set. Every rank is in the same write — its collective
         calls hold the ranks together — so the wait is that of one solve's output."""
         _KEEPABLE.pop(tmp, None)
         _UPDATING.add(tmp)
@@ -206,11 +211,8 @@ class ResultDirectory:
             prefix = f".{self.path.name}.{kind}-"
             for entry in self.path.parent.glob(f"{glob.escape(prefix)}*"):
                 owner_host, pid = _split_owner(entry.name[len(prefix):])
-                if owner_host != host or not pid.isdigit():
-                    continue
-                if int(pid) == os.getpid():  # this process's number: ours, or a killed run's in a reused pid space
-                    if not any(entry.name.startswith(w.name) for w in _WRITING):  # (a sandbox's rank 0 is pid 6)
-                        shutil.rmtree(entry, ignore_errors=True)
+                # this process's number: ours, or another sandbox's run (each numbers its processes from 1)
+                if owner_host != host or not pid.isdigit() or int(pid) == os.getpid():
                     continue
                 try:
                     os.kill(int(pid), 0)
@@ -236,16 +238,24 @@ class ResultDirectory:
         shutil.rmtree(previous, ignore_errors=True)
 
 
+#: Seconds after a waiting interrupt within which another signal is taken for the same interrupt (ignored); a later
+#: one ends the run at once, giving up the set being written.
+REPEAT_WINDOW = 2.0
+
+
 def defer_interrupt(end: Callable[[], None]) -> bool:
     """Whether the interrupt whose handling is ``end`` is not handled now: an interrupt is being handled already
-    (it ends the run: a second signal must not cut its renames short), or a result set of this process is
-    :meth:`updating <ResultDirectory.updating>` and no interrupt waits yet (``end`` then runs when the set is
-    complete again or committed)."""
+    (it ends the run: a second signal must not cut its renames short), one waits and this one follows it within
+    :data:`REPEAT_WINDOW`, or a result set of this process is :meth:`updating <ResultDirectory.updating>` (``end``
+    then runs when the set is complete again or committed)."""
     if _SETTLING:
         return True
-    if not _UPDATING or _PENDING:
+    if _PENDING:  # a repeat within REPEAT_WINDOW is the same interrupt (a double Ctrl-C, a batch system's burst)
+        return time.monotonic() - _PENDING_SINCE[0] < REPEAT_WINDOW
+    if not _UPDATING:
         return False
     _PENDING.append(end)
+    _PENDING_SINCE[:] = [time.monotonic()]
     return True
 
 
@@ -410,6 +420,8 @@ _KEEPABLE: dict[Path, Keep] = {}
 _UPDATING: set[Path] = set()
 #: The handling of an interrupt that waits for them (:func:`defer_interrupt`).
 _PENDING: list[Callable[[], None]] = []
+#: When the waiting interrupt arrived (time.monotonic()).
+_PENDING_SINCE: list[float] = [0.0]
 #: An interrupt is being handled (:func:`abandon_results`): a second signal leaves it to end the run.
 _SETTLING: list[bool] = []
 #: What a waiting interrupt reports when the set it waited for was committed (:meth:`ResultDirectory.writing`).

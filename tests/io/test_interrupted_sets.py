@@ -6,7 +6,6 @@ Rank-local file operations (the real command on 2 ranks: tests/cli/test_interrup
 from __future__ import annotations
 
 import json
-import shutil
 
 from mpi4py import MPI
 
@@ -66,7 +65,10 @@ def test_the_interrupt_waits_for_the_update_and_keeps_the_complete_set(tmp_path)
     ended: list[str] = []
     with pytest.raises(Ended), out.writing() as tmp:
         _kept_then_updated(out, tmp, ended, converged=False)  # between two complete states: the interrupt waits
-        assert not defer_interrupt(_ending(ended))  # a second interrupt does not
+        assert defer_interrupt(_ending(ended))  # a repeat at once is the same interrupt (a double Ctrl-C)
+        results._PENDING_SINCE[0] -= results.REPEAT_WINDOW
+        assert not defer_interrupt(_ending(ended))  # an insistent one later ends the run at once
+        assert len(results._PENDING) == 1
         assert ended == []
         _write(tmp, "path.csv", "solve\n1\n2\n")
         out.keep_on_interrupt(tmp, _note, _rest)  # complete again: the waiting interrupt ends the run now
@@ -154,15 +156,36 @@ def test_one_rank_claims_the_set(tmp_path):
     assert sorted(p.name for p in (tmp_path / "out.interrupted").iterdir()) == ["summary.json", "view.py"]
 
 
-def test_a_killed_run_of_the_same_process_number_is_cleaned(tmp_path):
-    """In a sandbox rank 0 has the same process number in every run (6): a partial set a killed run left under this
-    process's number, and not one this process writes, is removed by the next run."""
+def test_a_set_of_this_process_number_is_left_to_its_run(tmp_path):
+    """Every sandbox numbers its processes from 1: a partial set named with this process's number that this process
+    does not write is another sandbox's live run into the same directory, never removed."""
     import os
 
-    left = tmp_path / f".out.partial-{results._owner()}-deadbeefx{os.getpid()}"
-    left.mkdir()
+    other = tmp_path / f".out.partial-{results._owner()}-deadbeef"
+    other.mkdir()
     out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
     with out.writing() as tmp:
-        assert not left.exists() and tmp.exists()
+        assert other.exists() and tmp.exists() and str(os.getpid()) in other.name
         _write(tmp, "summary.json", json.dumps({"converged": True}))
-    shutil.rmtree(tmp_path / "out")
+    assert other.exists()
+
+
+def test_a_waiting_interrupt_whose_set_cannot_be_written_says_so(tmp_path):
+    """The path's end waited for, but its set fails (a rank-0 file: disk full): the line does not claim the results
+    are in place, and the earlier set stays."""
+    from fenics_coulomb.io.results import rank0_file
+
+    @rank0_file
+    def full(path) -> None:
+        raise OSError(28, "No space left on device")
+
+    earlier = tmp_path / "out"
+    earlier.mkdir()
+    _write(earlier, "summary.json", json.dumps({"converged": True, "earlier": True}))
+    out = ResultDirectory(MPI.COMM_SELF, earlier)
+    ended: list[str] = []
+    with pytest.raises(Ended), out.writing() as tmp:
+        _kept_then_updated(out, tmp, ended, converged=True)
+        full(tmp / "path.csv")
+    assert ended == ["; the path had finished, but its results could not be written (the earlier results are kept)"]
+    assert json.loads((earlier / "summary.json").read_text())["earlier"]
