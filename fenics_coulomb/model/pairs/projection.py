@@ -295,9 +295,8 @@ def layer_thickness(comm: MPI.Comm, V: dolfinx.fem.FunctionSpace, facets: npt.ND
         else np.zeros((0, 3))
     local = 2 * np.abs(dot(centroid - surface.X.mean(axis=1), normal))
     blocks = np.concatenate(comm.allgather(surface.blocks.reshape(-1, nv)))
-    thickness = np.concatenate(comm.allgather(local))
     _, first = np.unique(np.sort(blocks, axis=1), axis=0, return_index=True)
-    return thickness[first]
+    return np.concatenate(comm.allgather(local))[first]
 
 
 def _basix_cell(msh: dolfinx.mesh.Mesh) -> basix.CellType:
