@@ -278,9 +278,10 @@ def abandon_results() -> str:
     return kept
 
 
-#: Seconds a rank that finds the temporary set already claimed by another rank of the run waits before it ends
-#: the run: the other rank's renames (:func:`_settle`) take milliseconds, and ending the run would cut them short.
-SETTLE_WAIT = 1.0
+#: Seconds at most that a rank which finds the temporary set claimed by another rank of the run waits for that rank
+#: to finish with it (:func:`_settle`: the rest written, the set moved) before it ends the run, which would cut the
+#: other rank short: milliseconds on an idle machine, longer beside other work.
+SETTLE_WAIT = 10.0
 
 
 def _settle(tmp: Path, keep: Keep | None) -> str:
@@ -288,14 +289,17 @@ def _settle(tmp: Path, keep: Keep | None) -> str:
     writes the rest of the set) complete it and move it to the first free name of NAME.interrupted,
     NAME.interrupted-2, … (no communication; no earlier set is replaced). Every rank that is interrupted settles the
     set; the first to rename it to a name of its own claims it (an atomic rename: no rank removes what another
-    keeps), the others wait :data:`SETTLE_WAIT` for it. A set whose rest cannot be written is removed, and the line
-    says so. Returns "" or "; " + what became of it."""
+    keeps), the others wait until it is done (at most :data:`SETTLE_WAIT`). A set whose rest cannot be written is
+    removed, and the line says so. Returns "" or "; " + what became of it."""
     claimed = tmp.with_name(f"{tmp.name}x{os.getpid()}")  # still .NAME.partial-HOST-PID-RAND…: clean_stale's
     try:
         os.rename(tmp, claimed)
-    except OSError:  # gone: another rank of the run claimed it (or it was never made)
-        if keep is not None:
-            time.sleep(SETTLE_WAIT)
+    except OSError:  # gone: another rank of the run claimed it (or it was never made); wait until it is done
+        # (a rank whose write failed because another rank claimed the set, too: ending the run now would cut the
+        # claiming rank short)
+        deadline = time.monotonic() + SETTLE_WAIT
+        while time.monotonic() < deadline and any(tmp.parent.glob(f"{glob.escape(tmp.name)}x*")):
+            time.sleep(0.02)
         return ""
     if keep is None:
         shutil.rmtree(claimed, ignore_errors=True)

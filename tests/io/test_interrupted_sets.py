@@ -189,3 +189,23 @@ def test_a_waiting_interrupt_whose_set_cannot_be_written_says_so(tmp_path):
         full(tmp / "path.csv")
     assert ended == ["; the path had finished, but its results could not be written (the earlier results are kept)"]
     assert json.loads((earlier / "summary.json").read_text())["earlier"]
+
+
+def test_a_rank_whose_write_fails_under_a_claim_waits_for_it(tmp_path, monkeypatch):
+    """SIGTERM to every rank, one rank kept between two solves, the other already writing the next: the first claims
+    the set, so the second's write fails — and that rank, ending the run with its error, must first wait for the
+    claiming rank to finish with the set (ending the run at once killed it mid-way: nothing kept, once in CI)."""
+    import threading
+    import time
+
+    monkeypatch.setattr(results, "SETTLE_WAIT", 10.0)
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with pytest.raises(OSError), out.writing() as tmp:
+        _write(tmp, "summary.json")
+        claimed = tmp.with_name(f"{tmp.name}x999")  # the other rank's claim
+        tmp.rename(claimed)
+        threading.Timer(0.3, lambda: claimed.rename(tmp_path / "out.interrupted")).start()  # … and its move
+        start = time.monotonic()
+        raise OSError(2, "No such file or directory")  # this rank's next write into the set
+    assert time.monotonic() - start >= 0.3
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.interrupted"]
