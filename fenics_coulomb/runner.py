@@ -312,6 +312,11 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 written: list[dict] = []  # the records of the solves written
                 about = {"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description}
 
+                def path_entry(completed: int) -> dict[str, Any]:  # summary.json's "path"
+                    return {"solves": len(solves), "steps": solves[-1].step, "completed": completed,
+                            "start_step": start_step, "start": scene.start if start_step is not None else None,
+                            "ramp_steps": getattr(args, "steps", None)}
+
                 def write_grid(solve: PathSolve, record: StepRecord, result: SolveResult) -> None:
                     out.updating(tmp)
                     step = (f"step {solve.step}" if solve.substeps == 1
@@ -320,10 +325,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                     if not record.converged:  # the path stops here: finish writes the set
                         return
                     written.append(record.as_dict())
-                    progress = {"solves": len(solves), "steps": solves[-1].step, "completed": len(written),
-                                "start_step": start_step, "start": scene.start if start_step is not None else None,
-                                "ramp_steps": getattr(args, "steps", None)}
-                    complete = results.progress(written, result, {**about, "path": progress})
+                    complete = results.progress(written, result, {**about, "path": path_entry(len(written))})
                     note = _interrupted_note(len(written), solve, solves[-1].step, start_step, scene.start)
                     out.keep_on_interrupt(tmp, note, complete)
 
@@ -333,10 +335,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                                                     last_step=solves[-1].step)
                 out.updating(tmp)  # to its end: an interrupt now waits for the commit
                 out.failed = bool(failure)
-                path = {"solves": len(solves), "steps": solves[-1].step,
-                        "completed": len(records) - bool(failure and not failure.startswith(INPUT_STOP)),
-                        "start_step": start_step, "start": scene.start if start_step is not None else None,
-                        "ramp_steps": getattr(args, "steps", None)}
+                path = path_entry(len(records) - bool(failure and not failure.startswith(INPUT_STOP)))
                 assert last is not None  # at least one solve ran
                 data = results.finish(
                     [r.as_dict() for r in records], last, label=scene.label, plots=not args.no_plots,

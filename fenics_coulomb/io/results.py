@@ -191,8 +191,8 @@ class ResultDirectory:
         """The set ``tmp`` is being written (a load path's next solve, or its end): an interrupt on this rank waits
         for :meth:`keep_on_interrupt`, or for the set's commit (then the run ends with the whole set in place); a
         second interrupt within :data:`REPEAT_WINDOW` is the same one, a later one ends the run at once, removing
-        the set. Every rank is in the same write — its collective
-        calls hold the ranks together — so the wait is that of one solve's output."""
+        the set. Every rank is in the same write — its collective calls hold the ranks together — so the wait is
+        that of one solve's output."""
         _KEEPABLE.pop(tmp, None)
         _UPDATING.add(tmp)
 
