@@ -1,8 +1,9 @@
 """The process around a command: interrupts end every rank, a failure ends quietly with its exit status.
 
-:func:`_end_on_signals` turns SIGINT/SIGTERM/SIGHUP into one line and ``MPI_Abort(128 + signal)`` (never an
-unwinding through PETSc, never a hang); :func:`exit_status` and :func:`run_command` finalize MPI on every rank
-together and end rank 0 with the status (the launcher prints nothing more)."""
+:func:`_end_on_signals` turns SIGINT/SIGTERM/SIGHUP into one line (on the terminal too when mpirun may drop it:
+:func:`_to_terminal`) and ``MPI_Abort(128 + signal)`` (never an unwinding through PETSc, never a hang);
+:func:`exit_status` and :func:`run_command` finalize MPI on every rank together and end rank 0 with the status (the
+launcher prints nothing more)."""
 
 from __future__ import annotations
 
@@ -56,6 +57,36 @@ def _finish_together(comm: MPI.Comm) -> None:
     comm.Barrier()
 
 
+def _to_terminal(line: str) -> None:
+    """Show ``line`` on the controlling terminal too when the rank runs under mpirun, which may drop it.
+
+    Ctrl-C in mpirun's terminal reaches mpirun alone (PRRTE starts each rank in a process group of its own): it
+    ends the job by sending SIGTERM to the ranks and no longer relays their output, so the line a rank writes to
+    its stderr (a pipe to mpirun) never appears, and with it where a load path's completed solves are kept. The
+    rank's session still has the terminal: the line is written to it as well, SIGTTOU ignored (a terminal set to
+    ``stty tostop`` would otherwise stop the rank, which is not in the foreground group). Nothing changes where
+    the rank has no terminal (a batch job, the tests) or its stderr is the terminal itself. The price: SIGTERM sent
+    by hand to a rank of a run in a terminal, while mpirun still relays, shows the line twice.
+    """
+    if not _LAUNCHED or os.isatty(2):
+        return
+    try:
+        signal.signal(signal.SIGTTOU, signal.SIG_IGN)
+        fd = os.open("/dev/tty", os.O_WRONLY | os.O_NOCTTY | os.O_NONBLOCK)
+    except (OSError, ValueError):  # no controlling terminal
+        return
+    try:
+        os.write(fd, (line + "\n").encode())
+    except OSError:  # a full or hung-up terminal: the line on stderr stands
+        pass
+    finally:
+        os.close(fd)
+
+
+#: Whether this process was started by an MPI launcher (mpirun's PMIx server sets PMIX_RANK, srun's too).
+_LAUNCHED = "PMIX_RANK" in os.environ or "OMPI_COMM_WORLD_SIZE" in os.environ
+
+
 def _end_on_signals(comm: MPI.Comm) -> dict[int, Any]:
     """End the run at once on SIGINT, SIGTERM and SIGHUP: one line on stderr, the partial result set removed (a load
     path's completed solves kept as NAME.interrupted, :func:`~fenics_coulomb.io.results.abandon_results`), and
@@ -69,8 +100,11 @@ def _end_on_signals(comm: MPI.Comm) -> dict[int, Any]:
         if defer_interrupt(lambda: handler(signum, frame)):  # a load path writing its next solve: until it is done
             return
         kept = abandon_results()  # a load path's completed solves: "; … kept in NAME.interrupted …"
-        print(f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all "
-              f"ranks{kept}", file=sys.stderr, flush=True)
+        line = f"fenics-coulomb: interrupted by {signal.Signals(signum).name} on rank {comm.rank}; ending all " \
+               f"ranks{kept}"
+        print(line, file=sys.stderr, flush=True)
+        if signum == signal.SIGTERM and (kept or comm.rank == 0):
+            _to_terminal(line)
         comm.Abort(EXIT_INTERRUPTED + signum)
 
     previous: dict[int, object] = {}

@@ -9,7 +9,8 @@ job with 128 + the signal on every solver path — the matrix-free operator (its
 where the interrupt used to be swallowed as a failed linear solve), GAMG, ILU and a load path — and leaves the
 earlier result set byte for byte and no partial one; a load path's completed solves are kept in OUT.interrupted,
 from which it resumes. A signal to mpirun itself is OpenMPI's to handle: PRRTE
-sends SIGTERM to the ranks (they end with 143) and exits 1 (it does not forward SIGINT/SIGTERM, by design).
+sends SIGTERM to the ranks (they end with 143) and exits 1 (it does not forward SIGINT/SIGTERM, by design); on
+Ctrl-C in mpirun's terminal the line still appears there (the ranks write it to the terminal too).
 """
 
 from __future__ import annotations
@@ -203,3 +204,59 @@ def test_an_interrupted_path_keeps_its_completed_solves(tmp_path, earlier_set):
     resumed = json.loads((tmp_path / "resumed" / "summary.json").read_text())
     assert resumed["converged"] and [s["step"] for s in resumed["steps"]] == list(range(done + 1, 7))
 
+
+
+def _on_a_terminal(args: list[str], marker: str, timeout: float = 60.0) -> tuple[str, int, int]:
+    """Run ``args`` as a user does in a terminal (a pseudo-terminal of its own session), type Ctrl-C once the output
+    shows ``marker``: (everything the terminal showed, the exit status, the session)."""
+    import pty
+    import select
+
+    pid, fd = pty.fork()
+    if pid == 0:  # the child: the session's leader, the pseudo-terminal its controlling terminal
+        os.execvpe(args[0], args, command_env(display=False))
+    shown, typed = b"", False
+    deadline = time.monotonic() + timeout
+    try:
+        while time.monotonic() < deadline:
+            if not select.select([fd], [], [], 0.5)[0]:
+                continue
+            try:
+                data = os.read(fd, 65536)
+            except OSError:  # EIO: every process holding the terminal has ended
+                break
+            if not data:
+                break
+            shown += data
+            if not typed and marker.encode() in shown:
+                os.write(fd, b"\x03")  # the terminal's line discipline: SIGINT to its foreground group, mpirun
+                typed = True
+        else:
+            os.killpg(pid, signal.SIGKILL)
+            pytest.fail(f"the run did not end within {timeout} s: {shown.decode(errors='replace')[-2000:]}")
+    finally:
+        _, status = os.waitpid(pid, 0)
+        os.close(fd)
+    assert typed, shown.decode(errors="replace")[-2000:]
+    return shown.decode(errors="replace").replace("\r\n", "\n"), os.waitstatus_to_exitcode(status), pid
+
+
+def test_ctrl_c_in_mpiruns_terminal_shows_where_the_solves_are_kept(tmp_path):
+    """Ctrl-C in the terminal of ``mpirun -n 2``, as users stop a run: it reaches mpirun alone, which sends SIGTERM
+    to the ranks and no longer relays their output. The completed solves of the path are kept, and the line that
+    says where — and how to resume — appears on the terminal (it used to be lost with mpirun's relay, exit 1
+    without a word). mpirun's own exit status (1) is OpenMPI's."""
+    out = tmp_path / "out"
+    args = ["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", "--lev", "3", "--steps", "6", "--pc", "none",
+            "--tol", "1e-12", "--out", str(out), "--no-plots"]
+    shown, status, session = _on_a_terminal(args, marker="solve 2/6")
+    assert status != 0
+    kept = tmp_path / "out.interrupted"
+    assert (kept / "summary.json").exists() and not out.exists()
+    lines = [x for x in shown.splitlines() if "fenics-coulomb: interrupted by SIGTERM" in x]  # after the echoed ^C
+    naming = [x for x in lines if f"completed solve(s) of the path are kept in {kept} (resume: --start {kept}" in x]
+    assert len(naming) == 1 and len(lines) <= 2, shown[-3000:]
+    deadline = time.monotonic() + 5.0
+    while (left := session_processes(session)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not left, left
