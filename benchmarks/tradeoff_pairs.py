@@ -11,7 +11,9 @@
 # (2-norm), from which `--accuracy EPS` maps to rtol = EPS / ERROR_PER_RTOL (8) and finite sliding's geometry
 # tolerance is ε = 8 rtol ‖u‖∞. This measures the same ratio on two-body scenes, with small sliding so that only the
 # SCD solve is measured: every scene with `--pc gamg|ilu|hypre` at rtol 1e-5 … 1e-9 against LU at rtol 1e-12, the
-# error taken over every step of a path, relative, in the 2-norm (docs/tradeoff's) and in the max-norm (ε's).
+# error taken over every step of a path, relative, in the 2-norm (docs/tradeoff's) and in the max-norm (ε's); and, at
+# the same residual rule, `--accuracy EPS` with EPS = 8 rtol, which also asks the last Newton correction to be below
+# EPS (fenics_coulomb/scd/stopping.py): its error against EPS, and what it costs in Newton and Krylov iterations.
 #
 #     container/run python3 benchmarks/tradeoff_pairs.py [--out docs/tradeoff]
 #
@@ -22,6 +24,8 @@
 from __future__ import annotations
 
 import argparse
+import csv
+import json
 import re
 import tempfile
 from pathlib import Path
@@ -30,6 +34,7 @@ import h5py
 import numpy as np
 
 from fenics_coulomb.cli import main
+from fenics_coulomb.settings import ERROR_PER_RTOL
 
 ROOT = Path(__file__).resolve().parents[1]
 PCS = ("gamg", "ilu", "hypre")
@@ -59,11 +64,21 @@ def displacements(out: Path) -> dict[str, np.ndarray]:
         return {t: group[t][:] for t in group}
 
 
-def solve(scene: Path, out: Path, pc: str, rtol: float) -> dict[str, np.ndarray]:
-    status = main(["--scene", str(scene), "--sliding", "small", "--pc", pc, "--rtol", str(rtol), "--out", str(out),
+def iterations(out: Path) -> tuple[int, int]:
+    """Newton and Krylov iterations over every solve of the run (a path's rows summed)."""
+    if (out / "path.csv").exists():
+        with open(out / "path.csv", newline="") as f:
+            rows = list(csv.DictReader(f))
+        return sum(int(r["newton_iterations"]) for r in rows), sum(int(r["krylov_iterations"]) for r in rows)
+    summary = json.loads((out / "summary.json").read_text())
+    return int(summary["newton_iterations"]), int(summary["krylov_iterations"])
+
+
+def solve(scene: Path, out: Path, pc: str, rtol: float, option: str = "--rtol") -> dict[str, np.ndarray]:
+    status = main(["--scene", str(scene), "--sliding", "small", "--pc", pc, option, str(rtol), "--out", str(out),
                    "--quiet", "--no-plots"])
     if status != 0:
-        raise SystemExit(f"{scene} --pc {pc} --rtol {rtol}: exit {status}")
+        raise SystemExit(f"{scene} --pc {pc} {option} {rtol}: exit {status}")
     return displacements(out)
 
 
@@ -78,22 +93,36 @@ if __name__ == "__main__":
             reference = solve(scene, work / f"{name}_lu", "lu", 1e-12)
             for pc in PCS:
                 for rtol in RTOLS:
-                    u = solve(scene, work / f"{name}_{pc}_{rtol:g}", pc, rtol)
                     steps = [t for t in reference if np.abs(reference[t]).max() > 0]
+                    u = solve(scene, work / f"{name}_{pc}_{rtol:g}", pc, rtol)
                     two = max(np.linalg.norm(u[t] - reference[t]) / np.linalg.norm(reference[t]) for t in steps)
                     top = max(np.abs(u[t] - reference[t]).max() / np.abs(reference[t]).max() for t in steps)
-                    rows.append((name, pc, rtol, two / rtol, top / rtol))
-                    print(f"{name} {pc} {rtol:g}: error / rtol {two / rtol:.1f} (2-norm), {top / rtol:.1f} (max)",
-                          flush=True)
-    lines = ["| scene | pc | rtol | error / rtol, 2-norm | error / rtol, max-norm |", "|---|---|---|---|---|"]
-    lines += [f"| {n} | {p} | {r:g} | {a:.1f} | {b:.1f} |" for n, p, r, a, b in rows]
+                    # the same residual rule with --accuracy EPS = ERROR_PER_RTOL·rtol: also the Newton correction
+                    eps = ERROR_PER_RTOL * rtol
+                    v = solve(scene, work / f"{name}_{pc}_{rtol:g}_accuracy", pc, eps, "--accuracy")
+                    met = max(np.linalg.norm(v[t] - reference[t]) / np.linalg.norm(reference[t]) for t in steps)
+                    counts = (*iterations(work / f"{name}_{pc}_{rtol:g}"),
+                              *iterations(work / f"{name}_{pc}_{rtol:g}_accuracy"))
+                    rows.append((name, pc, rtol, two / rtol, top / rtol, two / eps, met / eps, *counts))
+                    print(f"{name} {pc} {rtol:g}: error / rtol {two / rtol:.1f} (2-norm), {top / rtol:.1f} (max); "
+                          f"--accuracy {eps:g}: error / EPS {met / eps:.3f} (rtol alone {two / eps:.2f}), "
+                          f"Newton / Krylov {counts[0]} / {counts[1]} -> {counts[2]} / {counts[3]}", flush=True)
+    lines = ["| scene | pc | rtol | error / rtol, 2-norm | error / rtol, max-norm | EPS = 8 rtol: error / EPS, "
+             "rtol alone → --accuracy EPS | Newton / Krylov, rtol alone → --accuracy EPS |",
+             "|---|---|---|---|---|---|---|"]
+    lines += [f"| {n} | {p} | {r:g} | {a:.1f} | {b:.1f} | {c:.2f} → {d:.3f} | {e} / {f} → {g} / {h} |"
+              for n, p, r, a, b, c, d, e, f, g, h in rows]
     lines += ["", "| scene | largest 2-norm ratio (rtol ≤ 1e-6) | largest max-norm ratio (rtol ≤ 1e-6) "
-              "| at rtol 1e-5 (2, max) |", "|---|---|---|---|"]
+              "| at rtol 1e-5 (2, max) | largest error / EPS, rtol = EPS/8 alone → --accuracy EPS | Newton, "
+              "Krylov: --accuracy / rtol alone |", "|---|---|---|---|---|---|"]
     for name in dict.fromkeys(r[0] for r in rows):
         mine = [r for r in rows if r[0] == name]
         tight = [r for r in mine if r[2] <= 1e-6]
         loose = [r for r in mine if r[2] > 1e-6]
         lines.append(f"| {name} | {max(r[3] for r in tight):.1f} | {max(r[4] for r in tight):.1f} | "
-                     f"{max(r[3] for r in loose):.1f}, {max(r[4] for r in loose):.1f} |")
+                     f"{max(r[3] for r in loose):.1f}, {max(r[4] for r in loose):.1f} | "
+                     f"{max(r[5] for r in mine):.2f} → {max(r[6] for r in mine):.3f} | "
+                     f"{sum(r[9] for r in mine) / max(sum(r[7] for r in mine), 1):.2f}, "
+                     f"{sum(r[10] for r in mine) / max(sum(r[8] for r in mine), 1):.2f} |")
     Path(args.out).mkdir(parents=True, exist_ok=True)
     (Path(args.out) / "pairs-table.md").write_text("\n".join(lines) + "\n")

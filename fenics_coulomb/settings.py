@@ -63,8 +63,10 @@ def rtol_and_accuracy(rtol: float, accuracy: float) -> str:
 
 
 def rtol_for_accuracy(accuracy: float) -> float:
-    """The residual reduction that gives a relative displacement error <= ``accuracy`` (the solver's error,
-    not the discretization's), from the measured speed–accuracy table docs/tradeoff."""
+    """The residual reduction of a solve asked for a relative displacement error <= ``accuracy`` (the solver's
+    error, not the discretization's): enough for the paper's cuboid in the measured speed–accuracy table
+    docs/tradeoff; a pair's residual may leave more (docs/tradeoff/pairs.md), which the Newton correction then
+    checks (:mod:`fenics_coulomb.scd.stopping`)."""
     return max(accuracy / ERROR_PER_RTOL, 1e-15)
 
 
@@ -132,8 +134,9 @@ class SolverSettings:
             the paper's start) on the cuboid at lev 8 and 10, where that asked for 5e-7 and 1e-6 relative to
             ‖ŷ(ũ = 0)‖, and is stricter than it at every coarser level and far below the discretization error
             (docs/tradeoff).
-        accuracy: A relative displacement error to reach instead of ``rtol`` (mapped by
-            :func:`rtol_for_accuracy`); None uses ``rtol``.
+        accuracy: A relative displacement error (2-norm, the solver's error) to reach instead of ``rtol``: the
+            residual rule at :func:`rtol_for_accuracy`, and the last Newton correction — the error of the iterate
+            it corrects — at most ``accuracy``·‖u‖ (:mod:`fenics_coulomb.scd.stopping`); None uses ``rtol``.
         max_it: Newton iterations before giving up.
         pc: Preconditioner: auto (ilu below :data:`~fenics_coulomb.scd.preconditioner.AUTO_GAMG_UNKNOWNS`
             unknowns, gamg from there on), ilu (block-Jacobi/ILU(0) in parallel, the paper's), gamg (aggregation

@@ -26,7 +26,6 @@ import logging
 import math
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 
 from mpi4py import MPI
 
@@ -45,7 +44,7 @@ from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 from fenics_coulomb.scd.node_gamma import node_gamma
 from fenics_coulomb.scd.power_method import power_iteration
 from fenics_coulomb.scd.preconditioner import auto_ladder, check_option_value, resolve_pc
-from fenics_coulomb.scd.records import IterationRecord, SolveResult, global_state_counts
+from fenics_coulomb.scd.records import Direction, Iterate, IterationRecord, SolveResult, global_state_counts
 from fenics_coulomb.scd.resolvent import classify, contact_states, resolvent
 from fenics_coulomb.scd.steps import STEPS
 from fenics_coulomb.scd.stopping import StoppingRule
@@ -68,29 +67,6 @@ def line_search_steps(count: int) -> Iterator[float]:
     head = (1.0, 0.5, 0.25, 0.125, 1.0 / 32.0, 1.0 / 128.0)
     for i in range(count):
         yield head[i] if i < len(head) else (1.0 / 128.0) * 0.1 ** (i - len(head) + 1)
-
-
-@dataclass
-class Iterate:
-    """An iterate u with its residual r = A u − l and its approximation step (e = u − d̂, v = d̂ and z on the
-    contact nodes, ‖ŷ‖)."""
-
-    u: Array
-    r: Array
-    e: Array
-    v: Array
-    z: Array
-    residual: float
-
-
-@dataclass
-class Direction:
-    """A Newton direction Δu with the Krylov iterations, forcing term and linear residual of its solve."""
-
-    du: Array
-    krylov_iterations: int
-    forcing: float
-    linear_residual: float
 
 
 class SCDNewtonSolver(NewtonLinearSolves):
@@ -354,8 +330,10 @@ class SCDNewtonSolver(NewtonLinearSolves):
         load = self.norm(self.model.load.getArray(readonly=True))
         zero = self.undeformed()
         rtol = self.settings.reduction if reduction is None else float(reduction)
-        return StoppingRule.create(rtol, self.settings.max_it, first.residual, zero.residual,
-                                   self.norm(shift), self.norm(first.u - shift), load, self.gamma)
+        final = reduction is None or rtol <= self.settings.reduction  # not a loose intermediate solve
+        return StoppingRule.create(rtol, self.settings.max_it, first.residual, zero.residual, self.norm(shift),
+                                   self.norm(first.u - shift), load, self.gamma,
+                                   self.settings.accuracy if final else None)
 
     def zero_if_converged(self, it: Iterate, rule: StoppingRule) -> Iterate:
         """ũ = 0 (u = d, residual −l̃) instead of ``it`` when the rule holds there: for a zero or tiny load ũ = 0
@@ -381,9 +359,9 @@ class SCDNewtonSolver(NewtonLinearSolves):
         t_start = time.perf_counter()
         self._steps = 0
         self._limited = 0
-        it = self.start(initial_displacement)
-        rule = self.stopping_rule(it, reduction)
-        it = self.zero_if_converged(it, rule)
+        first = self.start(initial_displacement)
+        rule = self.stopping_rule(first, reduction)
+        it = self.zero_if_converged(first, rule)
         history = [it.residual]
         records: list[IterationRecord] = []
         eta = self.tol
@@ -395,17 +373,28 @@ class SCDNewtonSolver(NewtonLinearSolves):
                         it.residual, rule.threshold, rule.rtol,
                         rule.threshold / it.residual if it.residual > 0 else 0.0)
         try:
-            while not rule.satisfied(it.residual):
-                rule.check(len(records), it.residual)
+            correction = 0.0 if it is not first else None  # ũ = 0 for a load below round-off: exact
+            while not rule.converged(it.residual, correction):
+                rule.check(len(records), it.residual, correction)
                 eta = self.forcing(history, eta, rule)
                 direction = self.newton_direction(it, eta)
                 alpha, it = self.line_search(it, direction, len(records))
+                if rule.accuracy is not None:
+                    correction = self.correction(it, direction.du) if alpha == 1.0 else math.inf
                 history.append(it.residual)
                 records.append(self.record(len(records) + 1, it, alpha, direction, rule))
         except SolverError as err:
             err.result = self.result(it, history, records, False, err.reason, t_start, rule=rule)
             raise
         return self.result(it, history, records, True, "converged", t_start, rule=rule)
+
+    def correction(self, it: Iterate, du: Array) -> float:
+        """‖M Δz‖ / ‖M z‖ of the Newton correction ``du`` that led to ``it``: its relative size in the physical
+        displacement (collective)."""
+        step = self.model.physical(du)
+        u = self.model.physical(it.u - self.model.shift.getArray(readonly=True))
+        size = self.comm.allreduce(np.array([float(np.dot(step, step)), float(np.dot(u, u))]), op=MPI.SUM)
+        return math.sqrt(size[0] / size[1]) if size[1] > 0.0 else (0.0 if size[0] == 0.0 else math.inf)
 
     def record(self, k: int, it: Iterate, alpha: float, direction: Direction, rule: StoppingRule) -> IterationRecord:
         """The record of iteration k (logged on rank 0)."""

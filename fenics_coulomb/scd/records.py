@@ -1,4 +1,5 @@
-"""What a solve reports: one record per Newton iteration and the result of the whole solve."""
+"""What a solve holds and reports: its iterates and Newton directions, one record per Newton iteration and the result
+of the whole solve."""
 
 from __future__ import annotations
 
@@ -12,9 +13,33 @@ import numpy.typing as npt
 
 from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK
 
-__all__ = ["IterationRecord", "global_state_counts", "SolveResult"]
+__all__ = ["Iterate", "Direction", "IterationRecord", "global_state_counts", "SolveResult"]
 
 Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class Iterate:
+    """An iterate u with its residual r = A u − l and its approximation step (e = u − d̂, v = d̂ and z on the
+    contact nodes, ‖ŷ‖)."""
+
+    u: Array
+    r: Array
+    e: Array
+    v: Array
+    z: Array
+    residual: float
+
+
+@dataclass
+class Direction:
+    """A Newton direction Δu with the Krylov iterations, forcing term and linear residual of its solve."""
+
+    du: Array
+    krylov_iterations: int
+    forcing: float
+    linear_residual: float
+
 
 
 @dataclass

@@ -19,6 +19,18 @@ exactly at d̂ with the forces z), and A u − l + z = Γ e (r + z = γᵢ eᵢ 
 So ‖ŷ‖² = ‖Γ e‖² + ‖e‖² ≤ rtol²‖ŷ(ũ = 0)‖² bounds at once the force balance of (u, z) and the distance
 of u from a displacement d̂ at which the contact conditions hold exactly. Without overlap and with every node
 open at ũ = 0, ‖ŷ(ũ = 0)‖ = ‖(l̃, Γ⁻¹l̃)‖ ≈ ‖l̃‖ √(1 + 1/γ²): the relative force balance is then about rtol.
+
+**A displacement accuracy** (``SolverSettings.accuracy`` = EPS) is not a residual: how far a residual leaves u from
+the solution depends on where the residual lies (in the soft modes of a stiffness contrast, or as left by ILU or
+hypre, one residual means five times the error of another: docs/tradeoff/pairs.md). Once the residual rule holds
+(at rtol = EPS/ERROR_PER_RTOL), the iteration also asks that the last Newton correction Δu — a full step, in the
+physical displacement u = M z — be at most EPS·‖u‖ (2-norms). Near the solution, with its contact states found, the
+semismooth Newton model is the problem itself (piecewise linear), so the correction at an iterate is its error: on
+the two-body demo at rtol 1e-6 the correction solved to η = 0.1 estimated the error to 4 % with hypre, ILU and GAMG
+(1.83e-5 against 1.905e-5, 1.07e-5 against 1.12e-5, 2.50e-6 against 2.49e-6), whereas the error per rtol ranged from
+2.5 to 19. The step then taken leaves an error of about η times that: the answer's error is below EPS with room.
+So a start that meets the residual rule takes a step too (its correction is the check), unless it is ũ = 0 for a
+load below round-off, the exact solution.
 """
 
 from __future__ import annotations
@@ -46,6 +58,8 @@ class StoppingRule:
         initial: ‖ŷ⁽⁰⁾‖ of the start (for the reported ratios |y|/|y0|).
         target: rtol·‖ŷ(ũ = 0)‖.
         floor: The round-off level of ‖ŷ‖.
+        accuracy: The relative displacement error asked for besides the residual (None: the residual alone), bounded
+            by the last Newton correction (see the module docstring).
     """
 
     rtol: float
@@ -53,10 +67,11 @@ class StoppingRule:
     initial: float
     target: float
     floor: float
+    accuracy: float | None = None
 
     @classmethod
     def create(cls, rtol: float, max_it: int, initial: float, scale: float, shift_norm: float, start_norm: float,
-               load_norm: float, gamma: float) -> StoppingRule:
+               load_norm: float, gamma: float, accuracy: float | None = None) -> StoppingRule:
         """The rule for a solve.
 
         Args:
@@ -68,11 +83,12 @@ class StoppingRule:
             start_norm: √(1+γ²)·‖ũ⁽⁰⁾‖ of the start.
             load_norm: √(1+γ²)·‖l̃‖.
             gamma: γ of the approximation step.
+            accuracy: The relative displacement error asked for besides the residual (None: the residual alone).
         """
         # Round-off floor of ‖ŷ‖ = √(1+γ²)‖u − d̂‖, from the problem's displacement scales and never from the
         # start iterate alone: the gaps d, the start ũ⁽⁰⁾ and the load's scale ‖l̃‖/γ.
         floor = float(ROUNDOFF_FACTOR * np.finfo(np.float64).eps * (shift_norm + start_norm + load_norm / gamma))
-        return cls(rtol, max_it, initial, rtol * scale, floor)
+        return cls(rtol, max_it, initial, rtol * scale, floor, accuracy)
 
     @property
     def threshold(self) -> float:
@@ -83,11 +99,26 @@ class StoppingRule:
         """Whether ‖ŷ‖ = ``residual`` ends the iteration successfully."""
         return residual <= self.threshold
 
-    def check(self, iteration: int, residual: float) -> None:
+    def converged(self, residual: float, correction: float | None) -> bool:
+        """Whether the iteration ends successfully at ‖ŷ‖ = ``residual`` after a last Newton correction of relative
+        size ``correction`` (:data:`math.inf` for a damped step; None before the first step)."""
+        if residual <= self.floor:
+            return True
+        if residual > self.target:
+            return False
+        return self.accuracy is None or (correction is not None and correction <= self.accuracy)
+
+    def check(self, iteration: int, residual: float, correction: float | None = None) -> None:
         """Raise SolverError when the iteration must stop without success."""
         if not math.isfinite(residual):
             what = "the initial residual is" if iteration == 0 else f"the residual in iteration {iteration} is"
             raise SolverError(f"{what} not finite ({residual})", "non_finite")
+        if iteration >= self.max_it and self.satisfied(residual):
+            size = math.inf if correction is None else correction
+            raise SolverError(
+                f"no convergence after {iteration} Newton iterations: the last Newton correction, {size:.3e} of |u|, "
+                f"exceeds the accuracy {self.accuracy:g} asked (|y| = {residual:.3e} meets the target "
+                f"{self.threshold:.3e})", "max_iterations")
         if iteration >= self.max_it:
             raise SolverError(
                 f"no convergence after {iteration} Newton iterations: |y| = {residual:.3e} > the target "

@@ -3,6 +3,8 @@ round-off floor; the same solution from the paper's start and from the undeforme
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from conftest import gather_by_coordinates
@@ -38,6 +40,21 @@ def test_iteration_limit_and_non_finite_residual_raise():
         rule.check(3, 0.5)
     with pytest.raises(SolverError):
         rule.check(0, float("nan"))
+
+
+@pytest.mark.serial  # rank-local (docs/testing.md)
+def test_an_accuracy_asks_for_a_small_full_newton_correction_too():
+    rule = StoppingRule.create(1e-8, 10, initial=1.0, scale=1.0, shift_norm=1.0, start_norm=0.0, load_norm=1.0,
+                               gamma=1.0, accuracy=1e-6)
+    assert not rule.converged(2e-8, 1e-9)  # the residual first
+    assert not rule.converged(5e-9, None)  # a start meeting the residual: a correction checks it
+    assert not rule.converged(5e-9, 2e-6) and not rule.converged(5e-9, np.inf)  # too large; a damped step
+    assert rule.converged(5e-9, 1e-6) and rule.converged(0.5 * rule.floor, None)  # ... or round-off
+    plain = StoppingRule.create(1e-8, 10, initial=1.0, scale=1.0, shift_norm=1.0, start_norm=0.0, load_norm=1.0,
+                                gamma=1.0)
+    assert plain.converged(5e-9, None) and plain.converged(5e-9, 1.0)  # without an accuracy: the residual alone
+    with pytest.raises(SolverError, match=re.escape("correction, 2.000e-06 of |u|, exceeds the accuracy 1e-06")):
+        rule.check(10, 5e-9, 2e-6)
 
 
 @pytest.mark.parametrize("case", [("d3", "L2", 4), ("d1", "L1", 3)])
