@@ -28,7 +28,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, _points
 
 __all__ = ["find_overlap", "check_not_overlapping", "check_solid_side", "motion_placements", "core_path",
-           "rotation_text", "obstacle_depths"]
+           "rotation_text", "obstacle_depths", "same_point"]
 
 Array = npt.NDArray[np.float64]
 
@@ -102,6 +102,13 @@ def _axis_angle(R: Array) -> tuple[Array, float]:
     return w / np.linalg.norm(w), angle
 
 
+def same_point(a: Any, b: Any) -> bool:
+    """Whether two points (a rotation's centres) are one up to the round-off of their coordinates: within 1e-12 of
+    the larger's distance from the origin (a length: no absolute tolerance, which would depend on the unit)."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    return bool(np.linalg.norm(a - b) <= 1e-12 * max(float(np.linalg.norm(a)), float(np.linalg.norm(b))))
+
+
 def motion_placements(before: Obstacle, after: Obstacle) -> tuple[Any, float, Array, Array, Array]:
     """The rigid motion from ``before``'s placement to ``after``'s as a path y ↦ R(t)(y − p) + p + e(t), t in
     [0, 1]: (placements(t) → (R (n, 3, 3), c (n, 3)) with c = p − R p + e, the angle turned (radians), the pivot
@@ -111,8 +118,7 @@ def motion_placements(before: Obstacle, after: Obstacle) -> tuple[Any, float, Ar
     rb, ra = getattr(before, "rotation", None), getattr(after, "rotation", None)
     d0 = np.asarray(before.displacement, dtype=np.float64)
     d1 = np.asarray(after.displacement, dtype=np.float64)
-    same = rb is None or ra is None or (np.allclose(rb[1], ra[1], rtol=0.0, atol=1e-12)
-                                        and np.allclose(rb[2], ra[2], rtol=1e-12, atol=1e-300))
+    same = rb is None or ra is None or (np.allclose(rb[1], ra[1], rtol=0.0, atol=1e-12) and same_point(rb[2], ra[2]))
     if same:
         given = ra if ra is not None else rb
         axis = np.asarray(given[1] if given else (0.0, 0.0, 1.0), dtype=np.float64)

@@ -137,15 +137,22 @@ def rigid_approach(model: ContactModel, motions: FreeMotions, start: Array | Non
         return None
     from scipy.optimize import linprog  # scipy only where used (fenics_coulomb/__init__.py)
 
-    reduced, limits = rows @ basis, -(basis.T @ work)
+    # in the body's units: the motion y = length·ŷ (the rows are dimensionless: modes of the normalized coordinates),
+    # the work per unit motion over its largest component; HiGHS's tolerances are absolute (1e-7): a body of extent
+    # 1e-3 in metres otherwise met them with every gap and got no approach
+    length = float(motions.extent[0])
+    reduced, limits, room = rows @ basis, -(basis.T @ work), gaps / length
+    if not np.abs(limits).max() > 0.0:  # the loads do no work along the motions that approach an obstacle
+        return None
+    limits = limits / float(np.abs(limits).max())
     free = [(None, None)] * basis.shape[1]
-    program = linprog(limits, A_ub=-reduced, b_ub=gaps, bounds=free, method="highs")
+    program = linprog(limits, A_ub=-reduced, b_ub=room, bounds=free, method="highs")
     if program.status != 0:
         return None
     # the smallest |y|₁ among the optima (y = p − q, p, q ≥ 0, the work at least the optimum's); the first program's
     # vertex where the second finds none
     k = basis.shape[1]
     smallest = linprog(np.ones(2 * k), A_ub=np.vstack([np.hstack([-reduced, reduced]), np.hstack([limits, -limits])]),
-                       b_ub=np.concatenate([gaps, [float(program.fun)]]), bounds=[(0, None)] * (2 * k), method="highs")
-    y = smallest.x[:k] - smallest.x[k:] if smallest.status == 0 else program.x
+                       b_ub=np.concatenate([room, [float(program.fun)]]), bounds=[(0, None)] * (2 * k), method="highs")
+    y = length * (smallest.x[:k] - smallest.x[k:] if smallest.status == 0 else program.x)
     return np.ascontiguousarray(np.einsum("nik,k->ni", modes, basis @ y).ravel())

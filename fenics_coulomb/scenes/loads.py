@@ -25,6 +25,7 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.model.obstacle_checks import same_point
 from fenics_coulomb.model.obstacles import _rotation
 from fenics_coulomb.scenes.scene import FREE, MAX_LOAD, PathStep, Scene
 
@@ -107,7 +108,7 @@ def blend_rotation(a: Any, b: Any, w: float) -> Any:
         return b
     if w == 0.0:
         return a
-    if not (np.allclose(a[1], b[1], rtol=0, atol=1e-12) and np.allclose(a[2], b[2], rtol=0, atol=1e-12)):
+    if not (np.allclose(a[1], b[1], rtol=0, atol=1e-12) and same_point(a[2], b[2])):
         raise InputError(f"substeps between rotations about different axes or centres ({a} and {b}): give the "
                          "step one substep, or rotate about one axis and centre")
     return (_blend(a[0], b[0], w), b[1], b[2])

@@ -211,3 +211,91 @@ def test_a_path_that_unloads_and_presses_again(mpi_tmp_path):
     MPI.COMM_WORLD.barrier()
     data = json.loads((out / "summary.json").read_text())
     assert abs(data["contact_force"][2] - 0.2) <= 1e-7 and data["contact_nodes"] == 45
+
+
+BOX = """
+[body]
+shape = "mesh"
+mesh = "{mesh}"
+clamped = []
+contact = ["bottom"]
+[boundaries]
+left = 1
+right = 2
+bottom = 3
+top = 4
+sides = 5
+[material]
+young = 70.0
+poisson = 0.0
+[friction]
+coefficient = 0.2
+[tractions]
+top = [0.0, 0.0, -0.05]
+[roller]
+top = [0]
+sides = [1]
+[[obstacle]]
+name = "log"
+type = "cylinder"
+point = [{px}, {py}, {pz}]
+axis = [0.0, 1.0, 0.0]
+radius = {radius}
+"""
+
+
+def box_scene(tmp: Path, s: float) -> Path:
+    """The tilt case of :func:`test_a_tilt_left_free_over_a_cylinder` with every length times ``s``: a structured
+    hexahedral box [0, 2s] × [0, s] × [0, s] (gmsh, the same mesh at any s) over the cylinder."""
+    path, mesh = tmp / f"box_{s:g}.toml", tmp / f"box_{s:g}.msh"
+    if MPI.COMM_WORLD.rank == 0:
+        import gmsh
+
+        gmsh.initialize()
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("box")
+        gmsh.model.occ.addBox(0, 0, 0, 2 * s, s, s)
+        gmsh.model.occ.synchronize()
+        groups: dict[int, list[int]] = {k: [] for k in range(1, 6)}
+        for _, tag in gmsh.model.getEntities(2):
+            x, _, z = (c / s for c in gmsh.model.occ.getCenterOfMass(2, tag))
+            groups[1 if x < 1e-6 else 2 if x > 2 - 1e-6 else 3 if z < 1e-6 else 4 if z > 1 - 1e-6 else 5].append(tag)
+        for k, tags in groups.items():
+            gmsh.model.addPhysicalGroup(2, tags, k)
+        gmsh.model.addPhysicalGroup(3, [1], 1)
+        for _, tag in gmsh.model.getEntities(1):
+            ends = gmsh.model.getBoundary([(1, tag)], oriented=False)
+            along = np.abs(np.subtract(*(gmsh.model.getValue(0, e[1], []) for e in ends)))
+            gmsh.model.mesh.setTransfiniteCurve(tag, (12, 6, 6)[int(np.argmax(along))] + 1)
+        for _, tag in gmsh.model.getEntities(2):
+            gmsh.model.mesh.setTransfiniteSurface(tag)
+            gmsh.model.mesh.setRecombine(2, tag)
+        gmsh.model.mesh.setTransfiniteVolume(1)
+        gmsh.model.mesh.setRecombine(3, 1)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(str(mesh))
+        gmsh.finalize()
+        path.write_text(BOX.format(mesh=mesh, px=0.7 * s, py=0.5 * s, pz=-0.501 * s, radius=0.5 * s))
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def test_the_approach_does_not_depend_on_the_length_unit(mpi_tmp_path):
+    """The tilt over the cylinder with every length times 1e-3 (a body of millimetres in metres) is the same solve:
+    the linear programs of the approach ran in raw units against HiGHS's absolute tolerances (1e-7), so the body got
+    no approach (exit 3 after 23 Newton steps, no contact node ever closed); now u/s and the force/s² equal the
+    unscaled ones, in the same Newton steps."""
+    answers = []
+    for s in (1.0, 1e-3):
+        with build_problem(Scene.from_toml(box_scene(mpi_tmp_path, s)), MPI.COMM_WORLD).problem as problem:
+            u, result = problem.solve()
+            assert problem.last_start == "approach" and result.converged
+            force = MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM)
+            owned = u.function_space.dofmap.index_map.size_local
+            x = np.concatenate(MPI.COMM_WORLD.allgather(u.function_space.tabulate_dof_coordinates()[:owned])) / s
+            values = np.concatenate(MPI.COMM_WORLD.allgather(u.x.array[:3 * owned].reshape(-1, 3)))
+            answers.append((result.iterations, force / s**2, values[np.lexsort(np.round(x, 9).T)] / s))
+    (n1, f1, u1), (n2, f2, u2) = answers
+    assert n1 == n2
+    assert np.linalg.norm(f2 - f1) <= 1e-8 * np.linalg.norm(f1)
+    assert np.abs(u2 - u1).max() <= 1e-8 * np.abs(u1).max()

@@ -183,3 +183,19 @@ def test_static_scene_builds_the_same_load(mpi_tmp_path):
         assert set(built.loads.tractions) == {"top", "right"}
         assert isinstance(built.loads, StepLoads)
         assert np.array_equal(built.loads.tractions["right"].value, [-0.17, -0.1, 0.0])
+
+
+@pytest.mark.serial  # rank-local (docs/testing.md)
+@pytest.mark.parametrize("s", [1e-6, 1.0, 1e3, 1e6])
+def test_substeps_of_a_rotation_about_one_centre_in_any_length_unit(s):
+    """A rotation's centres are one up to their coordinates' round-off, in whatever length unit: a ball rolled about
+    (0.9, 0.5, 1.5)·s, written once as 0.9000000000000036·s, blends at s = 1e3 (the absolute 1e-12 refused it, exit
+    2) — and centres that differ by 1e-9 of their size are two at s = 1e-6 (the same tolerance merged them)."""
+    from fenics_coulomb.scenes.loads import blend_rotation
+
+    axis = (0.0, 1.0, 0.0)
+    a = (10.0, axis, (0.9 * s, 0.5 * s, 1.5 * s))
+    b = (20.0, axis, (0.9000000000000036 * s, 0.5 * s, 1.5 * s))
+    assert blend_rotation(a, b, 0.5) == (15.0, axis, b[2])
+    with pytest.raises(InputError, match="different axes or centres"):
+        blend_rotation(a, (20.0, axis, (0.9 * s * (1 + 1e-9), 0.5 * s, 1.5 * s)), 0.5)
