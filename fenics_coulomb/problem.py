@@ -383,16 +383,15 @@ class ContactProblem(SlidingSolve):
     def solve(self, u0: dolfinx.fem.Function | None = None) -> tuple[dolfinx.fem.Function, SolveResult]:
         """Solve the next step of the load path from ``u0`` (default: the paper's u⁽⁰⁾ = 0 of the shifted
         unknown at the first step, the previous step's solution after it); a converged step becomes the
-        history of the next one (see the module docstring).
-
-        The load l̃ is assembled from the current values of the coefficients of L and of the Dirichlet
-        conditions, the obstacles are placed at their current displacements (:meth:`move`).
+        history of the next one (see the module docstring). The load l̃ is assembled from the current values of
+        the coefficients of L and of the Dirichlet conditions, the obstacles are placed at their current
+        displacements (:meth:`move`); the bilinear form and the friction are those of the construction (a
+        changed value is an InputError).
 
         The stopping target does not depend on the start (:mod:`fenics_coulomb.scd.stopping`): every start, a
-        coarser level's solution interpolated included, is asked for the same solution.
-
-        With the ``predictor`` setting (or no contact node and ``no_contact_shortcut``) the linear problem is
-        solved first; if it does not reach the obstacle it is the solution (one linear solve).
+        coarser level's solution interpolated included, is asked for the same solution. With the ``predictor``
+        setting (or no contact node and ``no_contact_shortcut``) the linear problem is solved first; if it does
+        not reach the obstacle it is the solution (one linear solve).
 
         Returns:
             The physical displacement (a Function on the problem's space, owned by the problem: copy it to
@@ -421,16 +420,17 @@ class ContactProblem(SlidingSolve):
         check_all(model.comm, finite, "solve: the load is not finite: a NaN or infinite body force, traction, "
                   "prescribed displacement or other coefficient of L or of the boundary conditions")
         check_all(model.comm, bool(np.all(np.isfinite(start))), "solve: the start u0 is not finite (NaN or inf)")
-        if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
-            result = solver.solve_linear()
-            if model.p == 0:
-                self._log("no contact boundary: one linear solve")
-                return result
-            if result.converged and solver.is_separated(result):
-                self._log("the linear solution does not reach the obstacle: it is the solution")
-                return result
-            self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
         try:
+            if (model.p == 0 and settings.no_contact_shortcut) or settings.predictor:
+                result = solver.solve_linear()
+                if model.p == 0 and not result.converged:  # no SCD solve after it
+                    raise SolverError(f"no contact boundary: the linear solve failed ({result.reason})", result.reason,
+                                      result)
+                if model.p == 0 or (result.converged and solver.is_separated(result)):
+                    self._log("no contact boundary: one linear solve" if model.p == 0 else
+                              "the linear solution does not reach the obstacle: it is the solution")
+                    return result
+                self._log("the linear solution penetrates the obstacle: SCD semismooth* Newton")
             return solver.solve(start, reduction)
         except SolverError as err:
             if err.result is not None:

@@ -11,6 +11,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+import numpy as np
+
 from fenics_coulomb.errors import InputError
 
 __all__ = ["COMMAND_PREFIX", "PRECONDITIONERS", "VARIANTS", "START_RULES", "ERROR_PER_RTOL", "INTEGER_BOUNDS",
@@ -201,6 +203,10 @@ class SolverSettings:
                                            text="must lie in (-1, 0.5)")
 
     def __post_init__(self) -> None:
+        for f in fields(self):  # NumPy scalars as the Python values they stand for (np.int64(5) is an integer)
+            value = getattr(self, f.name)
+            if isinstance(value, np.generic):
+                object.__setattr__(self, f.name, value.item())
         self.validate()
 
     @property

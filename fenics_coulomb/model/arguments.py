@@ -12,9 +12,10 @@ import dolfinx.mesh
 import numpy as np
 import ufl
 
-from fenics_coulomb.errors import InputError
+from fenics_coulomb.errors import InputError, check_all
 
-__all__ = ["SLIDING", "check_sliding", "validate_friction", "validate_arguments", "function_space", "as_list"]
+__all__ = ["SLIDING", "check_sliding", "validate_friction", "validate_arguments", "function_space", "as_list",
+           "stiffness_rows", "integrates_every_cell"]
 
 #: The sliding models: "finite" evaluates the contact geometry in the deformed configuration X + u
 #: (:meth:`ContactModel.configure`), "small" once in the reference configuration X.
@@ -69,14 +70,16 @@ def validate_arguments(V: dolfinx.fem.FunctionSpace, L: ufl.Form | None, bcs: Se
         test = L.arguments()[0].ufl_function_space()
         if not _same_mesh(getattr(test, "mesh", None), msh):
             raise InputError("L: its test function lives on another mesh than the bilinear form's")
+        if test is not V:
+            raise InputError("L: its test function must be on the bilinear form's function space (the one of the "
+                             "displacement)")
     for i, bc in enumerate(bcs):
         if not isinstance(bc, dolfinx.fem.DirichletBC):
             raise InputError(f"bcs[{i}]: {type(bc).__name__} is not a dolfinx.fem.DirichletBC")
         space = bc.function_space
-        if not _same_mesh(space.mesh, msh) or space.dofmap.index_map_bs != V.dofmap.index_map_bs or \
-                space.dofmap.index_map.size_global != V.dofmap.index_map.size_global:
+        if not _same_mesh(space.mesh, msh) or not V._cpp_object.contains(_cpp(space)):  # a twin space: other DOFs
             raise InputError(f"bcs[{i}]: a boundary condition of another function space (give it V or V.sub(i) of "
-                             "the bilinear form's space, not a collapsed or foreign space)")
+                             "the bilinear form's space, not a collapsed, foreign or second space built alike)")
     if contact is not None:
         if not (isinstance(contact, tuple | list) and len(contact) == 2):
             raise InputError(f"contact = {type(contact).__name__}: give (facet_tags, markers)")
@@ -98,12 +101,14 @@ def validate_arguments(V: dolfinx.fem.FunctionSpace, L: ufl.Form | None, bcs: Se
                                                          _cpp(tags.topology) is not _cpp(msh.topology)):
             raise InputError(f"contact_pairs[{i}]: its facet tags belong to another mesh than the bilinear form's "
                              f"(or are not facet tags: dimension {tags.dim})")
-    if isinstance(friction, dolfinx.fem.Function):
-        if not _same_mesh(friction.function_space.mesh, msh):
-            raise InputError("friction: the friction Function lives on another mesh than the bilinear form's")
-        if friction.function_space.dofmap.index_map_bs * friction.function_space.dofmap.bs != 1 and \
-                friction.ufl_shape != ():
-            raise InputError("friction: the friction Function must be scalar")
+    if isinstance(friction, dolfinx.fem.Constant):
+        raise InputError("friction: a dolfinx Constant: give a number (or a scalar Function for a field)")
+    if not isinstance(friction, dolfinx.fem.Function):
+        validate_friction(friction)  # type: ignore[arg-type]
+    elif not _same_mesh(friction.function_space.mesh, msh):
+        raise InputError("friction: the friction Function lives on another mesh than the bilinear form's")
+    elif friction.ufl_shape != ():
+        raise InputError(f"friction: the friction Function must be scalar (its shape is {friction.ufl_shape})")
 
 
 def function_space(a: ufl.Form) -> dolfinx.fem.FunctionSpace:
@@ -119,4 +124,51 @@ def function_space(a: ufl.Form) -> dolfinx.fem.FunctionSpace:
         raise InputError(f"the contact solver needs a 3D vector P1/Q1 space (block size 3, one node per vertex); "
                          f"got block size {V.dofmap.index_map_bs} with {V.dofmap.dof_layout.num_dofs} nodes "
                          f"per {topology.cell_type.name}")
+    element = V.ufl_element()
+    family = getattr(element, "family_name", "?")
+    if family != "P" or element.discontinuous or element.embedded_superdegree != 1:
+        kind = "discontinuous " if element.discontinuous else ""
+        raise InputError(f"the contact solver needs a continuous vector Lagrange space of degree 1 (P1/Q1); got a "
+                         f"{kind}{family} space of degree {element.embedded_superdegree} (its nodes are not the "
+                         "mesh's vertices shared by the cells)")
+    for argument in a.arguments():
+        if argument.ufl_function_space() is not V:
+            raise InputError("a: its test and trial functions must be on the same function space (the one of the "
+                             "displacement; two spaces built alike are two dof numberings)")
+    check_all(V.mesh.comm, *integrates_every_cell(a, V))
     return V
+
+
+def stiffness_rows(V: dolfinx.fem.FunctionSpace, diagonal: np.ndarray, free: np.ndarray) -> tuple[bool, str]:
+    """(whether every free owned DOF has a positive stiffness on the diagonal, the message naming one without): a
+    bilinear form that integrates over part of the mesh (``dx(1)`` of several cell tags) leaves the others' DOFs
+    with no stiffness at all — a singular body, and rows PETSc cannot even scale."""
+    empty = np.flatnonzero(free & ~(diagonal > 0.0))
+    if not empty.size:
+        return True, ""
+    x = V.tabulate_dof_coordinates()[empty[0] // 3]
+    at = ", ".join(f"{c:.6g}" for c in x)
+    return False, (f"a: the bilinear form gives the DOF at ({at}) no stiffness (diagonal {diagonal[empty[0]]:.3g}): "
+                   "does it integrate over every cell (a dx without a subdomain, or every cell tag)?")
+
+
+
+def integrates_every_cell(a: ufl.Form, V: dolfinx.fem.FunctionSpace) -> tuple[bool, str]:
+    """(whether the bilinear form's cell integrals cover every cell this rank owns, the message naming one they
+    leave out): ``dx(1) + dx(3)`` of three cell tags leaves the cells of tag 2 without stiffness — a body in pieces,
+    whose rows PETSc cannot even assemble."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    covered: list[np.ndarray] = []
+    for integral in a.integrals_by_type("cell"):
+        tags = integral.subdomain_data()
+        if integral.subdomain_id() in ("everywhere", "otherwise") or not isinstance(tags, dolfinx.mesh.MeshTags):
+            return True, ""
+        covered.append(tags.find(int(integral.subdomain_id())))
+    cells = np.unique(np.concatenate(covered)) if covered else np.zeros(0, np.int32)
+    left = np.setdiff1d(np.arange(msh.topology.index_map(tdim).size_local, dtype=np.int32), cells)
+    if not left.size:
+        return True, ""
+    at = ", ".join(f"{c:.6g}" for c in dolfinx.mesh.compute_midpoints(msh, tdim, left[:1])[0])
+    return False, (f"a: the bilinear form does not integrate over the cell at ({at}) (nor over {left.size - 1} more "
+                   "of this rank's): every cell needs its stiffness (a dx without a subdomain, or every cell tag)")

@@ -28,14 +28,14 @@ spectrum used for γ and the preconditioners is not polluted). The D rows belong
 of (6.4): contact nodes exclude clamped nodes and have no shift along a held component
 (:mod:`fenics_coulomb.model.frames`, "Contact nodes with held components"), so d_D = 0 and (A d)_D = 0.
 
-**One body or two.** The model holds a coupling (:mod:`fenics_coulomb.model.coupling`) that owns every
-difference between them: one construction path (:meth:`Coupling.build <fenics_coulomb.model.coupling.Coupling.build>`
-sets A, l̃, the contact map and the friction) and one placement path (the obstacles' nodes here, the coupling's own
-nodes by :meth:`Coupling.place <fenics_coulomb.model.coupling.Coupling.place>`). With ``contact_pairs`` it is
-:class:`~fenics_coulomb.model.pairs.coupling.PairCoupling` (:mod:`fenics_coulomb.model.pairs.two_body`): A is
-Ã = Mᵀ A_free M with the same Dirichlet treatment, l̃ = Mᵀ(l − A_free M x_D), the contact nodes are the paired
-slave nodes with the pairing's frames and gaps merged with the obstacles' nodes, and the unknown is z (w on the
-slave nodes); :meth:`ContactModel.physical` maps it back to u = M z.
+**One body or two.** The model holds a coupling (:mod:`fenics_coulomb.model.coupling`) that owns every difference
+between them: one construction path (:meth:`Coupling.build <fenics_coulomb.model.coupling.Coupling.build>` sets A,
+l̃, the contact map and the friction) and one placement path (the obstacles' nodes here, the coupling's own nodes by
+:meth:`Coupling.place <fenics_coulomb.model.coupling.Coupling.place>`). With ``contact_pairs`` it is
+:class:`~fenics_coulomb.model.pairs.coupling.PairCoupling` (:mod:`fenics_coulomb.model.pairs.two_body`): A is Ã = Mᵀ
+A_free M with the same Dirichlet treatment, l̃ = Mᵀ(l − A_free M x_D), the contact nodes are the paired slave nodes
+with the pairing's frames and gaps merged with the obstacles' nodes, and the unknown is z (w on the slave nodes);
+:meth:`ContactModel.physical` maps it back to u = M z.
 """
 
 from __future__ import annotations
@@ -54,11 +54,12 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import InputError, check_all
-from fenics_coulomb.model.arguments import as_list, check_sliding, function_space, validate_arguments, validate_friction
+from fenics_coulomb.model.arguments import as_list, check_sliding, function_space, stiffness_rows, validate_arguments
 from fenics_coulomb.model.contact_map import ContactMap, held_blocks, hold
 from fenics_coulomb.model.coupling import Coupling, IdentityCoupling
 from fenics_coulomb.model.forces import block_to_scalar_dofs, boundary_areas
 from fenics_coulomb.model.frames import local_shift, to_global
+from fenics_coulomb.model.frozen import FrozenInputs
 from fenics_coulomb.model.mesh_checks import check_mesh
 from fenics_coulomb.model.obstacles import Obstacle, check_obstacle_names
 from fenics_coulomb.model.placement import ObstaclePlacement, previous_placements
@@ -141,13 +142,11 @@ class ContactModel:
             raise InputError(f"obstacles: {bad_obstacles[0]!r} is not a Plane, Sphere or Cylinder")
         check_obstacle_names(self.obstacles, reserved=[q.name if (q.name or "").startswith("pair ") else
                                                        f"pair {q.name or k + 1}" for k, q in enumerate(pairs)])
-        if not isinstance(friction, dolfinx.fem.Function):
-            validate_friction(friction)
         if L is None:
             v = a.arguments()[0]
             L = ufl.inner(dolfinx.fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType)), v) * ufl.dx
-        self.a_ufl = a
-        self.L_ufl = L
+        self.a_ufl, self.L_ufl = a, L
+        self.frozen = FrozenInputs(a, friction)  # read once: a changed value is refused at the next solve
         self.a = dolfinx.fem.form(a, form_compiler_options=form_compiler_options, jit_options=jit_options)
         self.L = dolfinx.fem.form(L, form_compiler_options=form_compiler_options, jit_options=jit_options)
 
@@ -367,8 +366,9 @@ class ContactModel:
 
         Assemble, lift the Dirichlet values into the right-hand side, add the ghost contributions to their
         owners (reverse scatter), then set the Dirichlet rows to s g (see the module docstring). Call
-        :meth:`place` afterwards to update l = l̃ + A d.
+        :meth:`place` afterwards to update l = l̃ + A d. InputError if the stiffness or friction changed.
         """
+        self.frozen.check(self.comm)
         self.dirichlet_values = self._prescribed_values()
         self.coupling.assemble_load(self)
 
@@ -472,6 +472,7 @@ class ContactModel:
         values = diag.array
         free = np.ones(values.size, dtype=bool)
         free[rows] = False
+        check_all(self.comm, *stiffness_rows(self.V, values, free))
         total = self.comm.allreduce(float(np.sum(values[free])), op=MPI.SUM)
         count = self.comm.allreduce(int(np.sum(free)), op=MPI.SUM)
         scale = total / max(count, 1)

@@ -81,6 +81,23 @@ class StencilChange:
     pairing: Pairing | None = None
 
 
+def boundary_facets(msh: dolfinx.mesh.Mesh, facet_tags: dolfinx.mesh.MeshTags, markers: Sequence[int]
+                    ) -> tuple[bool, str]:
+    """(whether every facet the markers tag that this rank owns lies on the mesh's boundary, the message naming an
+    interior one): an interior facet's vertices would be contact nodes inside the body."""
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)
+    facets = np.hstack([facet_tags.find(m) for m in markers]) if markers else np.zeros(0, np.int32)
+    inner = np.setdiff1d(facets[facets < msh.topology.index_map(tdim - 1).size_local], exterior)
+    if not inner.size:
+        return True, ""
+    mid = dolfinx.mesh.compute_midpoints(msh, tdim - 1, inner[:1].astype(np.int32))[0]
+    at = ", ".join(f"{c:.6g}" for c in mid)
+    return False, (f"contact: markers {list(markers)} tag an interior facet (midpoint ({at})): the contact boundary "
+                   "must lie on the mesh's boundary")
+
+
 class Coupling:
     """The interface (see the module docstring)."""
 
@@ -296,6 +313,7 @@ class IdentityCoupling(Coupling):
             if missing else []  # every rank's values (missing is global: all ranks gather or none)
         check_all(comm, not missing, f"contact: marker {missing[0] if missing else 0} is carried by no facet of "
                   f"the facet tags (their values: {values})")
+        check_all(comm, *boundary_facets(model.V.mesh, facet_tags, markers))
         return facet_tags, markers, contact
 
     def default_obstacles(self) -> list[Obstacle]:

@@ -83,7 +83,9 @@ def _box(comm: MPI.Comm, cell: dolfinx.mesh.CellType = dolfinx.mesh.CellType.tet
 
 
 def _problem(msh, **kwargs) -> ContactProblem:
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    given = kwargs.get("a")  # the supports on the given form's own space
+    V = given.arguments()[-1].ufl_function_space() if isinstance(given, ufl.Form) and len(given.arguments()) == 2 \
+        else dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     a = ufl.inner(ufl.sym(ufl.grad(u)), ufl.sym(ufl.grad(v))) * ufl.dx
     bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0))
@@ -336,6 +338,110 @@ def test_api_arguments_are_validated():
     with pytest.raises(InputError, match="a: NoneType is not a bilinear UFL form"):
         _problem(msh, a=None)
     assert markers == [1]
+
+
+def test_api_forms_spaces_and_facets_are_validated():
+    """Found by a hostile review of the API, each a silent wrong answer or a raw PETSc crash before: a DG or CR vector
+    space (the same DOFs per cell as P1: 0 contact nodes, u = inf returned without an error), a test space built
+    like the trial space but another object (100 Newton steps), L on another space (PETSc error 75), a form over
+    part of the cells (PETSc error 63), contact facets inside the body (40 contact nodes inside, converged), a
+    one-component vector friction field (a DOLFINx RuntimeError), a friction Constant (its repr as the "value")."""
+    comm = MPI.COMM_WORLD
+    msh = _box(comm, dolfinx.mesh.CellType.hexahedron)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    for family in ("DG",):
+        W = dolfinx.fem.functionspace(msh, (family, 1, (3,)))
+        w, y = ufl.TrialFunction(W), ufl.TestFunction(W)
+        with pytest.raises(InputError, match="continuous vector Lagrange space of degree 1.*discontinuous P"):
+            _problem(msh, a=ufl.inner(ufl.grad(w), ufl.grad(y)) * ufl.dx, bcs=[])
+    tets = _box(comm)
+    CR = dolfinx.fem.functionspace(tets, ("CR", 1, (3,)))
+    w, y = ufl.TrialFunction(CR), ufl.TestFunction(CR)
+    with pytest.raises(InputError, match="got a CR space"):
+        _problem(tets, a=ufl.inner(ufl.grad(w), ufl.grad(y)) * ufl.dx, bcs=[])
+    twin = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    with pytest.raises(InputError, match="test and trial functions must be on the same function space"):
+        _problem(msh, a=ufl.inner(ufl.grad(u), ufl.grad(ufl.TestFunction(twin))) * ufl.dx)
+    scalar = ufl.TestFunction(dolfinx.fem.functionspace(msh, ("Lagrange", 1)))
+    with pytest.raises(InputError, match="L: its test function must be on the bilinear form's function space"):
+        _problem(msh, a=ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx, L=scalar * ufl.dx)
+    half = dolfinx.mesh.locate_entities(msh, 3, lambda x: x[0] <= 0.34)
+    cells = dolfinx.mesh.meshtags(msh, 3, half.astype(np.int32), np.ones(half.size, np.int32))
+    dx = ufl.Measure("dx", domain=msh, subdomain_data=cells)
+    with pytest.raises(InputError, match=r"does not integrate over the cell at \(0.5, .*every cell needs"):
+        _problem(msh, a=ufl.inner(ufl.grad(u), ufl.grad(v)) * dx(1))
+    stiffness = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))  # a material of modulus 0 there
+    stiffness.interpolate(lambda x: (x[0] <= 0.34).astype(float))
+    with pytest.raises(InputError, match="gives the DOF at .* no stiffness"):
+        _problem(msh, a=stiffness * ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx)
+    inner = dolfinx.mesh.locate_entities(msh, 2, lambda x: np.isclose(x[2], 0.25))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(inner).astype(np.int32), np.full(inner.size, 7, np.int32))
+    with pytest.raises(InputError, match=r"markers \[7\] tag an interior facet"):
+        _problem(msh, contact=(tags, [7]))
+    vector = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("Lagrange", 1, (1,))))
+    with pytest.raises(InputError, match=r"must be scalar \(its shape is \(1,\)\)"):
+        _problem(msh, friction=vector)
+    with pytest.raises(InputError, match="friction: a dolfinx Constant: give a number"):
+        _problem(msh, friction=dolfinx.fem.Constant(msh, 0.2))
+
+
+def test_what_the_problem_reads_once_may_not_change_silently():
+    """The stiffness is assembled and the friction field evaluated once: a Young's modulus Constant of the form or the
+    friction Function changed between solves gave the old model's answer (max |u| 2.817e-2 for E 70 → 35, where a new
+    problem gives 4.577e-2; F 0 → 0.5 bit for bit F = 0's), the checks passing on the old matrix. Now the next solve
+    is an InputError naming what changed. A failed linear solve of a body without contact nodes returned
+    ``converged=False`` instead of raising."""
+    from fenics_coulomb import SolverError
+
+    comm = MPI.COMM_WORLD
+    msh = _box(comm, dolfinx.mesh.CellType.hexahedron)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    E = dolfinx.fem.Constant(msh, 70.0)
+    F = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("Lagrange", 1)))
+    bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0))
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(bottom).astype(np.int32), np.full(bottom.size, 1, np.int32))
+    bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
+    load = ufl.inner(dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -0.01])), v) * ufl.dx
+    problem = ContactProblem(E * ufl.inner(ufl.sym(ufl.grad(u)), ufl.sym(ufl.grad(v))) * ufl.dx, load, [bc],
+                             (tags, [1]), friction=F, petsc_options_prefix="frozen_")
+    try:
+        problem.solve()
+        F.x.array[:] = 0.5
+        with pytest.raises(InputError, match="the friction field changed after the problem was built"):
+            problem.solve()
+        F.x.array[:] = 0.0
+        problem.solve()  # as built again
+        E.value = 35.0
+        with pytest.raises(InputError, match="the bilinear form's Constant 1 changed after the problem was built"):
+            problem.solve()
+    finally:
+        problem.destroy()
+    msh = _box(comm)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(top).astype(np.int32), np.full(top.size, 1, np.int32))
+    bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
+    with ContactProblem(ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx,
+                        ufl.inner(ufl.as_vector((0, 0, -1.0)), v) * ufl.dx, [bc], (tags, []),
+                        petsc_options_prefix="nc_", petsc_options={"pc_type": "jacobi", "ksp_max_it": 1}) as nothing:
+        with pytest.raises(SolverError, match="no contact boundary: the linear solve failed"):
+            nothing.solve()
+
+
+def test_numpy_scalars_are_the_numbers_they_hold():
+    """np.int64(5) is an integer: it was "must be an integer >= 1" (np.float32 "must be a finite number")."""
+    from fenics_coulomb import SolverSettings
+
+    settings = SolverSettings(max_it=np.int64(5), tol=np.float32(0.25), rtol=np.float64(1e-6), predictor=np.True_,
+                              pc=np.str_("lu"))
+    assert (settings.max_it, settings.tol, settings.rtol, settings.predictor) == (5, 0.25, 1e-6, True)
+    assert type(settings.max_it) is int and type(settings.pc) is str and settings.pc == "lu"
+    with pytest.raises(InputError, match="max_it = 0: must be an integer >= 1"):
+        SolverSettings(max_it=np.int64(0))
 
 
 # -- class 8: the launcher stays quiet ---------------------------------------------------------------------
