@@ -40,7 +40,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
-from launching import rank_pids, session_processes, start_in_newton  # noqa: E402
+from launching import end_session, rank_pids, session_processes, start_in_newton  # noqa: E402
 
 #: The statuses a run may end with (128 + SIGINT, SIGTERM, SIGHUP included).
 STATUSES = {0, 2, 3, 4, 129, 130, 143}
@@ -308,7 +308,7 @@ def _run_signal(case: Case, argv: list[str]) -> tuple[int, str]:
     try:
         rest, _ = proc.communicate(timeout=30)
     except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
+        end_session(proc.pid)
         return -1, "hang"
     deadline = time.monotonic() + 5.0
     while (left := "\n".join(session_processes(proc.pid))) and time.monotonic() < deadline:

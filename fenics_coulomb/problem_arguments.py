@@ -85,9 +85,12 @@ def history_placement(obstacles: Sequence[Obstacle], displacements: Any, rotatio
                              f"values of shape ({len(obstacles)}, 3)") from None
         if delta.size == 0 and not obstacles:
             delta = delta.reshape(0, 3)
-        if delta.shape != (len(obstacles), 3) or not np.all(np.isfinite(delta)):
+        if delta.shape != (len(obstacles), 3):
             raise InputError(f"reset: obstacle_displacements of shape {delta.shape}: need finite values of "
                              f"shape ({len(obstacles)}, 3)")
+        if not np.all(np.isfinite(delta)):
+            row = int(np.flatnonzero(~np.isfinite(delta).all(axis=1))[0])
+            raise InputError(f"reset: obstacle_displacements[{row}] = {delta[row].tolist()}: must be finite")
     if rotations is None:
         return delta, None
     if isinstance(rotations, str | bytes) or not isinstance(rotations, Sequence) or len(rotations) != len(obstacles):

@@ -11,7 +11,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-__all__ = ["ROOT", "command_env", "rank_pids", "session_processes", "start_in_newton"]
+__all__ = ["ROOT", "command_env", "end_session", "rank_pids", "session_processes", "start_in_newton"]
 
 
 def command_env(display: bool = True) -> dict[str, str]:
@@ -24,18 +24,48 @@ def command_env(display: bool = True) -> dict[str, str]:
     return env
 
 
-def start_in_newton(args: list[str], ranks: int = 2, display: bool = True, marker: str = "it ") -> subprocess.Popen:
+def start_in_newton(args: list[str], ranks: int = 2, display: bool = True, marker: str = "it ",
+                    timeout: float = 120.0) -> subprocess.Popen:
     """``mpirun -n ranks python3 -m fenics_coulomb *args`` in a new session, returned once it printed a line
     starting with ``marker`` (default its first Newton iteration: the ranks are inside the solve); RuntimeError if
-    it ended before."""
+    it ended before, or did not print it within ``timeout`` seconds (every process of its session then killed)."""
+    import threading
+
     cmd = ["mpirun", "-n", str(ranks), sys.executable, "-m", "fenics_coulomb", *args]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                             env=command_env(display), start_new_session=True)
     assert proc.stdout is not None
-    for line in proc.stdout:
-        if line.startswith(marker):
-            return proc
-    raise RuntimeError(f"the run ended before its first Newton iteration (status {proc.wait()})")
+    fired: list[bool] = []
+
+    def expire() -> None:
+        fired.append(True)
+        end_session(proc.pid)
+
+    watchdog = threading.Timer(timeout, expire)
+    watchdog.start()
+    try:
+        for line in proc.stdout:
+            if line.startswith(marker):
+                return proc
+    finally:
+        watchdog.cancel()
+    status = proc.wait()
+    if fired:
+        raise RuntimeError(f"the run printed no {marker!r} line within {timeout:g} s (its processes killed)")
+    raise RuntimeError(f"the run ended before its first Newton iteration (status {status})")
+
+
+def end_session(sid: int) -> None:
+    """SIGKILL every process of session ``sid`` — mpirun and its ranks, which PRRTE starts in process groups of
+    their own (a ``killpg`` of mpirun's group leaves them running)."""
+    import signal
+
+    out = subprocess.run(["ps", "-s", str(sid), "-o", "pid="], capture_output=True, text=True).stdout
+    for pid in (int(p) for p in out.split()):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
 
 
 def rank_pids(proc: subprocess.Popen) -> list[int]:

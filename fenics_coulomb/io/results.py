@@ -48,12 +48,14 @@ class ResultDirectory:
     #: Set by the caller before the set is committed: the run did not converge (:meth:`writing`).
     failed: bool = False
 
-    def __init__(self, comm: MPI.Comm, path: str | Path) -> None:
-        """Check that the result set can be written to ``path`` (collective; InputError on every rank)."""
+    def __init__(self, comm: MPI.Comm, path: str | Path, name: str = "--out") -> None:
+        """Check that the result set can be written to ``path`` (collective; InputError on every rank); ``name``
+        is what the messages call it (the command's flag, or the API's argument)."""
         from fenics_coulomb.errors import check_all
 
         self.comm = comm
         self.given = str(path)
+        self.name = name
         final = Path(path)
         self.path = final.absolute()
         #: Where the last set went (:meth:`writing`): the output directory, or for a failed run beside an earlier
@@ -76,12 +78,12 @@ class ResultDirectory:
             limit = 255 - (tail if i == len(self.path.parts) - 1 else 0)
             if len(part.encode()) > limit:
                 shown = part if len(part) <= 40 else part[:37] + "..."
-                return (f"--out: the name {shown!r} has {len(part.encode())} bytes; at most {limit} fit a file "
+                return (f"{self.name}: the name {shown!r} has {len(part.encode())} bytes; at most {limit} fit a file "
                         "name here")
         return ""
 
     def _check(self) -> str:
-        prefix = f"--out {self.given!r}"
+        prefix = f"{self.name} {self.given!r}"
         try:
             cwd = Path.cwd()
             if self.path == cwd or self.path in cwd.parents:
@@ -121,7 +123,7 @@ class ResultDirectory:
                 tmp = f"\0{err.strerror or err}"
         tmp = self.comm.bcast(tmp, root=0)
         if tmp.startswith("\0"):
-            raise OutputError(f"--out {self.given!r}: the results cannot be written ({tmp[1:]})")
+            raise OutputError(f"{self.name} {self.given!r}: the results cannot be written ({tmp[1:]})")
         tmp_path = Path(tmp)
         errors: list[str] = []
         _DEFERRED.append(errors)

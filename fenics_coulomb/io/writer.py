@@ -290,7 +290,7 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
     if "\0" in str(path):
         raise InputError(f"write_results: path = {str(path)!r}: a file name cannot hold a NUL character")
     check_extra(extra)
-    out = ResultDirectory(comm or problem.model.comm, path)
+    out = ResultDirectory(comm or problem.model.comm, path, "write_results: path")
     out.failed = not result.converged
     with out.writing() as tmp:
         data = write_result_set(tmp, problem, result, label=label, plots=plots, reactions=reactions, extra=extra)

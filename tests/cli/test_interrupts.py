@@ -29,7 +29,7 @@ import pytest
 pytestmark = [pytest.mark.serial, pytest.mark.multirank]
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from launching import command_env, rank_pids, session_processes, start_in_newton  # noqa: E402
+from launching import command_env, end_session, rank_pids, session_processes, start_in_newton  # noqa: E402
 
 
 def _start(tmp_path, lev: int = 6) -> subprocess.Popen:
@@ -60,7 +60,7 @@ def test_signal_ends_all_ranks(tmp_path, target, signum):
     try:
         proc.communicate(timeout=20)
     except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
+        end_session(proc.pid)
         pytest.fail(f"{signal.Signals(signum).name} to {target}: the run did not end within 20 s")
     elapsed = time.monotonic() - t0
     assert proc.returncode != 0
@@ -107,7 +107,7 @@ def _interrupt_after(tmp_path, earlier: Path, args: list[str], target: str, sign
     try:
         rest, _ = proc.communicate(timeout=20)
     except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
+        end_session(proc.pid)
         pytest.fail(f"{signal.Signals(signum).name} to {target}: the run hung")
     assert proc.returncode == 128 + signum, rest[-2000:]
     assert f"interrupted by {signal.Signals(signum).name}" in rest
@@ -232,7 +232,7 @@ def _on_a_terminal(args: list[str], marker: str, timeout: float = 60.0) -> tuple
                 os.write(fd, b"\x03")  # the terminal's line discipline: SIGINT to its foreground group, mpirun
                 typed = True
         else:
-            os.killpg(pid, signal.SIGKILL)
+            end_session(pid)
             pytest.fail(f"the run did not end within {timeout} s: {shown.decode(errors='replace')[-2000:]}")
     finally:
         _, status = os.waitpid(pid, 0)

@@ -432,6 +432,40 @@ def test_what_the_problem_reads_once_may_not_change_silently():
             nothing.solve()
 
 
+def test_api_messages_name_the_argument(mpi_tmp_path):
+    """write_results named the command's flag (--out) and reset's NaN said "of shape (2, 3): need ... (2, 3)"."""
+    from fenics_coulomb import Sphere
+    from fenics_coulomb.io.writer import write_results
+
+    msh = _box(MPI.COMM_WORLD)
+    problem = _problem(msh)
+    try:
+        _, result = problem.solve()
+        taken = mpi_tmp_path / "a_file"
+        if MPI.COMM_WORLD.rank == 0:
+            taken.write_text("")
+        MPI.COMM_WORLD.barrier()
+        with pytest.raises(InputError, match="^write_results: path '.*a_file': exists and is not a directory"):
+            write_results(taken, problem, result)
+    finally:
+        problem.destroy()
+    with ContactProblem(*_forms(msh), obstacles=[Sphere((0.5, 0.5, -1.0), 0.9), Sphere((0.5, 0.5, 2.0), 0.9)],
+                        petsc_options_prefix="msg_") as two:
+        with pytest.raises(InputError, match=r"obstacle_displacements\[1\] = \[0.0, nan, 0.0\]: must be finite"):
+            two.reset(obstacle_displacements=[[0.0, 0.0, 0.0], [0.0, np.nan, 0.0]])
+
+
+def _forms(msh) -> tuple:
+    """(a, L, bcs, contact) of a block on the plane, clamped on its top: the arguments of ContactProblem."""
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    bottom = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.0))
+    top = dolfinx.mesh.locate_entities_boundary(msh, 2, lambda x: np.isclose(x[2], 0.5))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.sort(bottom).astype(np.int32), np.full(bottom.size, 1, np.int32))
+    bc = dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, top), V)
+    return ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx, None, [bc], (tags, [1])
+
+
 def test_numpy_scalars_are_the_numbers_they_hold():
     """np.int64(5) is an integer: it was "must be an integer >= 1" (np.float32 "must be a finite number")."""
     from fenics_coulomb import SolverSettings
