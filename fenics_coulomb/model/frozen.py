@@ -24,9 +24,11 @@ __all__ = ["FrozenInputs"]
 
 
 def _values(item: Any) -> bytes:
-    """The bytes of a Constant's value or of a Function's local DOF values."""
+    """The bytes of a Constant's value or of a Function's owned DOF values (not the ghosts: a scatter may refresh
+    them without a change)."""
     if isinstance(item, dolfinx.fem.Function):
-        return np.ascontiguousarray(item.x.array).tobytes()
+        owned = item.function_space.dofmap.index_map.size_local * item.function_space.dofmap.index_map_bs
+        return np.ascontiguousarray(item.x.array[:owned]).tobytes()
     return np.ascontiguousarray(np.asarray(item.value)).tobytes()
 
 
