@@ -117,7 +117,7 @@ class ContactProblem(SlidingSolve):
         self._solver: SCDNewtonSolver | None = None
         check_prefix(petsc_options_prefix)
         check_bcs(bcs)
-        self.settings = as_settings(settings)
+        self._settings = as_settings(settings)
         check_petsc_options(petsc_options, petsc_options_prefix, form_ranks(a) > 1)
         check_contact(contact, contact_pairs)
         t0 = time.perf_counter()
@@ -243,7 +243,7 @@ class ContactProblem(SlidingSolve):
         solver = SCDNewtonSolver(self.model, settings, self.petsc_options_prefix, petsc_options)
         old.destroy()
         self._solver = solver
-        self.settings = settings
+        self._settings = settings
         self._petsc_options = dict(petsc_options or {})
 
     @property

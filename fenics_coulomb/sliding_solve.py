@@ -51,7 +51,7 @@ def _join_histories(result: SolveResult, solves: list[SolveResult]) -> None:
 class SlidingSolve:
     """Finite sliding's geometry iteration and small sliding's slide measure of a contact problem's step."""
 
-    settings: SolverSettings
+    _settings: SolverSettings
     p: int
     _previous: npt.NDArray[np.float64] | None
     _previous_delta: npt.NDArray[np.float64] | None
@@ -87,6 +87,12 @@ class SlidingSolve:
 
         def _accuracy(self, result: SolveResult | None = None) -> float:
             """The relative displacement accuracy of a solve."""
+
+    @property
+    def settings(self) -> SolverSettings:
+        """The solver's settings (read-only: :meth:`~fenics_coulomb.problem.ContactProblem.set_solver` replaces the
+        solver with new ones; an assignment would reach only some of the places that read them)."""
+        return self._settings
 
     def _measure_slide(self, result: SolveResult) -> None:
         """Small sliding says when it breaks: the largest slide of a contact node against its partner in units of

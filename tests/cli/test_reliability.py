@@ -466,6 +466,18 @@ def _forms(msh) -> tuple:
     return ufl.inner(ufl.grad(u), ufl.grad(v)) * ufl.dx, None, [bc], (tags, [1])
 
 
+def test_the_settings_change_through_set_solver_only():
+    """``problem.settings = SolverSettings(rtol=1e-3, max_it=2)`` reached the start rule and the checks' bound but
+    not the solver (rtol 1e-7, 9 iterations): half applied. The attribute is read-only; set_solver replaces both."""
+    from fenics_coulomb import SolverSettings
+
+    with _problem(_box(MPI.COMM_WORLD)) as problem:
+        with pytest.raises(AttributeError):
+            problem.settings = SolverSettings(rtol=1e-3)
+        problem.set_solver(SolverSettings(rtol=1e-3))
+        assert problem.settings.rtol == 1e-3 and problem.solver.settings.rtol == 1e-3
+
+
 def test_numpy_scalars_are_the_numbers_they_hold():
     """np.int64(5) is an integer: it was "must be an integer >= 1" (np.float32 "must be a finite number")."""
     from fenics_coulomb import SolverSettings
