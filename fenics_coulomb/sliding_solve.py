@@ -165,7 +165,8 @@ class SlidingSolve:
         if configuration is not None or model.configuration is not None:
             self._configure(*self._known_pairing(configuration))
         self._place()
-        iteration = GeometryIteration(model, self.settings.reduction, ERROR_PER_RTOL, self._previous)
+        iteration = GeometryIteration(model, self.settings.reduction, ERROR_PER_RTOL, self._previous,
+                                      self.settings.accuracy)
         reduction = iteration.reduction
         result = self._solve_placed(self.initial_displacement(u0), reduction)
         newton, krylov = result.iterations, result.krylov_iterations

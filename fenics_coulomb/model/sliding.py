@@ -86,6 +86,7 @@ above. (The cycle itself is recognized by a digest of the contact nodes and supp
 from __future__ import annotations
 
 import hashlib
+import math
 import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -99,8 +100,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
     from fenics_coulomb.model.pairs import Pairing
 
-__all__ = ["MAX_GEOMETRY_UPDATES", "ROUND_OFF_STAGNATION", "ROUND_OFF_CAP", "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING",
-           "LOOSE_FACTOR", "largest_slide", "GeometryChange", "GeometryIteration", "supports", "geometry_change"]
+__all__ = ["ACCURACY_SHARE", "ACCURACY_FLOOR", "MAX_GEOMETRY_UPDATES", "ROUND_OFF_STAGNATION", "ROUND_OFF_CAP",
+           "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "LOOSE_FACTOR", "largest_slide", "GeometryChange",
+           "GeometryIteration", "supports", "geometry_change"]
 
 Array = npt.NDArray[np.float64]
 
@@ -126,6 +128,15 @@ ROUND_OFF_STAGNATION = 0.5
 #: blocks of extent 2.3 that no further update reduced, a drag patch test at rtol 1e-12 whose ε = 8.6e-13 then
 #: never settled); another solve could not make u more accurate than its data.
 ROUND_OFF_CAP = 1e-9
+
+#: With an accuracy asked, the geometry's own error may take this share of it (the other half is the solve's and a
+#: path's history: the cylinder drag at EPS 1e-6 with the whole share ended 1.05 EPS from its LU path).
+ACCURACY_SHARE = 0.5
+
+#: ... and a change below this × the mesh's extent counts as none (the coordinates' round-off, amplified by the
+#: projections: the drag's first solves saw 2e-14–5e-14 at extent 2.4; ROUND_OFF_CAP is far too coarse here: the
+#: cylinder roller's change of 9.5e-10 still moved u by 1.2 EPS at EPS 1e-6).
+ACCURACY_FLOOR = 1e-12
 
 #: An intermediate geometry is solved to a displacement error of this × the geometry change that prompted it (see
 #: "Accuracy of the intermediate solves").
@@ -299,8 +310,16 @@ class GeometryIteration:
         previous: The previous step's physical displacement (owned DOFs), None for 0.
     """
 
-    def __init__(self, model: ContactModel, rtol: float, error_per_rtol: float, previous: Array | None) -> None:
+    def __init__(self, model: ContactModel, rtol: float, error_per_rtol: float, previous: Array | None,
+                 accuracy: float | None = None) -> None:
         self.model = model
+        #: A displacement accuracy asked for (``SolverSettings.accuracy``; None: the tolerance ε alone), see
+        #: :meth:`_accurate`.
+        self.accuracy = accuracy
+        #: The largest displacement change per unit of the geometry change that prompted an update (None: none
+        #: measured yet), and the last update's (change, solution before it).
+        self.amplification: float | None = None
+        self._update: tuple[float, Array] | None = None
         self.rtol = float(rtol)
         self.error_per_rtol = float(error_per_rtol)
         self.previous = previous
@@ -362,8 +381,11 @@ class GeometryIteration:
             self.reduction = rtol
             return Step("continue", None, f"the start meets the loose reduction {reduction:.3g}: solved on to rtol "
                                           f"{rtol:g}")
+        self._measure(u, iterations)
         change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
                                  self.error_per_rtol * reduction)
+        forced = change.settled and not self._accurate(change, u)  # ε met, the accuracy asked not
+        change.settled = change.settled and not forced
         self._solved.append((change.old_signature, u, reduction))
         if change.settled:
             if reduction <= rtol:
@@ -381,8 +403,13 @@ class GeometryIteration:
                 return Step("settled", change)
         else:
             self._unchanged = None
-        step = Step("update", change, change.describe())
+        measured = "none measured yet" if self.amplification is None else f"{self.amplification:.3g} measured"
+        step = Step("update", change, change.describe() if not forced else
+                    f"largest change of a gap or slip {change.discrepancy:.3g} (ε {change.tolerance:.3g}), times the "
+                    f"displacement per change ({measured}), may exceed the accuracy {self.accuracy:g} asked")
         self._pending = change
+        self._update = (change.discrepancy, u.copy()) if self.accuracy is not None and not change.changed \
+            and change.discrepancy > ACCURACY_FLOOR * self.extent else None
         solved = self._solved
         if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
             if max(solved[-1][2], solved[-2][2]) > rtol:
@@ -411,6 +438,29 @@ class GeometryIteration:
             self.reduction = rtol
         self.updates += 1
         return step
+
+
+    def _measure(self, u: Array, iterations: int) -> None:
+        """After the solve that followed an update prompted by a change Δ of the data (max-norm): how far it moved
+        u per unit of Δ, in the 2-norm of the accuracy (collective)."""
+        if self._update is None or not iterations:
+            return
+        delta, before = self._update
+        self._update = None
+        moved = math.sqrt(self.model.comm.allreduce(float(np.dot(u - before, u - before)), op=MPI.SUM))
+        self.amplification = max(self.amplification or 0.0, moved / delta)
+
+    def _accurate(self, change: GeometryChange, u: Array) -> bool:
+        """With an accuracy asked: whether the new geometry's change Δ could move u by more than it, judged by
+        the displacement per unit of data change the updates so far measured (Δ·A ≤ ACCURACY_SHARE·accuracy·‖u‖₂;
+        none measured yet: no change at all). The tolerance ε bounds Δ, not u: a change of 6.7e-8 against ε = 1e-7
+        left the cylinder roller's u 1.06e-6 (16 Δ) from the settled geometry's, 7.8 EPS in the 2-norm (collective)."""
+        if self.accuracy is None or change.changed or change.discrepancy <= ACCURACY_FLOOR * self.extent:
+            return True  # a change at the coordinates' round-off: nothing another solve could resolve
+        if self.amplification is None:
+            return False
+        size = math.sqrt(self.model.comm.allreduce(float(np.dot(u, u)), op=MPI.SUM))
+        return change.discrepancy * self.amplification <= ACCURACY_SHARE * self.accuracy * size
 
 
 def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[float]]:

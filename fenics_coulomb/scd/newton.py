@@ -47,7 +47,7 @@ from fenics_coulomb.scd.preconditioner import auto_ladder, check_option_value, r
 from fenics_coulomb.scd.records import Direction, Iterate, IterationRecord, SolveResult, global_state_counts
 from fenics_coulomb.scd.resolvent import classify, contact_states, resolvent
 from fenics_coulomb.scd.steps import STEPS
-from fenics_coulomb.scd.stopping import StoppingRule
+from fenics_coulomb.scd.stopping import ACCURACY_FORCING, StoppingRule
 from fenics_coulomb.settings import COMMAND_PREFIX, SolverSettings, check_fixed_gamma
 
 __all__ = ["line_search_steps", "Iterate", "Direction", "SCDNewtonSolver"]
@@ -241,7 +241,10 @@ class SCDNewtonSolver(NewtonLinearSolves):
 
     # -- the Newton direction ---------------------------------------------------------------------
     def forcing(self, history: list[float], eta: float, rule: StoppingRule) -> float:
-        """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term."""
+        """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term; at most
+        ACCURACY_FORCING once the residual rule holds and the correction checks an accuracy (it is the estimate)."""
+        if rule.accuracy is not None and rule.satisfied(history[-1]):
+            return min(self.tol, ACCURACY_FORCING)
         if not self.settings.adaptive_tol:
             return terminal_forcing(self.tol, history[-1], rule.threshold)
         return forcing_term(self.tol, history, eta, rule.threshold)
