@@ -28,8 +28,8 @@ def _values(item: Any) -> bytes:
     them without a change)."""
     if isinstance(item, dolfinx.fem.Function):
         owned = item.function_space.dofmap.index_map.size_local * item.function_space.dofmap.index_map_bs
-        return np.ascontiguousarray(item.x.array[:owned]).tobytes()
-    return np.ascontiguousarray(np.asarray(item.value)).tobytes()
+        return np.ascontiguousarray(item.x.array[:owned] + 0.0).tobytes()  # + 0.0: −0.0 is 0.0
+    return np.ascontiguousarray(np.asarray(item.value) + 0.0).tobytes()
 
 
 class FrozenInputs:

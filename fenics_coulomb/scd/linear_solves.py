@@ -261,7 +261,7 @@ class NewtonLinearSolves:
             raise SolverError(
                 f"the linear solver (pc {self.pc}) reached its iteration limit ({its} iterations without tol={rtol:g}) "
                 f"in {self._limited} consecutive Newton steps (up to step {self._steps + 1}): directions that inexact "
-                f"do not converge; try {self._remedies()}, or a smaller --gamma-node-scale (now "
+                f"do not converge; try {self._remedies()}, or a smaller gamma_node_scale ([solver] or the API; now "
                 f"{self.settings.gamma_node_scale}: gamma {self.gamma:.3g}, at the contact {lo:.3g}-{hi:.3g})",
                 "ksp_limit",
             )

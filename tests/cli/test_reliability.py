@@ -412,8 +412,8 @@ def test_what_the_problem_reads_once_may_not_change_silently():
         F.x.array[:] = 0.5
         with pytest.raises(InputError, match="the friction field changed after the problem was built"):
             problem.solve()
-        F.x.array[:] = 0.0
-        problem.solve()  # as built again
+        F.x.array[:] = -0.0
+        problem.solve()  # as built again (−0.0 is 0.0)
         E.value = 35.0
         with pytest.raises(InputError, match="the bilinear form's Constant 1 changed after the problem was built"):
             problem.solve()
