@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import signal
+import stat
 import sys
 import time
 from typing import Any
@@ -58,29 +59,44 @@ def _finish_together(comm: MPI.Comm) -> None:
 
 
 def _to_terminal(line: str) -> None:
-    """Show ``line`` on the controlling terminal too when the rank runs under mpirun, which may drop it.
+    """Write ``line`` where mpirun's own stderr goes too, since mpirun may drop what the ranks write.
 
-    Ctrl-C in mpirun's terminal reaches mpirun alone (PRRTE starts each rank in a process group of its own): it
-    ends the job by sending SIGTERM to the ranks and no longer relays their output, so the line a rank writes to
-    its stderr (a pipe to mpirun) never appears, and with it where a load path's completed solves are kept. The
-    rank's session still has the terminal: the line is written to it as well, SIGTTOU ignored (a terminal set to
-    ``stty tostop`` would otherwise stop the rank, which is not in the foreground group). Nothing changes where
-    the rank has no terminal (a batch job, the tests) or its stderr is the terminal itself. The price: SIGTERM sent
-    by hand to a rank of a run in a terminal, while mpirun still relays, shows the line twice.
+    A signal to mpirun — Ctrl-C in its terminal (it reaches mpirun alone: PRRTE starts each rank in a process group
+    of its own), a batch system ending the job — makes it send SIGTERM to the ranks and stop relaying their output,
+    so the line a rank writes to its stderr (a pipe to mpirun) never appears, and with it where a load path's
+    completed solves are kept. A rank whose parent is mpirun (``prterun``/``mpirun``/``orterun``) writes the line to
+    that parent's stderr as well (``/proc/PPID/fd/2``) when it is a terminal or a pipe (``| tee log``), SIGTTOU
+    ignored (a terminal set to ``stty tostop`` would otherwise stop the rank, which is not in the
+    foreground group), never blocking. Nothing changes under other launchers (srun's parent is a daemon) or
+    without a launcher. The price: SIGTERM sent by hand to one rank, while mpirun still relays, shows the line twice.
     """
-    if not _LAUNCHED or os.isatty(2):
+    if not _LAUNCHED or not _launcher_parent():
         return
+    target = f"/proc/{os.getppid()}/fd/2"
     try:
+        # a terminal or a pipe only: into a log file mpirun writes at its own offset, and its abort banner would
+        # overwrite the line
+        if not (stat.S_ISCHR(os.stat(target).st_mode) or stat.S_ISFIFO(os.stat(target).st_mode)):
+            return
         signal.signal(signal.SIGTTOU, signal.SIG_IGN)
-        fd = os.open("/dev/tty", os.O_WRONLY | os.O_NOCTTY | os.O_NONBLOCK)
-    except (OSError, ValueError):  # no controlling terminal
+        fd = os.open(target, os.O_WRONLY | os.O_APPEND | os.O_NOCTTY | os.O_NONBLOCK)
+    except (OSError, ValueError):  # mpirun gone, or its stderr closed
         return
     try:
         os.write(fd, (line + "\n").encode())
-    except OSError:  # a full or hung-up terminal: the line on stderr stands
+    except OSError:  # a full or hung-up terminal, a closed pipe: the line on stderr stands
         pass
     finally:
         os.close(fd)
+
+
+def _launcher_parent() -> bool:
+    """Whether this process's parent is Open MPI's launcher."""
+    try:
+        with open(f"/proc/{os.getppid()}/comm") as f:
+            return f.read().strip() in ("prterun", "mpirun", "mpiexec", "orterun")
+    except OSError:
+        return False
 
 
 #: Whether this process was started by an MPI launcher (mpirun's PMIx server sets PMIX_RANK, srun's too).

@@ -260,3 +260,31 @@ def test_ctrl_c_in_mpiruns_terminal_shows_where_the_solves_are_kept(tmp_path):
     while (left := session_processes(session)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not left, left
+
+
+def test_a_job_piped_to_tee_and_ended_through_mpirun_shows_where_the_solves_are_kept(tmp_path):
+    """``mpirun ... 2>&1 | tee log`` ended by a signal to mpirun (a batch system's, or kill): mpirun sends SIGTERM to
+    the ranks and stops relaying their output, so the pipe carried OpenMPI's abort banner alone, not where the
+    completed solves were kept. The ranks now write the line into mpirun's own stderr (the pipe) as well. (Into a
+    log file mpirun writes at its own offset, its banner would overwrite the line: not done.)"""
+    out = tmp_path / "out"
+    args = ["mpirun", "-n", "2", sys.executable, "-m", "fenics_coulomb", "--lev", "3", "--steps", "6", "--pc", "none",
+            "--tol", "1e-12", "--out", str(out), "--no-plots"]
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=command_env(display=False),
+                            start_new_session=True, stdin=subprocess.DEVNULL, text=True)
+    assert proc.stdout is not None
+    shown = []
+    try:
+        for line in proc.stdout:
+            shown.append(line)
+            if line.startswith("solve 2/6"):
+                proc.send_signal(signal.SIGTERM)
+                break
+        rest, _ = proc.communicate(timeout=30)
+    finally:
+        end_session(proc.pid)
+    kept = tmp_path / "out.interrupted"
+    assert (kept / "summary.json").exists()
+    text = "".join(shown) + rest
+    lines = [x for x in text.splitlines() if "fenics-coulomb: interrupted by SIGTERM" in x]
+    assert len([x for x in lines if f"are kept in {kept} (resume: --start {kept}" in x]) == 1, text[-3000:]
