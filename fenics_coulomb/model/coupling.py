@@ -37,8 +37,8 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap
-from fenics_coulomb.model.nullspace import (HELD_BODY_SHIFT, FreeMotions, free_rigid_motions, rigid_body_modes,
-                                             shift_diagonal)
+from fenics_coulomb.model.nullspace import (HELD_BODY_SHIFT, FreeMotions, free_rigid_motions, held_by_stiffness,
+                                             rigid_body_modes, shift_diagonal)
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import DEFAULT_PLANE, Obstacle
 from fenics_coulomb.model.reproducible import assemble_matrix
@@ -333,7 +333,8 @@ class IdentityCoupling(Coupling):
         check_not_overlapping(model.obstacles, model.contact.coordinates, comm=model.comm)
         model.friction = model.friction_at_nodes(friction)
         body = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts, dtype=np.int64)
-        self.motions = free_rigid_motions(model.V, body, 1, model.dirichlet_rows)
+        self.motions = held_by_stiffness(model.A, model.V, free_rigid_motions(model.V, body, 1, model.dirichlet_rows),
+                                         model.dirichlet_diagonal)  # springs in the form hold motions too
         self.free_motions = int(self.motions.free.sum())
         if self.free_motions and model.comm.rank == 0:
             logger.info("%d rigid motion(s) left free by the supports are held by contact alone", self.free_motions)

@@ -13,8 +13,8 @@ import dolfinx.la
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["HELD_BODY_SHIFT", "FreeMotions", "free_rigid_motions", "rigid_body_modes", "rigid_modes_at",
-           "shift_diagonal"]
+__all__ = ["HELD_BODY_SHIFT", "FreeMotions", "free_rigid_motions", "held_by_stiffness", "rigid_body_modes",
+           "rigid_modes_at", "shift_diagonal"]
 
 Array = npt.NDArray[np.float64]
 
@@ -133,3 +133,39 @@ def shift_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.bool_], shift: float = HEL
     diagonal.array[rows] *= 1.0 + shift
     A.setDiagonal(diagonal, addv=PETSc.InsertMode.INSERT_VALUES)
     diagonal.destroy()
+
+
+def held_by_stiffness(A: PETSc.Mat, V: dolfinx.fem.FunctionSpace, motions: FreeMotions,
+                      diagonal: float) -> FreeMotions:
+    """``motions`` of one body less those its stiffness holds: springs in the bilinear form (``k·inner(u, v)·ds``)
+    hold rigid motions that no Dirichlet condition does. Within the free motions R the Gram matrix Rᵀ A R (the
+    motions' elastic energy) has the truly free motions as its null space (eigenvalues ≤ 1e-10 × the mean free
+    diagonal ``diagonal`` × the number of DOFs: rigid motions cost round-off); collective."""
+    free = np.flatnonzero(motions.free[0])
+    if free.size == 0:
+        return motions
+    n = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n]
+    modes = np.einsum("nia,ak->nik", rigid_modes_at((x - motions.centroid[0]) / motions.extent[0]),
+                      motions.eigenvectors[0][:, free])
+    r, Ar = A.createVecRight(), A.createVecLeft()
+    products = np.zeros((free.size, free.size))
+    try:
+        for k in range(free.size):
+            r.array[:] = modes[:, :, k].ravel()
+            A.mult(r, Ar)
+            products[:, k] = np.einsum("nik,ni->k", modes, Ar.array.reshape(-1, 3))
+    finally:
+        r.destroy()
+        Ar.destroy()
+    V.mesh.comm.Allreduce(MPI.IN_PLACE, products, op=MPI.SUM)
+    size = V.mesh.comm.allreduce(3 * n, op=MPI.SUM)
+    values, vectors = np.linalg.eigh(0.5 * (products + products.T))
+    held = values > 1e-10 * max(diagonal, np.finfo(float).tiny) * size
+    if not held.any():  # the usual case: unchanged, bit for bit (a rotation of round-off would depend on the ranks)
+        return motions
+    eigenvectors = motions.eigenvectors.copy()
+    eigenvectors[0][:, free] = motions.eigenvectors[0][:, free] @ vectors
+    still = motions.free.copy()
+    still[0, free] = ~held
+    return FreeMotions(motions.centroid, motions.extent, eigenvectors, still)

@@ -299,3 +299,34 @@ def test_the_approach_does_not_depend_on_the_length_unit(mpi_tmp_path):
     assert n1 == n2
     assert np.linalg.norm(f2 - f1) <= 1e-8 * np.linalg.norm(f1)
     assert np.abs(u2 - u1).max() <= 1e-8 * np.abs(u1).max()
+
+
+def test_a_body_held_by_a_spring_is_no_free_body():
+    """A spring in the bilinear form (``k·inner(u, v)·ds`` on one face, no Dirichlet condition) holds every rigid
+    motion: the free motions were taken from the supports alone, and the solve failed its free_balance check
+    (residual 0.481, "the loads push the body along a motion its supports leave free"). Now the stiffness decides:
+    the block pressed onto the plane converges, with no free motion."""
+    import dolfinx
+    import dolfinx.mesh
+    import ufl
+
+    from fenics_coulomb import ContactProblem
+
+    comm = MPI.COMM_WORLD
+    msh = dolfinx.mesh.create_box(comm, [np.zeros(3), np.array([1.0, 1.0, 0.5])], [3, 3, 2],
+                                  dolfinx.mesh.CellType.hexahedron)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    facets = {k: dolfinx.mesh.locate_entities_boundary(msh, 2, f) for k, f in
+              ((1, lambda x: np.isclose(x[2], 0.0)), (2, lambda x: np.isclose(x[0], 0.0)))}
+    order = np.argsort(np.concatenate(list(facets.values())))
+    tags = dolfinx.mesh.meshtags(msh, 2, np.concatenate(list(facets.values()))[order].astype(np.int32),
+                                 np.concatenate([np.full(f.size, k, np.int32) for k, f in facets.items()])[order])
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=tags)
+    a = ufl.inner(ufl.sym(ufl.grad(u)), ufl.sym(ufl.grad(v))) * ufl.dx + 5.0 * ufl.inner(u, v) * ds(2)
+    L = ufl.inner(ufl.as_vector((0.0, 0.0, -0.01)), v) * ufl.dx
+    with ContactProblem(a, L, [], (tags, [1]), friction=0.3, petsc_options_prefix="spring_") as problem:
+        assert problem.model.coupling.free_motions == 0
+        _, result = problem.solve()
+        assert result.converged
+        assert problem.checks(result)["free_balance"] <= 1e-6
