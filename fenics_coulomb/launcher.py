@@ -76,7 +76,8 @@ def _to_terminal(line: str) -> None:
     try:
         # a terminal or a pipe only: into a log file mpirun writes at its own offset, and its abort banner would
         # overwrite the line
-        if not (stat.S_ISCHR(os.stat(target).st_mode) or stat.S_ISFIFO(os.stat(target).st_mode)):
+        mode = os.stat(target).st_mode
+        if not (stat.S_ISCHR(mode) or stat.S_ISFIFO(mode)):
             return
         signal.signal(signal.SIGTTOU, signal.SIG_IGN)
         fd = os.open(target, os.O_WRONLY | os.O_APPEND | os.O_NOCTTY | os.O_NONBLOCK)
