@@ -1,7 +1,8 @@
 """The process around a command: interrupts end every rank, a failure ends quietly with its exit status.
 
-:func:`_end_on_signals` turns SIGINT/SIGTERM/SIGHUP into one line (on the terminal too when mpirun may drop it:
-:func:`_to_terminal`) and ``MPI_Abort(128 + signal)`` (never an unwinding through PETSc, never a hang);
+:func:`_end_on_signals` turns SIGINT/SIGTERM/SIGHUP into one line (into mpirun's terminal or pipe too when mpirun
+may drop it: :func:`_to_launcher_stderr`) and ``MPI_Abort(128 + signal)`` (never an unwinding through PETSc, never a
+hang);
 :func:`exit_status` and :func:`run_command` finalize MPI on every rank together and end rank 0 with the status (the
 launcher prints nothing more)."""
 
@@ -58,7 +59,7 @@ def _finish_together(comm: MPI.Comm) -> None:
     comm.Barrier()
 
 
-def _to_terminal(line: str) -> None:
+def _to_launcher_stderr(line: str) -> None:
     """Write ``line`` where mpirun's own stderr goes too, since mpirun may drop what the ranks write.
 
     A signal to mpirun — Ctrl-C in its terminal (it reaches mpirun alone: PRRTE starts each rank in a process group
@@ -121,7 +122,7 @@ def _end_on_signals(comm: MPI.Comm) -> dict[int, Any]:
                f"ranks{kept}"
         print(line, file=sys.stderr, flush=True)
         if signum == signal.SIGTERM and (kept or comm.rank == 0):
-            _to_terminal(line)
+            _to_launcher_stderr(line)
         comm.Abort(EXIT_INTERRUPTED + signum)
 
     previous: dict[int, object] = {}
