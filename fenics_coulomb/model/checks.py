@@ -35,7 +35,8 @@ thresholds do not depend on units:
   and its mismatch (0.5 there) measures the tolerance, not the friction law;
 * ``reaction_balance``: ‖Σ contact forces + Σ Dirichlet reactions + applied resultant‖ / max(‖applied resultant‖,
   ‖Σ contact forces‖),
-  with the reactions from the residual assembled with UFL without boundary conditions.
+  with the reactions from the residual assembled with UFL without boundary conditions; springs in the form
+  (``k·inner(u, v)·ds``) count as supports (their resultant Σ K u, round-off for an elastic form).
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ from fenics_coulomb.model.obstacle_checks import obstacle_depths
 __all__ = ["FORCE_FLOOR", "residual", "unconstrained_residual", "physics_residuals", "SLIP_RESOLUTION", "PHYSICS_TOL",
            "PHYSICS_PER_RTOL", "PHYSICS_LOOSEST", "DECISIVE_CHECKS", "physics_failure", "boundary_reactions",
            "constrained_mask", "support_dofs", "total_contact_force", "ONE_CONSTRAINT", "physics_bound", "force_floor",
-           "displacement_scale", "MASTER_WARNING", "reported_warnings"]
+           "displacement_scale", "MASTER_WARNING", "reported_warnings", "SPRING_FLOOR"]
 
 
 #: Forces below this fraction of (largest diagonal of A) × (displacement scale) count as round-off in the relative
@@ -231,10 +232,19 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     # relative to the applied resultant, or to the contact resultant or the support forces when the body is
     # loaded only through prescribed displacements
     balance_scale = max(float(np.linalg.norm(applied)), float(np.linalg.norm(contact_total)), support, force_tiny)
+    # springs in the form (k·inner(u, v)·ds) are supports too: the force the stiffness itself takes to the ground,
+    # Σ K u over every node = Σ (K u − l̃⁰) + the applied resultant (round-off for an elastic form, whose rigid
+    # translations cost nothing: then left out, the value unchanged)
+    springs = np.asarray(comm.allreduce(full.sum(axis=0), op=MPI.SUM)) + applied
+    if np.linalg.norm(springs) > SPRING_FLOOR * balance_scale:
+        total = total - springs
     out["reaction_balance"] = float(np.linalg.norm(total + applied) / balance_scale)
     out["contact_resultant"] = [float(c) for c in contact_total]  # type: ignore[assignment]
     return out
 
+
+#: A resultant of the stiffness below this × the balance's scale is round-off (no springs in the form).
+SPRING_FLOOR = 1e-8
 
 #: The slip_direction check tests the nodes whose slip exceeds this × the solve's displacement error (their slip
 #: direction known to 1/SLIP_RESOLUTION rad).

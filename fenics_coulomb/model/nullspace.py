@@ -13,8 +13,8 @@ import dolfinx.la
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["HELD_BODY_SHIFT", "FreeMotions", "free_rigid_motions", "held_by_stiffness", "rigid_body_modes",
-           "rigid_modes_at", "shift_diagonal"]
+__all__ = ["HELD_BODY_SHIFT", "FreeMotions", "free_rigid_motions", "held_by_stiffness", "mean_free_diagonal",
+           "rigid_body_modes", "rigid_modes_at", "shift_diagonal"]
 
 Array = npt.NDArray[np.float64]
 
@@ -135,37 +135,54 @@ def shift_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.bool_], shift: float = HEL
     diagonal.destroy()
 
 
+def mean_free_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.int32], comm: MPI.Comm) -> float:
+    """The mean diagonal of A over all rows but the owned unrolled ``rows`` (the prescribed ones; collective)."""
+    diagonal = A.getDiagonal()
+    free = np.ones(diagonal.array.size, dtype=bool)
+    free[rows] = False
+    total = comm.allreduce(float(np.sum(diagonal.array[free])), op=MPI.SUM)
+    count = comm.allreduce(int(np.sum(free)), op=MPI.SUM)
+    diagonal.destroy()
+    return total / max(count, 1)
+
+
 def held_by_stiffness(A: PETSc.Mat, V: dolfinx.fem.FunctionSpace, motions: FreeMotions,
-                      diagonal: float) -> FreeMotions:
-    """``motions`` of one body less those its stiffness holds: springs in the bilinear form (``k·inner(u, v)·ds``)
-    hold rigid motions that no Dirichlet condition does. Within the free motions R the Gram matrix Rᵀ A R (the
+                      diagonal: float, body: npt.NDArray[np.int64] | None = None) -> FreeMotions:
+    """``motions`` less those the stiffness holds: springs in the bilinear form (``k·inner(u, v)·ds``) hold rigid
+    motions that no Dirichlet condition does. Within the free motions R of a body the Gram matrix Rᵀ A R (the
     motions' elastic energy) has the truly free motions as its null space (eigenvalues ≤ 1e-10 × the mean free
-    diagonal ``diagonal`` × the number of DOFs: rigid motions cost round-off); collective."""
-    free = np.flatnonzero(motions.free[0])
-    if free.size == 0:
-        return motions
+    diagonal ``diagonal`` × the body's number of DOFs: rigid motions cost round-off); ``body``: the body of every
+    local DOF block (None: one body); collective."""
+    num_bodies = motions.free.shape[0]
     n = V.dofmap.index_map.size_local
+    owned_body = np.zeros(n, dtype=np.int64) if body is None else np.asarray(body[:n])
     x = V.tabulate_dof_coordinates()[:n]
-    modes = np.einsum("nia,ak->nik", rigid_modes_at((x - motions.centroid[0]) / motions.extent[0]),
-                      motions.eigenvectors[0][:, free])
-    r, Ar = A.createVecRight(), A.createVecLeft()
-    products = np.zeros((free.size, free.size))
-    try:
-        for k in range(free.size):
-            r.array[:] = modes[:, :, k].ravel()
-            A.mult(r, Ar)
-            products[:, k] = np.einsum("nik,ni->k", modes, Ar.array.reshape(-1, 3))
-    finally:
-        r.destroy()
-        Ar.destroy()
-    V.mesh.comm.Allreduce(MPI.IN_PLACE, products, op=MPI.SUM)
-    size = V.mesh.comm.allreduce(3 * n, op=MPI.SUM)
-    values, vectors = np.linalg.eigh(0.5 * (products + products.T))
-    held = values > 1e-10 * max(diagonal, np.finfo(float).tiny) * size
-    if not held.any():  # the usual case: unchanged, bit for bit (a rotation of round-off would depend on the ranks)
+    eigenvectors, still = motions.eigenvectors.copy(), motions.free.copy()
+    for b in range(num_bodies):  # the bodies (a few), each with at most six motions
+        free = np.flatnonzero(motions.free[b])
+        if free.size == 0:
+            continue
+        mine = owned_body == b
+        modes = np.zeros((n, 3, free.size))
+        modes[mine] = np.einsum("nia,ak->nik", rigid_modes_at((x[mine] - motions.centroid[b]) / motions.extent[b]),
+                                motions.eigenvectors[b][:, free])
+        r, Ar = A.createVecRight(), A.createVecLeft()
+        products = np.zeros((free.size, free.size))
+        try:
+            for k in range(free.size):
+                r.array[:] = modes[:, :, k].ravel()
+                A.mult(r, Ar)
+                products[:, k] = np.einsum("nik,ni->k", modes, Ar.array.reshape(-1, 3))
+        finally:
+            r.destroy()
+            Ar.destroy()
+        V.mesh.comm.Allreduce(MPI.IN_PLACE, products, op=MPI.SUM)
+        size = V.mesh.comm.allreduce(3 * int(np.sum(mine)), op=MPI.SUM)
+        values, vectors = np.linalg.eigh(0.5 * (products + products.T))
+        held = values > 1e-10 * max(diagonal, np.finfo(float).tiny) * size
+        if held.any():  # else unchanged, bit for bit (a rotation of round-off would depend on the ranks)
+            eigenvectors[b][:, free] = motions.eigenvectors[b][:, free] @ vectors
+            still[b, free] = ~held
+    if np.array_equal(still, motions.free):
         return motions
-    eigenvectors = motions.eigenvectors.copy()
-    eigenvectors[0][:, free] = motions.eigenvectors[0][:, free] @ vectors
-    still = motions.free.copy()
-    still[0, free] = ~held
     return FreeMotions(motions.centroid, motions.extent, eigenvectors, still)

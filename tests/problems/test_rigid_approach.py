@@ -330,3 +330,4 @@ def test_a_body_held_by_a_spring_is_no_free_body():
         _, result = problem.solve()
         assert result.converged
         assert problem.checks(result)["free_balance"] <= 1e-6
+        assert problem.checks(result)["reaction_balance"] <= 1e-6  # the spring counts as a support

@@ -104,10 +104,10 @@ class PairCoupling(Coupling):
         self._excluded = model.not_contact()
         self.body_of_block, self.num_bodies = connected_bodies(V)
         #: The bodies whose supports leave rigid motions free that contact alone holds.
-        self.held_by_contact = check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows,
-                                                   self.pairs)
         self.A_free = assemble_matrix(model.a)
         self.A_free.setOptionsPrefix(f"{model.prefix}A_free_")
+        self.held_by_contact = check_rigid_support(V, self.body_of_block, self.num_bodies, model.dirichlet_rows,
+                                                   self.pairs, stiffness=self.A_free)
         if contact is not None:
             tags, markers = contact
             self._obstacle_map = ContactMap.create(V, tags, [int(m) for m in markers], model.not_contact(),

@@ -64,7 +64,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import check_all
-from fenics_coulomb.model.nullspace import free_rigid_motions, rigid_modes_at
+from fenics_coulomb.model.nullspace import free_rigid_motions, held_by_stiffness, mean_free_diagonal, rigid_modes_at
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.pairs.pair import ContactPair
@@ -221,11 +221,12 @@ def lost_support(comm: MPI.Comm, held_by_contact: Sequence[HeldByContact], pairs
 
 
 def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64], num_bodies: int,
-                        dirichlet: npt.NDArray[np.int32], pairs: Sequence[ContactPair] = ()
-                        ) -> list[HeldByContact]:
-    """InputError on every rank unless every body's rigid motions are held: by its Dirichlet DOFs, or those its
-    Dirichlet DOFs leave free by contact with a body that its own supports hold. Returns the bodies held by
-    contact alone (the same list on every rank).
+                        dirichlet: npt.NDArray[np.int32], pairs: Sequence[ContactPair] = (),
+                        stiffness: PETSc.Mat | None = None) -> list[HeldByContact]:
+    """InputError on every rank unless every body's rigid motions are held: by its Dirichlet DOFs or its stiffness
+    (springs in the form, given ``stiffness``: the assembled form without Dirichlet rows), or those they leave
+    free by contact with a body that its own supports hold. Returns the bodies held by contact alone (the same
+    list on every rank).
 
     The rigid modes r of body b restricted to its prescribed (owned, unrolled) DOFs give the Gram matrix
     G = Σ r_Dᵀ r_D (summed over ranks; coordinates relative to the body's centroid, scaled by its size); its
@@ -243,6 +244,8 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     """
     comm = V.mesh.comm
     motions = free_rigid_motions(V, body, num_bodies, dirichlet)
+    if stiffness is not None:  # springs in the form hold motions too (nullspace.held_by_stiffness)
+        motions = held_by_stiffness(stiffness, V, motions, mean_free_diagonal(stiffness, dirichlet, comm), body)
     centroid, extent, eigenvectors, free = motions.centroid, motions.extent, motions.eigenvectors, motions.free
     supported = motions.supported
     normal_gram = np.zeros((num_bodies, 6, 6))  # G_c per body: Σ (n·r)ᵀ(n·r) over its held contact facets
