@@ -34,6 +34,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
+from fenics_coulomb.scd.options import option_read
 from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 from fenics_coulomb.scd.preconditioner import (
     AUTO_STALL_ITS,
@@ -88,6 +89,9 @@ class NewtonLinearSolves:
     #: Every change of preconditioner in this solver's life: Newton step, from, to, Krylov iterations spent.
     pc_history: list[dict[str, object]]
     _user_options: dict[str, object]
+    #: The user's options that some object of the solver has read, and whether the others were reported.
+    _options_read: set[str]
+    _options_reported: bool
     _default_options: dict[str, object]
     _nullspace: PETSc.NullSpace | None
     #: Pairs with GAMG: the preconditioner set up in the physical displacement (None otherwise).
@@ -197,11 +201,22 @@ class NewtonLinearSolves:
         try:
             yield
         finally:
+            # which of the user's options some object read (the flag goes with the value restored below)
+            self._options_read.update(key for key in self._user_options if option_read(f"{self.prefix}{key}"))
             for name, previous in added.items():  # restore what the database held before
                 if previous is None:
                     opts.delValue(name)
                 else:
                     opts[name] = previous
+
+    def report_unread_options(self) -> None:
+        """Warn once (rank 0) of the user's ``petsc_options`` that no object of the solver has read so far: a
+        misspelt name, or an option of another preconditioner than the one in use, is otherwise ignored silently."""
+        unread = [key for key in self._user_options if key not in self._options_read]
+        if unread and not self._options_reported and self.comm.rank == 0:
+            logger.warning("petsc_options not read by the solver's KSP or preconditioner (pc %s): %s — misspelt, or "
+                           "options of another preconditioner", self.pc, ", ".join(sorted(unread)))
+        self._options_reported = self._options_reported or bool(unread)
 
     def _set_tolerance(self, rtol: float) -> None:
         """Set the KSP's relative tolerance; under pc = "auto" with a preconditioner left to escalate to also its

@@ -120,6 +120,7 @@ class SCDNewtonSolver(NewtonLinearSolves):
                                        settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
         self.M = self.operator.M
         self._user_options = dict(petsc_options or {})
+        self._options_read, self._options_reported = set(), False
         for key, value in self._user_options.items():
             if not isinstance(key, str) or not key or key.startswith("-"):
                 raise InputError(f"petsc_options: key {key!r} must be an option name without '-' and prefix, "
@@ -413,6 +414,7 @@ class SCDNewtonSolver(NewtonLinearSolves):
     def result(self, it: Iterate, history: list[float], records: list[IterationRecord], converged: bool,
                reason: str, t_start: float, linear: bool = False, rule: StoppingRule | None = None) -> SolveResult:
         """The result at iterate ``it`` (collective: global counts); ``rule`` the stopping rule of the solve."""
+        self.report_unread_options()
         friction = self.model.friction
         sets = classify(it.v, it.z, friction)
         states = contact_states(sets, friction)

@@ -4,6 +4,8 @@ removed again when the command ends."""
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import re
 
 from mpi4py import MPI
@@ -13,7 +15,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.scd.preconditioner import OPTION_RANGES, check_option_value
 from fenics_coulomb.settings import COMMAND_PREFIX
 
-__all__ = ["set_petsc_options", "check_petsc_options", "check_option_values"]
+__all__ = ["set_petsc_options", "check_petsc_options", "check_option_values", "option_read"]
 
 
 def set_petsc_options(tokens: list[str]) -> list[str]:
@@ -123,3 +125,37 @@ def _is_option(token: str) -> bool:
     except ValueError:
         return True
 
+
+
+@functools.cache
+def _options_used() -> ctypes._CFuncPtr | None:  # type: ignore[name-defined]
+    """PETSc's ``PetscOptionsUsed`` from the libpetsc this process has loaded (petsc4py does not wrap it), or None
+    where it cannot be found (then nothing is reported)."""
+    try:
+        with open("/proc/self/maps", encoding="utf-8") as maps:
+            paths = sorted({line.split()[-1] for line in maps
+                            if "libpetsc" in line and line.split()[-1].startswith("/")})
+    except OSError:
+        return None
+    for path in paths:
+        try:
+            function = ctypes.CDLL(path).PetscOptionsUsed
+        except (OSError, AttributeError):
+            continue
+        function.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.POINTER(ctypes.c_int)]
+        function.restype = ctypes.c_int
+        return function
+    return None
+
+
+def option_read(name: str) -> bool | None:
+    """Whether some PETSc object has read the option ``name`` (without '-') of the options database since it was
+    set (PETSc's "used" flag, which ``-options_left`` reports at PetscFinalize); None when that cannot be told.
+    Setting an option anew clears the flag."""
+    function = _options_used()
+    if function is None:
+        return None
+    used = ctypes.c_int(0)
+    if function(None, name.encode(), ctypes.byref(used)) != 0:
+        return None
+    return bool(used.value)
