@@ -135,25 +135,32 @@ def shift_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.bool_], shift: float = HEL
     diagonal.destroy()
 
 
-def mean_free_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.int32], comm: MPI.Comm) -> float:
-    """The mean diagonal of A over all rows but the owned unrolled ``rows`` (the prescribed ones; collective)."""
+def mean_free_diagonal(A: PETSc.Mat, rows: npt.NDArray[np.int32], comm: MPI.Comm,
+                       body: npt.NDArray[np.int64] | None = None, num_bodies: int = 1) -> Array:
+    """The mean diagonal of A over all rows but the owned unrolled ``rows`` (the prescribed ones), per body
+    (``body``: the body of every local DOF block; None: one), shape (num_bodies,) (collective)."""
     diagonal = A.getDiagonal()
-    free = np.ones(diagonal.array.size, dtype=bool)
-    free[rows] = False
-    total = comm.allreduce(float(np.sum(diagonal.array[free])), op=MPI.SUM)
-    count = comm.allreduce(int(np.sum(free)), op=MPI.SUM)
+    values = diagonal.array.copy()
     diagonal.destroy()
-    return total / max(count, 1)
+    free = np.ones(values.size, dtype=bool)
+    free[rows] = False
+    owner = np.zeros(values.size, dtype=np.int64) if body is None else np.repeat(np.asarray(body[:values.size // 3]), 3)
+    sums = np.zeros((num_bodies, 2))
+    np.add.at(sums, owner[free], np.column_stack([values[free], np.ones(int(free.sum()))]))
+    comm.Allreduce(MPI.IN_PLACE, sums, op=MPI.SUM)
+    return np.asarray(sums[:, 0] / np.maximum(sums[:, 1], 1.0))
 
 
 def held_by_stiffness(A: PETSc.Mat, V: dolfinx.fem.FunctionSpace, motions: FreeMotions,
-                      diagonal: float, body: npt.NDArray[np.int64] | None = None) -> FreeMotions:
+                      diagonal: float | Array, body: npt.NDArray[np.int64] | None = None) -> FreeMotions:
     """``motions`` less those the stiffness holds: springs in the bilinear form (``k·inner(u, v)·ds``) hold rigid
     motions that no Dirichlet condition does. Within the free motions R of a body the Gram matrix Rᵀ A R (the
-    motions' elastic energy) has the truly free motions as its null space (eigenvalues ≤ 1e-10 × the mean free
-    diagonal ``diagonal`` × the body's number of DOFs: rigid motions cost round-off); ``body``: the body of every
-    local DOF block (None: one body); collective."""
+    motions' elastic energy) has the truly free motions as its null space (eigenvalues ≤ 1e-10 × the body's mean
+    free diagonal ``diagonal`` (per body, :func:`mean_free_diagonal`) × its number of DOFs: rigid motions cost
+    round-off, a spring below that holds nothing a solve could resolve); ``body``: the body of every local DOF block
+    (None: one body); collective."""
     num_bodies = motions.free.shape[0]
+    diagonals = np.broadcast_to(np.asarray(diagonal, dtype=np.float64), (num_bodies,))
     n = V.dofmap.index_map.size_local
     owned_body = np.zeros(n, dtype=np.int64) if body is None else np.asarray(body[:n])
     x = V.tabulate_dof_coordinates()[:n]
@@ -179,7 +186,7 @@ def held_by_stiffness(A: PETSc.Mat, V: dolfinx.fem.FunctionSpace, motions: FreeM
         V.mesh.comm.Allreduce(MPI.IN_PLACE, products, op=MPI.SUM)
         size = V.mesh.comm.allreduce(3 * int(np.sum(mine)), op=MPI.SUM)
         values, vectors = np.linalg.eigh(0.5 * (products + products.T))
-        held = values > 1e-10 * max(diagonal, np.finfo(float).tiny) * size
+        held = values > 1e-10 * max(float(diagonals[b]), np.finfo(float).tiny) * size
         if held.any():  # else unchanged, bit for bit (a rotation of round-off would depend on the ranks)
             eigenvectors[b][:, free] = motions.eigenvectors[b][:, free] @ vectors
             still[b, free] = ~held

@@ -27,14 +27,15 @@ from fenics_coulomb.model.checks import physics_residuals, unconstrained_residua
 from fenics_coulomb.model.pairs import ContactPair
 
 
-def spring_held_blocks(comm: MPI.Comm, k: float, load=(0.002, 0.0, -0.05)):
+def spring_held_blocks(comm: MPI.Comm, k: float, load=(0.002, 0.0, -0.05), young=(70.0, 70.0)):
     """The lower block clamped at its bottom; the upper block held by springs of stiffness ``k`` per area on its
-    top face (no Dirichlet condition) and loaded there by the traction ``load``: V, facet tags, a, L, bcs."""
+    top face (no Dirichlet condition) and loaded there by the traction ``load``; ``young``: (lower, upper) E, ν 0.3:
+    V, facet tags, a, L, bcs."""
     msh, ft = two_blocks(comm, lower=(5, 3, 2), upper=(4, 4, 3))
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
     u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
     ds = ufl.Measure("ds", domain=msh, subdomain_data=ft)
-    a = elasticity(V) + k * ufl.inner(u, v) * ds(UPPER_TOP)
+    a = elasticity(V, young[0], 0.3, upper=(young[1], 0.3)) + k * ufl.inner(u, v) * ds(UPPER_TOP)
     L = ufl.inner(dolfinx.fem.Constant(msh, np.asarray(load, dtype=np.float64)), v) * ds(UPPER_TOP)
     bcs = [dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V)]
     return V, ft, a, L, bcs
@@ -76,6 +77,9 @@ def test_a_pair_body_held_by_springs_agrees_with_brute_force(friction):
         # the springs' resultant Σ K u (the elastic part sums to round-off): they carry load, so the support counts
         springs = unconstrained_residual(model, u).sum(axis=0) + f.reshape(-1, 3).sum(axis=0)
         assert np.linalg.norm(springs) > 1e-3 * np.linalg.norm(f.reshape(-1, 3).sum(axis=0))
+        # the balance checks something: half the solution is far from it (it summed the residual over every node
+        # and met the load for any u)
+        assert physics_residuals(model, 0.5 * result.relative_displacement)["reaction_balance"] > 0.1
 
 
 def test_a_pair_body_held_by_springs_on_ranks():
@@ -88,6 +92,18 @@ def test_a_pair_body_held_by_springs_on_ranks():
         assert result.converged
         checks = problem.checks(result)
         assert checks["free_balance"] == 0.0 and checks["reaction_balance"] < 1e-6
+
+
+@pytest.mark.parametrize("lower", [0.07, 7e3])
+def test_a_soft_body_on_soft_springs_is_held_whatever_its_partner(lower):
+    """The upper block E = 0.07 on springs k = 7e-5 (k/E = 1e-3) holds its motions whatever the lower block's
+    stiffness: the threshold came from the mean diagonal of both bodies, so a lower block of E = 7000 raised it past
+    the springs' energy and the upper block was refused. Each body's own diagonal now."""
+    V, ft, a, L, bcs = spring_held_blocks(MPI.COMM_WORLD, k=7e-5, load=(0.0, 0.0, -5e-5), young=(lower, 0.07))
+    pair = ContactPair(ft, slave=SLAVE, master=MASTER, friction=0.3)
+    with ContactProblem(a, L, bcs, contact_pairs=[pair], petsc_options_prefix="springs_soft_") as problem:
+        assert problem.model.coupling.held_by_contact == []
+        assert problem.solve()[1].converged
 
 
 def test_a_spring_too_weak_to_hold_is_no_support():

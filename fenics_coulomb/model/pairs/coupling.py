@@ -33,7 +33,7 @@ from fenics_coulomb.model.frames import PAIR_HELD_NORMAL_TOL, held_frames
 from fenics_coulomb.model.nullspace import HELD_BODY_SHIFT, shift_diagonal
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
-from fenics_coulomb.model.pairs.forces import pair_forces
+from fenics_coulomb.model.pairs.forces import balance_sum, pair_forces
 from fenics_coulomb.model.pairs.master_nodes import master_excess
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
@@ -464,9 +464,9 @@ class PairCoupling(Coupling):
 
     def balance_sum(self, model: ContactModel, residual: Array, contact_force: Array,
                     clamped_blocks: npt.NDArray[np.int32]) -> Array:
-        """u = M z: the contact forces are internal (Σ_j φ_sj = 1), so the residual summed over every node
-        (supports, slave and master nodes; zero elsewhere) balances the applied load."""
-        return residual[: model.V.dofmap.index_map.size_local].sum(axis=0)
+        """:func:`~fenics_coulomb.model.pairs.forces.balance_sum` with the master forces of ``contact_force``."""
+        master = self.master_forces(contact_force, model.contact.local_dofs)
+        return balance_sum(model, residual, contact_force, master, clamped_blocks)
 
     def pair_forces(self, model: ContactModel, result: SolveResult) -> list[dict[str, Any]]:
         return pair_forces(model, result, self.pairs)

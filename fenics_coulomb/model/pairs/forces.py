@@ -8,12 +8,13 @@ from typing import TYPE_CHECKING, Any
 from mpi4py import MPI
 
 import numpy as np
+import numpy.typing as npt
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel
     from fenics_coulomb.scd.records import SolveResult
 
-__all__ = ["pair_forces"]
+__all__ = ["balance_sum", "pair_forces"]
 
 
 def pair_forces(model: ContactModel, result: SolveResult,
@@ -104,3 +105,21 @@ def pair_forces(model: ContactModel, result: SolveResult,
         })
         out.append(entry)
     return out
+
+
+Array = npt.NDArray[np.float64]
+
+
+def balance_sum(model: ContactModel, residual: Array, contact_force: Array, master_force: Array,
+                clamped_blocks: npt.NDArray[np.int32]) -> Array:
+    """This rank's share of the global balance of a model with pairs: the supports' reactions (``residual``, K u − l̃⁰
+    per owned block, on ``clamped_blocks``) and the contact forces of the solver's multipliers on both sides — on the
+    contact nodes (``contact_force``: slave and obstacle nodes) and on the master nodes (``master_force``, per owned
+    DOF: −Σ_s φ_sj f_s) — each where no support's reaction already holds it. A pair's own forces cancel
+    (Σ_j φ_sj = 1), so the balance compares the free nodes' residual with the multipliers (the residual summed over
+    every node, as before 2026-11-27, balanced the load for any u)."""
+    n = model.V.dofmap.index_map.size_local
+    master = np.array(master_force, dtype=np.float64).reshape(-1, 3)[:n]
+    master[clamped_blocks[clamped_blocks < n]] = 0.0
+    unheld = ~np.isin(model.contact.blocks, clamped_blocks)
+    return np.asarray(residual[clamped_blocks].sum(axis=0) + contact_force[unheld].sum(axis=0) + master.sum(axis=0))

@@ -245,7 +245,8 @@ def check_rigid_support(V: dolfinx.fem.FunctionSpace, body: npt.NDArray[np.int64
     comm = V.mesh.comm
     motions = free_rigid_motions(V, body, num_bodies, dirichlet)
     if stiffness is not None:  # springs in the form hold motions too (nullspace.held_by_stiffness)
-        motions = held_by_stiffness(stiffness, V, motions, mean_free_diagonal(stiffness, dirichlet, comm), body)
+        motions = held_by_stiffness(stiffness, V, motions,
+                                    mean_free_diagonal(stiffness, dirichlet, comm, body, num_bodies), body)
     centroid, extent, eigenvectors, free = motions.centroid, motions.extent, motions.eigenvectors, motions.free
     supported = motions.supported
     normal_gram = np.zeros((num_bodies, 6, 6))  # G_c per body: Σ (n·r)ᵀ(n·r) over its held contact facets
