@@ -50,7 +50,7 @@ if TYPE_CHECKING:
     from fenics_coulomb.scd.steps import NewtonStep
     from fenics_coulomb.settings import SolverSettings
 
-__all__ = ["KSP_LIMIT_STEPS", "NewtonLinearSolves"]
+__all__ = ["KSP_LIMIT_STEPS", "LINEAR_SOLVES", "NewtonLinearSolves"]
 
 logger = logging.getLogger(__name__)
 
@@ -59,6 +59,10 @@ logger = logging.getLogger(__name__)
 #: that stay that inexact do not converge, they only cost ksp_max_it iterations per step (GAMG with
 #: --gamma-scale 1, d3/L2 lev 8: 2000 GMRES iterations in every step, 780 s for 9 steps and still running).
 KSP_LIMIT_STEPS = 3
+
+#: The linear solves of every solver in this process so far (one counter: the command warns of its PETSc
+#: options no object read only after some solve has run, :func:`fenics_coulomb.cli.main`).
+LINEAR_SOLVES = [0]
 
 Array = npt.NDArray[np.float64]
 
@@ -92,6 +96,10 @@ class NewtonLinearSolves:
     #: The user's options that some object of the solver has read, and whether the others were reported.
     _options_read: set[str]
     _options_reported: bool
+    _linear_solved: bool
+    #: Whether this solver warns of the user's options no object read (nested iteration's coarse levels, whose options
+    #: are the command's, leave it to the command).
+    report_unread: bool
     _default_options: dict[str, object]
     _nullspace: PETSc.NullSpace | None
     #: Pairs with GAMG: the preconditioner set up in the physical displacement (None otherwise).
@@ -209,14 +217,22 @@ class NewtonLinearSolves:
                 else:
                     opts[name] = previous
 
+    @property
+    def options_read(self) -> frozenset[str]:
+        """The user's ``petsc_options`` (names without the prefix) that some object of the solver has read."""
+        return frozenset(self._options_read)
+
     def report_unread_options(self) -> None:
-        """Warn once (rank 0) of the user's ``petsc_options`` that no object of the solver has read so far: a
-        misspelt name, or an option of another preconditioner than the one in use, is otherwise ignored silently."""
+        """Warn once (rank 0) of the user's ``petsc_options`` that no object of the solver has read after a linear
+        solve (the preconditioner reads some at its first set-up): a misspelt name, or an option of another
+        preconditioner than the one in use, is otherwise ignored silently."""
+        if not self.report_unread or self._options_reported or not self._linear_solved:
+            return
         unread = [key for key in self._user_options if key not in self._options_read]
-        if unread and not self._options_reported and self.comm.rank == 0:
+        if unread and self.comm.rank == 0:
             logger.warning("petsc_options not read by the solver's KSP or preconditioner (pc %s): %s — misspelt, or "
                            "options of another preconditioner", self.pc, ", ".join(sorted(unread)))
-        self._options_reported = self._options_reported or bool(unread)
+        self._options_reported = bool(unread)
 
     def _set_tolerance(self, rtol: float) -> None:
         """Set the KSP's relative tolerance; under pc = "auto" with a preconditioner left to escalate to also its
@@ -232,6 +248,8 @@ class NewtonLinearSolves:
         self._set_tolerance(eta)
         self.x.set(0.0)
         self._petsc_call(self.step.linear_solve, self.ksp, self.b, self.x)
+        self._linear_solved = True
+        LINEAR_SOLVES[0] += 1
         return int(self.ksp.getIterationNumber())
 
     def _petsc_call(self, call: Callable[..., object], *args: object) -> None:
@@ -294,5 +312,7 @@ class NewtonLinearSolves:
         self._set_tolerance(self.settings.reduction)
         self.x.set(0.0)
         self._petsc_call(self.ksp.solve, self.model.load, self.x)
+        self._linear_solved = True
+        LINEAR_SOLVES[0] += 1
         self.ksp.setTolerances(rtol=self.tol)
         return int(self.ksp.getIterationNumber())

@@ -120,7 +120,7 @@ class SCDNewtonSolver(NewtonLinearSolves):
                                        settings.matrix_free and self.pc in MATRIX_FREE_PCS, prefix)
         self.M = self.operator.M
         self._user_options = dict(petsc_options or {})
-        self._options_read, self._options_reported = set(), False
+        self._options_read, self._options_reported, self._linear_solved, self.report_unread = set(), False, False, True
         for key, value in self._user_options.items():
             if not isinstance(key, str) or not key or key.startswith("-"):
                 raise InputError(f"petsc_options: key {key!r} must be an option name without '-' and prefix, "

@@ -46,6 +46,9 @@ def set_petsc_options(tokens: list[str]) -> list[str]:
         for key, _ in pairs:
             opts.delValue(key)
         raise
+    for key, value in pairs:  # set anew: the trial KSP's reads must not count as the solver's (:func:`option_read`)
+        opts.delValue(key)
+        opts[key] = value
     return [key for key, _ in pairs]
 
 

@@ -203,8 +203,13 @@ def solve_coarse_levels(scene: Scene, levels: int, comm: MPI.Comm) -> CoarseStar
                             petsc_options_prefix=f"{COMMAND_PREFIX}nested{lev}_",
                             petsc_options=coarse_level_options(lev)).problem
               for lev in coarse_levels]
+    for problem in coarse:  # their options are the command's, whose unread ones the command names
+        problem.solver.report_unread = False
     try:
         uh, _, nested = solve_nested(coarse, start_function(scene.start, coarse[0].V))
+        opts = PETSc.Options()
+        for key in {key for problem in coarse for key in problem.solver.options_read}:
+            opts.hasName(f"{COMMAND_PREFIX}{key}")  # a copy a coarse level read: the command's option counts as read
     except SolverError as err:
         logger.warning("nested iteration: a coarse level did not converge (%s); lev %d starts without it", err,
                        scene.body.lev)
