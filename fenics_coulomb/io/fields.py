@@ -37,21 +37,18 @@ from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
 from fenics_coulomb.model.obstacles import obstacle_names
 from fenics_coulomb.report import nodal_pressure
+from fenics_coulomb.io.units import Units
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import NOT_CONTACT, OPEN, SLIP, STICK, ContactState
 
 __all__ = ["CONTACT_STATES", "FIELD_UNITS", "UNITS", "contact_functions", "contact_statistics", "group_names",
            "stress_from_form", "stress_functions", "stress_statistics"]
 
-#: The units of the outputs (the scenes give E in GPa; the mesh's length unit is L).
-UNITS: dict[str, str] = {"length": "L", "area": "L^2", "pressure": "GPa", "stress": "GPa", "force": "GPa*L^2"}
+#: The units of the outputs by default (the scenes give E in GPa; the mesh's length unit is L): :class:`Units`.
+UNITS: dict[str, str] = Units().table()
 
-#: The unit of every point field of solution.xdmf ("" for a dimensionless or categorical field).
-FIELD_UNITS: dict[str, str] = {
-    "displacement": "L", "contact_state": "", "contact_pressure": "GPa", "contact_force": "GPa*L^2",
-    "tangential_force": "GPa*L^2", "contact_traction": "GPa", "gap": "L", "contact_normal": "",
-    "master_reaction": "GPa*L^2", "stress": "GPa", "von_mises": "GPa", "body": "",
-}
+#: The unit of every point field of solution.xdmf by default ("" for a dimensionless or categorical field).
+FIELD_UNITS: dict[str, str] = Units().fields()
 
 
 def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:

@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.io.display import virtual_display
+from fenics_coulomb.io.units import Units
 from fenics_coulomb.scd.resolvent import OPEN, SLIP, STICK
 
 __all__ = ["STATE_COLOURS", "contact_view", "plot_convergence", "gather_contact", "plot_contact_states",
@@ -107,7 +108,7 @@ def plot_contact_states(
 
 def plot_contact_pressure(
     coordinates: npt.NDArray[np.float64], pressure: npt.NDArray[np.float64], states: npt.NDArray[np.int8],
-    path: Path, title: str = "", labels: tuple[str, str] = ("$x_1$", "$x_2$"),
+    path: Path, title: str = "", labels: tuple[str, str] = ("$x_1$", "$x_2$"), unit: str = "GPa",
 ) -> tuple[float, float, float, float]:
     """Draw the contact pressure of the contact nodes over their first two (projected) coordinates to ``path``,
     zoomed onto the nodes in contact (their box, widened by half its size and by the node spacing around it; the
@@ -140,10 +141,10 @@ def plot_contact_pressure(
                label="open or no pressure")
     shown = ax.scatter(*xy[closed].T, c=pressure[closed], s=size, cmap="viridis", marker="s", edgecolors="none")
     if closed.any():
-        fig.colorbar(shown, ax=ax, label="contact pressure (GPa)")
+        fig.colorbar(shown, ax=ax, label=f"contact pressure ({unit})")
         peak = int(np.argmax(np.where(closed, pressure, -np.inf)))
         ax.plot(*xy[peak], marker="+", color="red", ms=14, mew=2, ls="none",
-                label=f"peak {pressure[peak]:.4g} GPa ({int(closed.sum())} nodes in contact)")
+                label=f"peak {pressure[peak]:.4g} {unit} ({int(closed.sum())} nodes in contact)")
     ax.set_xlim(centre[0] - half, centre[0] + half)
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_aspect("equal")
@@ -260,7 +261,7 @@ def render_deformed(parts: list, contact: tuple[npt.NDArray[np.float64], npt.NDA
             del plotter
 
 
-def write_figures(directory: Path, model: object, result: object, label: str) -> list[str]:
+def write_figures(directory: Path, model: object, result: object, label: str, units: Units | None = None) -> list[str]:
     """Write convergence.png, contact_states.png and deformed.png of a solve into ``directory`` (collective).
 
     The data are gathered on rank 0 by all ranks; each figure is then drawn on rank 0 alone and a figure that
@@ -305,7 +306,8 @@ def write_figures(directory: Path, model: object, result: object, label: str) ->
                                                            f"Convergence, {label}")),
             ("contact_states.png", lambda p: plot_contact_states(*states, p, f"Contact states, {label}", axes)),
             ("contact_pressure.png", lambda p: plot_contact_pressure(
-                pressures[0][:, :2], pressures[0][:, 2], pressures[1], p, f"Contact pressure, {label}", axes)),
+                pressures[0][:, :2], pressures[0][:, 2], pressures[1], p, f"Contact pressure, {label}", axes,
+                (units or Units()).stress)),
             ("deformed.png", lambda p: render_deformed(
                 *deformed, p, f"Deformed bodies, {label} (master translucent)" if bodies else f"Deformed body, {label}",
                 view_normal, tuple(slaves))),

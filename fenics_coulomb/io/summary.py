@@ -21,6 +21,7 @@ import numpy as np
 import ufl
 
 from fenics_coulomb.io.fields import UNITS, contact_statistics, stress_statistics
+from fenics_coulomb.io.units import Units
 from fenics_coulomb.io.results import rank0_file
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.scd.records import SolveResult
@@ -28,7 +29,8 @@ from fenics_coulomb.scd.records import SolveResult
 __all__ = ["GROUP_COLUMNS", "summary", "write_summary", "write_convergence_csv", "write_path_csv", "software_versions"]
 
 
-def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | None = None,
+            units: Units | None = None) -> dict[str, Any]:
     """Global summary of a solve (collective; identical on all ranks): the result's own summary, the contact
     area and the peak contact pressure with its location (``contact_area``, ``contact_nodes``,
     ``peak_pressure``, ``peak_pressure_at``), the same per obstacle (``obstacles``: name → those and the
@@ -36,7 +38,8 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
     :func:`~fenics_coulomb.model.pairs.forces.pair_forces`), the largest von Mises and shear stress with their
     places (``max_von_mises``, ``max_von_mises_at``, ``max_shear``, ``max_shear_at``:
     :func:`~fenics_coulomb.io.fields.stress_statistics`),
-    the ``units``, the software versions and ``extra`` (:func:`~fenics_coulomb.io.fields.contact_statistics`)."""
+    the ``units`` (default GPa and L), the software versions and ``extra``
+    (:func:`~fenics_coulomb.io.fields.contact_statistics`)."""
     comm = model.V.mesh.comm
     data = result.summary(comm)
     statistics = contact_statistics(model, result)
@@ -44,7 +47,7 @@ def summary(model: ContactModel, result: SolveResult, extra: dict[str, Any] | No
     data.update(statistics)
     data.update(model.coupling.summary_entries(model, result, per_pair))  # contact pairs: "contact_pairs"
     data.update(stress_statistics(model, result))
-    data["units"] = dict(UNITS)
+    data["units"] = (units or Units()).table()
     data["versions"] = software_versions()
     if extra:
         data.update(extra)

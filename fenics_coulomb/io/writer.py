@@ -39,6 +39,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
 from fenics_coulomb.io.results import ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_path_csv, write_summary
+from fenics_coulomb.io.units import Units
 from fenics_coulomb.io.view import contact_bodies, largest_force_normal, warp_scale, write_view_script
 from fenics_coulomb.io.xdmf import XDMFTimeSeries, write_initial_grid, write_result_grid, write_xdmf
 from fenics_coulomb.model.checks import displacement_scale, force_floor
@@ -54,7 +55,8 @@ __all__ = ["PathResultSet", "write_result_set", "write_results"]
 def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
                      plots: bool = False, reactions: Mapping[str, Any] | None = None,
                      extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
-                     started: float | None = None, wall_start: float | None = None) -> dict[str, Any]:
+                     started: float | None = None, wall_start: float | None = None,
+                     units: Units | None = None) -> dict[str, Any]:
     """Write the result set of ``result`` into the (temporary) ``directory`` (collective); return summary.json's
     data.
 
@@ -70,10 +72,11 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
         started: ``time.perf_counter()`` when writing began: ``timings_s["output"]`` is measured from it.
         wall_start: ``time.perf_counter()`` when the command began: ``wall_time_s`` is the whole command's time
             since it, as for a load path (without it, the solver's time, ``timings_s["total"]``).
+        units: The units the outputs are labelled with (:class:`~fenics_coulomb.io.units.Units`; default GPa, L).
     """
     model = problem.model
     comm = model.comm
-    write_xdmf(directory / "solution.xdmf", model, result)
+    write_xdmf(directory / "solution.xdmf", model, result, units)
     write_convergence_csv(directory / "convergence.csv", result, comm)
     write_view_script(directory / "view.py", warp_scale(model, [result.displacement]),
                       largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
@@ -85,8 +88,8 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     if plots:
         from fenics_coulomb.io.figures import write_figures
 
-        files += write_figures(directory, model, result, label)
-    data = summary(model, result, dict(extra or {}))
+        files += write_figures(directory, model, result, label, units)
+    data = summary(model, result, dict(extra or {}), units)
     report = make_report(model, result, model.obstacles, reactions or {})
     data["reactions"] = {name: [float(c) for c in v] for name, v in report.reactions.items()}
     data["contact_force"] = [float(c) for c in report.total_force]
@@ -268,13 +271,16 @@ def check_extra(extra: Any) -> None:
 
 def write_results(path: str | Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
                   plots: bool = False, reactions: Mapping[str, Any] | None = None,
-                  extra: Mapping[str, Any] | None = None, comm: MPI.Comm | None = None) -> dict[str, Any]:
+                  extra: Mapping[str, Any] | None = None, comm: MPI.Comm | None = None,
+                  units: Mapping[str, str] | Units | None = None) -> dict[str, Any]:
     """Write the result set of a solve to ``path`` as the command line does (collective); return summary.json's
-    data. See the module docstring; the arguments are those of :func:`write_result_set`.
+    data. See the module docstring; the arguments are those of :func:`write_result_set`, ``units`` also as a dict
+    (``{"stress": "Pa", "length": "m"}``: the form's stress unit and the mesh's length unit; default GPa and L).
 
     Raises:
-        InputError: for a path that is not a non-empty name, a ``problem`` that is not a ContactProblem or a
-            ``result`` that is not a SolveResult (before anything is written or communicated).
+        InputError: for a path that is not a non-empty name, a ``problem`` that is not a ContactProblem, a
+            ``result`` that is not a SolveResult or ``units`` that are not unit names (before anything is written or
+            communicated).
     """
     from fenics_coulomb.problem import ContactProblem
 
@@ -290,8 +296,10 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
     if "\0" in str(path):
         raise InputError(f"write_results: path = {str(path)!r}: a file name cannot hold a NUL character")
     check_extra(extra)
+    labels = Units.of(units, "write_results: units")
     out = ResultDirectory(comm or problem.model.comm, path, "write_results: path")
     out.failed = not result.converged
     with out.writing() as tmp:
-        data = write_result_set(tmp, problem, result, label=label, plots=plots, reactions=reactions, extra=extra)
+        data = write_result_set(tmp, problem, result, label=label, plots=plots, reactions=reactions, extra=extra,
+                                units=labels)
     return data

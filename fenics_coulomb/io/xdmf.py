@@ -47,7 +47,7 @@ lengths in the mesh's unit L):
     displacement w_s = u_s − Σ_j φ_sj u_j, and ``contact_normal`` is the master's outward normal at the
     closest point.
 
-The grid's ``units`` information item names each field's unit (:data:`~fenics_coulomb.io.fields.FIELD_UNITS`).
+The grid's ``units`` information item names each field's unit (:meth:`~fenics_coulomb.io.units.Units.fields`).
 All fields go through :class:`XDMFTimeSeries` (:func:`write_xdmf`). HDF5 layout (one file, one mesh for the
 whole series): ``/Mesh/mesh/geometry`` (N × 3 float64 vertex coordinates in the global P1 vertex numbering),
 ``/Mesh/mesh/topology`` (cells × vertices, int64 global vertex numbers, VTK/XDMF vertex order) and
@@ -78,7 +78,8 @@ import numpy.typing as npt
 import ufl
 
 from fenics_coulomb.errors import OutputError
-from fenics_coulomb.io.fields import CONTACT_STATES, FIELD_UNITS, contact_functions
+from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions
+from fenics_coulomb.io.units import Units
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import set_owned_values
@@ -249,28 +250,30 @@ class XDMFTimeSeries:
                    + ET.tostring(root, encoding="unicode") + "\n")
 
 
-def write_xdmf(path: Path, model: ContactModel, result: SolveResult) -> None:
+def write_xdmf(path: Path, model: ContactModel, result: SolveResult, units: Units | None = None) -> None:
     """Write the output fields of a solve as ``solution.xdmf``/``.h5`` (collective).
 
     A solve that did not converge writes its last iterate, named so in the grid and marked by the grid's
     ``converged``/``reason`` information items.
     """
     with XDMFTimeSeries(path, model.V.mesh) as xdmf:
-        write_result_grid(xdmf, model, result, 0.0, "solution")
+        write_result_grid(xdmf, model, result, 0.0, "solution", units)
 
 
-def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveResult, t: float, name: str) -> None:
+def write_result_grid(xdmf: XDMFTimeSeries, model: ContactModel, result: SolveResult, t: float, name: str,
+                      units: Units | None = None) -> None:
     """Append the output fields of a solve as the grid of time ``t`` (collective); a solve that did not converge
     is named ``last iterate (NOT converged: <reason>)`` (after ``name`` when it is not "solution") and marked
     by the grid's ``converged``/``reason`` information items."""
     functions = contact_functions(model, result)
+    field_units = (units or Units()).fields()
     if not result.converged:
         name = ("" if name == "solution" else f"{name}: ") + f"last iterate (NOT converged: {result.reason})"
     dtypes = {key: np.int32 for key in ("contact_state", "body") if any(f.name == key for f in functions)}
     xdmf.write(t, functions, dtypes=dtypes, name=name,
                information={"converged": str(bool(result.converged)).lower(), "reason": str(result.reason),
                             "contact_state": ", ".join(f"{k} {v}" for k, v in CONTACT_STATES.items()),
-                            "units": ", ".join(f"{f.name} {FIELD_UNITS.get(f.name) or '1'}" for f in functions)})
+                            "units": ", ".join(f"{f.name} {field_units.get(f.name) or '1'}" for f in functions)})
 
 
 def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0) -> None:

@@ -19,9 +19,10 @@ import dolfinx.fem
 import dolfinx.mesh
 import h5py
 import numpy as np
+import pytest
 import ufl
 
-from fenics_coulomb import ContactProblem, Sphere, write_results
+from fenics_coulomb import ContactProblem, InputError, Sphere, write_results
 from fenics_coulomb.io.fields import stress_from_form, stress_functions
 
 E, NU = 70.0, 0.3
@@ -118,6 +119,37 @@ def test_uniform_pressure_is_the_applied_pressure_everywhere(mpi_tmp_path):
     assert abs(data["max_von_mises"] - p) <= 1e-9 * p and abs(data["max_shear"] - p / 2) <= 1e-9 * p
     assert np.allclose(data["max_von_mises_at"], 0.0, atol=1e-12)  # all tie: the first vertex
     assert "stress GPa" in info["units"] and "von_mises GPa" in info["units"]
+
+
+def test_the_units_given_label_every_output(mpi_tmp_path):
+    """write_results(units=...): the form in MPa on a mesh in mm is labelled so in summary.json, the XDMF grid's
+    units item; the values are the same numbers as with the default labels
+    (GPa, L: the solver does not convert). Refused before anything is written: a unit that is not a name, an
+    unknown key."""
+    comm = MPI.COMM_WORLD
+    problem, _ = uniform_pressure(comm, 0.05)
+    with problem:
+        _, result = problem.solve()
+        default = write_results(mpi_tmp_path / "default", problem, result)
+        data = write_results(mpi_tmp_path / "mm", problem, result, units={"stress": "MPa", "length": "mm"})
+        for units, message in [({"stress": ""}, "stress = ''"), ({"length": "m,m"}, "length = 'm,m'"),
+                               ({"force": "N"}, "unknown key 'force'"), ("MPa", "give a dict"),
+                               ({"stress": 3}, "stress = 3")]:
+            with pytest.raises(InputError, match=f"write_results: units.*{message}"):
+                write_results(mpi_tmp_path / "bad", problem, result, units=units)
+    comm.barrier()
+    assert not (mpi_tmp_path / "bad").exists()
+    assert data["units"] == {"length": "mm", "area": "mm^2", "pressure": "MPa", "stress": "MPa",
+                             "force": "MPa*mm^2"}
+    info, _, fields = _read(mpi_tmp_path / "mm")
+    for item in ("displacement mm", "contact_pressure MPa", "contact_force MPa*mm^2", "gap mm", "stress MPa",
+                 "von_mises MPa", "contact_traction MPa"):
+        assert item in info["units"].split(", ")
+    assert "GPa" not in info["units"] and " L" not in info["units"]
+    _, _, unlabelled = _read(mpi_tmp_path / "default")
+    for name, values in fields.items():
+        assert np.array_equal(values, unlabelled[name])
+    assert data["peak_pressure"] == default["peak_pressure"] and data["contact_area"] == default["contact_area"]
 
 
 def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
