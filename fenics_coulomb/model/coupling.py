@@ -37,6 +37,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_map import ContactMap
+from fenics_coulomb.model.mesh_checks import first_interior_facet
 from fenics_coulomb.model.nullspace import (HELD_BODY_SHIFT, FreeMotions, free_rigid_motions, held_by_stiffness,
                                              rigid_body_modes, shift_diagonal)
 from fenics_coulomb.model.obstacle_checks import check_not_overlapping
@@ -85,14 +86,10 @@ def boundary_facets(msh: dolfinx.mesh.Mesh, facet_tags: dolfinx.mesh.MeshTags, m
                     ) -> tuple[bool, str]:
     """(whether every facet the markers tag that this rank owns lies on the mesh's boundary, the message naming an
     interior one): an interior facet's vertices would be contact nodes inside the body."""
-    tdim = msh.topology.dim
-    msh.topology.create_connectivity(tdim - 1, tdim)
-    exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)
     facets = np.hstack([facet_tags.find(m) for m in markers]) if markers else np.zeros(0, np.int32)
-    inner = np.setdiff1d(facets[facets < msh.topology.index_map(tdim - 1).size_local], exterior)
-    if not inner.size:
+    mid = first_interior_facet(msh, facets)
+    if mid is None:
         return True, ""
-    mid = dolfinx.mesh.compute_midpoints(msh, tdim - 1, inner[:1].astype(np.int32))[0]
     at = ", ".join(f"{c:.6g}" for c in mid)
     return False, (f"contact: markers {list(markers)} tag an interior facet (midpoint ({at})): the contact boundary "
                    "must lie on the mesh's boundary")

@@ -29,7 +29,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import check_all
 
-__all__ = ["DEGENERATE", "BodyLocator", "check_mesh", "displaced_geometry"]
+__all__ = ["DEGENERATE", "BodyLocator", "check_mesh", "displaced_geometry", "first_interior_facet"]
 
 #: A cell whose (smallest corner) Jacobian determinant is at most this fraction of h³ is degenerate.
 DEGENERATE = 1e-10
@@ -181,3 +181,17 @@ class BodyLocator:
             self.mesh.comm.Allreduce(MPI.IN_PLACE, inside, op=MPI.MAX)
         hits = np.flatnonzero(inside)
         return int(hits[0]) if hits.size else -1
+
+
+def first_interior_facet(msh: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32],
+                         exterior: npt.NDArray[np.int32] | None = None) -> npt.NDArray[np.float64] | None:
+    """The midpoint of the first of ``facets`` (local indices) that this rank owns and that does not lie on the mesh's
+    boundary (its vertices would be contact nodes inside the body), or None; ``exterior``: the owned exterior facets
+    when known (each rank checks its own facets)."""
+    tdim = msh.topology.dim
+    if exterior is None:
+        msh.topology.create_connectivity(tdim - 1, tdim)
+        exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)
+    facets = np.asarray(facets, dtype=np.int32)
+    inner = np.setdiff1d(facets[facets < msh.topology.index_map(tdim - 1).size_local], exterior)
+    return dolfinx.mesh.compute_midpoints(msh, tdim - 1, inner[:1])[0] if inner.size else None

@@ -49,6 +49,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError, check_all
+from fenics_coulomb.model.mesh_checks import first_interior_facet
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.projection import (TIE_TOL, Surface, dot, facet_data, facet_ranks, facet_sizes,
                                                    gather_surface, layer_thickness, local_facets, project, where)
@@ -127,9 +128,8 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         for key, tags in (("slave", pair.slave_tags), ("master", pair.master_tags)):
             facets = local_facets(pair.facet_tags, tags)
             counts.append([pair.facet_tags.find(t).size for t in tags])
-            inner = np.setdiff1d(facets[facets < num_owned], exterior)  # each rank checks its owned facets
-            if inner.size and not message:
-                mid = dolfinx.mesh.compute_midpoints(msh, tdim - 1, inner[:1])[0]
+            mid = None if message else first_interior_facet(msh, facets, exterior)  # each rank its owned facets
+            if mid is not None:
                 message = (f"{label}: {key} tag(s) {list(tags)} mark an interior facet (midpoint "
                            f"{where(mid)}): contact surfaces must lie on the mesh boundary")
             both.append(facets)
