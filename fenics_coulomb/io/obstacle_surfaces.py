@@ -177,8 +177,10 @@ class ObstacleSeries:
     """
 
     def __init__(self, path: Path | str, obstacles: Sequence[Obstacle], box: tuple[npt.ArrayLike, npt.ArrayLike],
-                 comm: MPI.Comm) -> None:
+                 comm: MPI.Comm, length: str = "L") -> None:
         self.path = Path(path).with_suffix(".xdmf")
+        #: The mesh's length unit (the rest positions' unit in the grids' ``units`` item).
+        self.length = length
         self.h5_path = self.path.with_suffix(".h5")
         self.comm = comm
         self.names = obstacle_names(obstacles)
@@ -264,7 +266,7 @@ class ObstacleSeries:
             ET.SubElement(grid, "Time", Value=repr(float(t)))
             ET.SubElement(grid, "Information", Name="obstacles",
                           Value=", ".join(f"{i + 1} {name}" for i, name in enumerate(self.names)))
-            ET.SubElement(grid, "Information", Name="units", Value="rest_position L, obstacle 1, octant 1")
+            ET.SubElement(grid, "Information", Name="units", Value=f"rest_position {self.length}, obstacle 1, octant 1")
             topology = ET.SubElement(grid, "Topology", TopologyType="Triangle", NumberOfElements=str(m),
                                      NodesPerElement="3")
             self._item(topology, "/Mesh/triangles", (m, 3), np.int64)

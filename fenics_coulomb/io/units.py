@@ -4,8 +4,10 @@ squared, a force a stress times an area).
 
 The solver is unit-agnostic: it returns what the form's numbers mean. The scenes and the command give E in GPa on a
 mesh in some length unit L, the default here; an API user whose form is in Pa on a mesh in metres says so
-(``write_results(..., units={"stress": "Pa", "length": "m"})``) and every output — summary.json's ``units``, the
-XDMF grid's ``units`` item, path.csv's column headers, the figures' axes — says Pa, m, m^2 and Pa*m^2.
+(``write_results(..., units={"stress": "Pa", "length": "m"})``) and the result set — summary.json's ``units``, the
+``units`` items of solution.xdmf and obstacles.xdmf, the contact-pressure figure — says Pa, m, m^2 and Pa*m^2. (A
+load path's result set is the command's: path.csv and path.png in the default units.) A derived unit puts a compound
+name in parentheses: length "0.1 m" gives the area "(0.1 m)^2".
 """
 
 from __future__ import annotations
@@ -22,9 +24,20 @@ __all__ = ["Units"]
 MAX_UNIT_LENGTH = 32
 
 
+#: Characters a unit's name may not hold: the separators of the XDMF units item and of path.csv's headers, JSON's
+#: quote, and matplotlib's mathtext delimiter (a label "$x^$" fails to draw).
+FORBIDDEN = ',[]"$'
+
+
+def _grouped(unit: str) -> str:
+    """``unit`` in parentheses when it is compound (a space or an operator), so that a power or product of it reads
+    as one."""
+    return f"({unit})" if any(c in unit for c in " */^") else unit
+
+
 @dataclass(frozen=True)
 class Units:
-    """The outputs' units.
+    """The outputs' units (checked when made: InputError for a name that is not a unit's).
 
     Attributes:
         stress: The unit of stress (of E in the form): pressures, tractions, stresses.
@@ -34,13 +47,21 @@ class Units:
     stress: str = "GPa"
     length: str = "L"
 
+    def __post_init__(self) -> None:
+        for key in ("stress", "length"):
+            unit = getattr(self, key)
+            if (not isinstance(unit, str) or not unit.strip() or unit != unit.strip() or len(unit) > MAX_UNIT_LENGTH
+                    or not unit.isprintable() or any(c in unit for c in FORBIDDEN)):
+                raise InputError(f"units: {key} = {unit!r}: give a unit's name, 1 to {MAX_UNIT_LENGTH} printable "
+                                 f"characters without {', '.join(repr(c) for c in FORBIDDEN)} or surrounding spaces")
+
     @property
     def area(self) -> str:
-        return f"{self.length}^2"
+        return f"{_grouped(self.length)}^2"
 
     @property
     def force(self) -> str:
-        return f"{self.stress}*{self.length}^2"
+        return f"{_grouped(self.stress)}*{self.area}"
 
     def table(self) -> dict[str, str]:
         """summary.json's ``units``: length, area, pressure, stress, force."""
@@ -57,19 +78,16 @@ class Units:
     @classmethod
     def of(cls, value: Any, where: str) -> Units:
         """``value`` as Units: None (the default, GPa and L), Units, or a mapping with the keys ``stress`` and/or
-        ``length``; InputError naming ``where`` otherwise (pure: the same on every rank)."""
-        if value is None:
-            return cls()
-        if isinstance(value, Units):
-            return cls.of({"stress": value.stress, "length": value.length}, where)
+        ``length`` (names stripped of surrounding spaces); InputError naming ``where`` otherwise (pure: the same on
+        every rank)."""
+        if value is None or isinstance(value, Units):
+            return value or cls()
         if not isinstance(value, Mapping):
             raise InputError(f"{where} = {value!r}: give a dict such as {{'stress': 'MPa', 'length': 'mm'}}")
         unknown = sorted(str(k) for k in value if k not in ("stress", "length"))
         if unknown:
             raise InputError(f"{where}: unknown key {unknown[0]!r} (the keys: 'stress', 'length')")
-        for key, unit in value.items():
-            if (not isinstance(unit, str) or not unit.strip() or len(unit) > MAX_UNIT_LENGTH or not unit.isprintable()
-                    or any(c in unit for c in ",[]\"")):
-                raise InputError(f"{where}: {key} = {unit!r}: give a unit's name, 1 to {MAX_UNIT_LENGTH} printable "
-                                 "characters without ',', '[', ']' or '\"'")
-        return cls(**{k: v.strip() for k, v in value.items()})
+        try:
+            return cls(**{k: v.strip() if isinstance(v, str) else v for k, v in value.items()})
+        except InputError as err:
+            raise InputError(f"{where}: {str(err).removeprefix('units: ')}") from None

@@ -83,7 +83,7 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
     files = ["solution.xdmf", "solution.h5", "convergence.csv", "view.py"]
     if model.obstacles:
         ObstacleSeries(directory / "obstacles.xdmf", model.obstacles, body_box(model.V.mesh.geometry.x, comm),
-                       comm).write(0.0, model.obstacles)
+                       comm, (units or Units()).length).write(0.0, model.obstacles)
         files += ["obstacles.xdmf", "obstacles.h5"]
     if plots:
         from fenics_coulomb.io.figures import write_figures

@@ -24,6 +24,7 @@ import ufl
 
 from fenics_coulomb import ContactProblem, InputError, Sphere, write_results
 from fenics_coulomb.io.fields import stress_from_form, stress_functions
+from fenics_coulomb.io.units import Units
 
 E, NU = 70.0, 0.3
 MU, LMBDA = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
@@ -134,7 +135,7 @@ def test_the_units_given_label_every_output(mpi_tmp_path):
         data = write_results(mpi_tmp_path / "mm", problem, result, units={"stress": "MPa", "length": "mm"})
         for units, message in [({"stress": ""}, "stress = ''"), ({"length": "m,m"}, "length = 'm,m'"),
                                ({"force": "N"}, "unknown key 'force'"), ("MPa", "give a dict"),
-                               ({"stress": 3}, "stress = 3")]:
+                               ({"stress": 3}, "stress = 3"), ({"stress": "$x^$"}, r"stress = '\$x\^\$'")]:
             with pytest.raises(InputError, match=f"write_results: units.*{message}"):
                 write_results(mpi_tmp_path / "bad", problem, result, units=units)
     comm.barrier()
@@ -146,6 +147,12 @@ def test_the_units_given_label_every_output(mpi_tmp_path):
                  "von_mises MPa", "contact_traction MPa"):
         assert item in info["units"].split(", ")
     assert "GPa" not in info["units"] and " L" not in info["units"]
+    text = (mpi_tmp_path / "mm" / "obstacles.xdmf").read_text()  # the plane's rest positions in the length unit
+    assert "rest_position mm," in text and "rest_position L" not in text
+    # a compound name is grouped in what derives from it; a Units made directly is checked too
+    assert Units(stress="kN/m^2", length="0.1 m").force == "(kN/m^2)*(0.1 m)^2"
+    with pytest.raises(InputError, match="units: stress = ''"):
+        Units(stress="")
     _, _, unlabelled = _read(mpi_tmp_path / "default")
     for name, values in fields.items():
         assert np.array_equal(values, unlabelled[name])
