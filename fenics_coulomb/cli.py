@@ -36,7 +36,7 @@ from fenics_coulomb.io.display import virtual_display
 from fenics_coulomb.launcher import _end_on_signals, _finish_together, exit_status
 from fenics_coulomb.runner import run
 from fenics_coulomb.scd.linear_solves import LINEAR_SOLVES
-from fenics_coulomb.scd.options import option_read, set_petsc_options
+from fenics_coulomb.scd.options import option_read, set_petsc_options, unread_hint
 from fenics_coulomb.scenes.cuboid import GAP_PROFILES, LOAD_CASES
 from fenics_coulomb.scenes.nested import NESTED_AUTO_MIN_LEV, NESTED_COARSE_RTOL
 from fenics_coulomb.scenes.scene import Scene
@@ -173,7 +173,7 @@ def main(argv: list[str] | None = None, prog: str = "python3 -m fenics_coulomb")
         unread = [f"-{key}" for key in given if option_read(key) is False] if LINEAR_SOLVES[0] > solves else []
         if unread and comm.rank == 0:  # PETSc's -options_left, which the options' removal below would silence
             logger.warning("PETSc options not read by any solver object: %s — misspelt, or options of another "
-                           "preconditioner than the one in use", " ".join(unread))
+                           "preconditioner than the one in use%s", " ".join(unread), unread_hint(unread, comm.size > 1))
         return status
     except InputError as err:
         if comm.rank == 0:

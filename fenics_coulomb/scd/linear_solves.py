@@ -34,7 +34,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
-from fenics_coulomb.scd.options import option_read
+from fenics_coulomb.scd.options import option_read, unread_hint
 from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
 from fenics_coulomb.scd.preconditioner import (
     AUTO_STALL_ITS,
@@ -231,7 +231,8 @@ class NewtonLinearSolves:
         unread = [key for key in self._user_options if key not in self._options_read]
         if unread and self.comm.rank == 0:
             logger.warning("petsc_options not read by the solver's KSP or preconditioner (pc %s): %s — misspelt, or "
-                           "options of another preconditioner", self.pc, ", ".join(sorted(unread)))
+                           "options of another preconditioner%s", self.pc, ", ".join(sorted(unread)),
+                           unread_hint(unread, self.comm.size > 1))
         self._options_reported = bool(unread)
 
     def _set_tolerance(self, rtol: float) -> None:

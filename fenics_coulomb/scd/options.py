@@ -15,7 +15,7 @@ from fenics_coulomb.errors import InputError
 from fenics_coulomb.scd.preconditioner import OPTION_RANGES, check_option_value
 from fenics_coulomb.settings import COMMAND_PREFIX
 
-__all__ = ["set_petsc_options", "check_petsc_options", "check_option_values", "option_read"]
+__all__ = ["set_petsc_options", "check_petsc_options", "check_option_values", "option_read", "unread_hint"]
 
 
 def set_petsc_options(tokens: list[str]) -> list[str]:
@@ -162,3 +162,11 @@ def option_read(name: str) -> bool | None:
     if function(None, name.encode(), ctypes.byref(used)) != 0:
         return None
     return bool(used.value)
+
+
+def unread_hint(names: list[str], parallel: bool) -> str:
+    """What to add to the warning naming the unread options ``names``: on several ranks ILU and ICC run inside block
+    Jacobi, whose sub-preconditioner reads them with the prefix ``sub_``."""
+    factor = parallel and any("pc_factor_" in name and "sub_pc_factor_" not in name for name in names)
+    return (" (on several ranks ILU runs inside block Jacobi: its options take the prefix sub_, e.g. "
+            "sub_pc_factor_levels)") if factor else ""

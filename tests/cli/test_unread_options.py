@@ -163,3 +163,16 @@ def test_command_counts_options_only_a_coarse_level_reads_or_only_the_fine_one(m
     assert _unread_lines(capsys.readouterr().err) == []
     summary = json.loads((mpi_tmp_path / "o" / "summary.json").read_text())
     assert summary["preconditioner"] == "gamg" and summary["nested"]["levels"] == [5]
+
+
+def test_factor_options_on_several_ranks_point_to_block_jacobi(mpi_tmp_path, capsys):
+    """ILU on several ranks runs inside block Jacobi, which reads its options as sub_pc_factor_*: an unread
+    -coulomb_pc_factor_levels says so there (on one rank ILU reads it, and nothing is named)."""
+    pc = "ilu" if MPI.COMM_WORLD.size == 1 else "bjacobi"
+    assert main(["--lev", "1", "--pc", "ilu", "--out", str(mpi_tmp_path / "o"), "--quiet", "--no-plots",
+                 "-coulomb_pc_factor_levels", "1"]) == 0
+    lines = _unread_lines(capsys.readouterr().err)
+    if MPI.COMM_WORLD.rank != 0 or pc == "ilu":
+        assert lines == []
+    else:
+        assert len(lines) == 1 and "-coulomb_pc_factor_levels" in lines[0] and "prefix sub_" in lines[0]
