@@ -2,12 +2,7 @@ r"""Forcing terms of the inexact Newton method: the tolerance of each linear sol
 
 from __future__ import annotations
 
-from mpi4py import MPI
-
-import numpy as np
-import numpy.typing as npt
-
-__all__ = ["TERMINAL_SAFETY", "TERMINAL_MIN", "terminal_forcing", "forcing_term", "states_settled"]
+__all__ = ["TERMINAL_SAFETY", "TERMINAL_MIN", "terminal_forcing", "forcing_term"]
 
 #: The last step's tolerance aims at this fraction of the stopping target (:func:`terminal_forcing`).
 TERMINAL_SAFETY = 0.5
@@ -33,22 +28,6 @@ def terminal_forcing(tol: float, residual: float, target: float) -> float:
         return tol
     eta = TERMINAL_SAFETY * target / residual
     return eta if TERMINAL_MIN <= eta < tol else tol
-
-
-def states_settled(comm: MPI.Comm, states: npt.NDArray[np.int8], previous: npt.NDArray[np.int8] | None) -> bool:
-    r"""Whether the contact states of an iterate (open, stick, slip per contact node) are those of the iterate before,
-    ``previous``, on every rank (collective); True in the first step (None), which takes :func:`terminal_forcing`
-    as ever.
-
-    :func:`terminal_forcing`'s premise — one step solved to η reduces ‖ŷ‖ by about η — holds when the semismooth
-    Newton step is that of the final contact states, the piecewise linear problem itself. While the states still
-    change, a step cuts ‖ŷ‖ by what the states allow, whatever its η: a loose first solve of finite sliding (target
-    rtol^½) tightened its second to fourth steps to η 0.002–0.005 and got 0.39, 0.20 — twice the Krylov iterations of
-    the fixed η (robustness suite, the graded "slivers" block: 103 against 79 for the same 7 Newton steps; ν = 0.49:
-    430 against 270). Held to the fixed tol until the states hold still, finite sliding there needs small sliding's
-    79 and 271 (docs/sliding/robustness.md).
-    """
-    return previous is None or bool(comm.allreduce(bool(np.array_equal(states, previous)), op=MPI.LAND))
 
 
 def forcing_term(tol: float, history: list[float], eta_prev: float, target: float) -> float:

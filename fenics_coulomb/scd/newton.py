@@ -37,7 +37,7 @@ from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.frames import conjugate, to_global, to_local
 from fenics_coulomb.scd.contact_rows import ContactRows
 from fenics_coulomb.scd.derivatives import pressed_branch
-from fenics_coulomb.scd.forcing import forcing_term, states_settled, terminal_forcing
+from fenics_coulomb.scd.forcing import forcing_term, terminal_forcing
 from fenics_coulomb.scd.linear_solves import NewtonLinearSolves
 from fenics_coulomb.scd.newton_operator import MATRIX_FREE_PCS, NewtonOperator
 from fenics_coulomb.scd.physical_preconditioner import PhysicalGAMG
@@ -241,14 +241,13 @@ class SCDNewtonSolver(NewtonLinearSolves):
                                        -self.model.load.getArray(readonly=True))
 
     # -- the Newton direction ---------------------------------------------------------------------
-    def forcing(self, history: list[float], eta: float, rule: StoppingRule, settled: bool = True) -> float:
-        """The tolerance of the next linear solve: the fixed tol (tightened in a last step once the contact states
-        are ``settled``), or the Eisenstat–Walker term; at most ACCURACY_FORCING once the residual rule holds and the
-        correction checks an accuracy (it is the estimate)."""
+    def forcing(self, history: list[float], eta: float, rule: StoppingRule) -> float:
+        """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term; at most
+        ACCURACY_FORCING once the residual rule holds and the correction checks an accuracy (it is the estimate)."""
         if rule.accuracy is not None and rule.satisfied(history[-1]):
             return min(self.tol, ACCURACY_FORCING)
         if not self.settings.adaptive_tol:
-            return terminal_forcing(self.tol, history[-1], rule.threshold) if settled else self.tol
+            return terminal_forcing(self.tol, history[-1], rule.threshold)
         return forcing_term(self.tol, history, eta, rule.threshold)
 
     def newton_direction(self, it: Iterate, eta: float) -> Direction:
@@ -379,11 +378,9 @@ class SCDNewtonSolver(NewtonLinearSolves):
                         rule.threshold / it.residual if it.residual > 0 else 0.0)
         try:
             correction = 0.0 if it is not first else None  # ũ = 0 for a load below round-off: exact
-            states, friction = None, self.model.friction
             while not rule.converged(it.residual, correction):
                 rule.check(len(records), it.residual, correction)
-                previous, states = states, contact_states(classify(it.v, it.z, friction), friction)
-                eta = self.forcing(history, eta, rule, states_settled(self.comm, states, previous))
+                eta = self.forcing(history, eta, rule)
                 direction = self.newton_direction(it, eta)
                 alpha, it = self.line_search(it, direction, len(records))
                 if rule.accuracy is not None:
