@@ -29,7 +29,7 @@ import dolfinx.io
 from fenics_coulomb.scenes.builder import build_body, clamp, isotropic_forms
 from fenics_coulomb.scenes.scene import Scene
 from fenics_coulomb.model.contact_model import ContactModel
-from fenics_coulomb.io.xdmf import displacement_function
+from fenics_coulomb.io.xdmf_read import displacement_function
 from fenics_coulomb.io.summary import software_versions
 from fenics_coulomb.model.nullspace import rigid_body_modes
 

@@ -134,16 +134,6 @@ def boundary_conditions(V: dolfinx.fem.FunctionSpace, facet_tags: dolfinx.mesh.M
     return [dolfinx.fem.dirichletbc(np.zeros(3), bottom, V), dolfinx.fem.dirichletbc(top, upper, V)]
 
 
-def body_field(V: dolfinx.fem.FunctionSpace, body_of_block: np.ndarray) -> dolfinx.fem.Function:
-    """The body (1 the lower, 2 the upper block) at every vertex, a point field for ParaView."""
-    S = dolfinx.fem.functionspace(V.mesh, ("Lagrange", 1))
-    f = dolfinx.fem.Function(S, name="body")
-    to_scalar = np.full(V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts, -1, dtype=np.int32)
-    to_scalar[V.dofmap.list.ravel()] = S.dofmap.list.ravel()
-    f.x.array[to_scalar] = body_of_block + 1
-    return f
-
-
 # %% [markdown]
 # ## The load path
 #
@@ -173,14 +163,13 @@ def run(out: Path, n_lower: Sequence[int] = (8, 8, 4), n_upper: Sequence[int] = 
     with ContactProblem(elasticity(V, blocks.cell_tags), None, bcs, contact_pairs=[pair],
                         settings=settings or {"rtol": 1e-10}, petsc_options_prefix="two_bodies_") as problem:
         model = problem.model
-        body = body_field(V, model.body_of_block)
         with XDMFTimeSeries(out / "solution.xdmf", blocks.mesh) as xdmf:
             for k, shear in enumerate([0.0, *shears]):
                 top.value[:] = (shear, 0.0, -press)
                 _, result = problem.solve()
                 checks = problem.checks(result)
                 forces = problem.report(result).pair_forces
-                xdmf.write(float(k + 1), [*contact_functions(model, result), body],
+                xdmf.write(float(k + 1), contact_functions(model, result),  # with `body`, 1 and 2
                            dtypes={"contact_state": np.int32, "body": np.int32},
                            information={"step": str(k + 1), "converged": str(result.converged).lower(),
                                         "contact_state": ", ".join(f"{c} {v}" for c, v in CONTACT_STATES.items())})

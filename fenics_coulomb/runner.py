@@ -194,7 +194,7 @@ def check_path_arguments(comm: MPI.Comm, scene: Scene, args: argparse.Namespace)
                   "one is solved after it)")
         message = ""
         if comm.rank == 0:
-            from fenics_coulomb.io.xdmf import solution_datasets
+            from fenics_coulomb.io.xdmf_read import solution_datasets
 
             try:
                 info = solution_datasets(Path(scene.start), float(start_step))
@@ -274,7 +274,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
     solution.xdmf with one grid per solve (time = the step number), path.csv, summary.json with "steps",
     convergence.csv of the last solve, path.png and the last state's figures. A step that does not converge
     stops the path (exit 3) after its last iterate is written; the completed steps are kept."""
-    from fenics_coulomb.io.xdmf import read_displacement
+    from fenics_coulomb.io.xdmf_read import read_displacement
     from fenics_coulomb.scenes.path import INPUT_STOP, obstacle_labels, run_path
 
     out = prepare_output(comm, args.out)

@@ -37,7 +37,7 @@ def start_function(start: str, V: dolfinx.fem.FunctionSpace) -> dolfinx.fem.Func
     u0 = dolfinx.fem.Function(V)
     if start == "undeformed":
         return u0
-    from fenics_coulomb.io.xdmf import read_displacement
+    from fenics_coulomb.io.xdmf_read import read_displacement
 
     return set_owned_values(u0, read_displacement(Path(start), V))
 

@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import math
 import os
 import sys
 import xml.etree.ElementTree as ET
@@ -75,21 +76,18 @@ import dolfinx.fem.petsc
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
-import ufl
 
-from fenics_coulomb.errors import OutputError
+from fenics_coulomb.errors import InputError, OutputError, check_all
 from fenics_coulomb.io.fields import CONTACT_STATES, contact_functions
 from fenics_coulomb.io.units import Units
 from fenics_coulomb.io.results import HDF5_OVERHEAD, HDF5_OVERHEAD_PER_DATASET, _io_reason, rank0_file, room_for
 from fenics_coulomb.model.contact_model import ContactModel
-from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.obstacles import closest_obstacle
-from fenics_coulomb.start_rule import interpolate_displacement
 from fenics_coulomb.scd.records import SolveResult
 from fenics_coulomb.scd.resolvent import OPEN
 
 __all__ = ["MESH_GEOMETRY", "MESH_TOPOLOGY", "XDMFTimeSeries", "write_initial_grid", "write_xdmf", "write_result_grid",
-           "solution_datasets", "read_displacement", "displacement_function", "XDMF_CELLS"]
+           "XDMF_CELLS"]
 
 
 MESH_GEOMETRY = "/Mesh/mesh/geometry"
@@ -163,11 +161,39 @@ class XDMFTimeSeries:
         """The times written so far."""
         return [float(_grid_time(g)) for g in self._grids]
 
+    def _check(self, t: Any, named: Mapping[str, Any], dtypes: Mapping[str, npt.DTypeLike]) -> None:
+        """InputError on every rank, before anything is written, for a time that is not a finite number at or after
+        the last one, a field name that is empty or holds '/' (the HDF5 path), a field that is not a P1 Function on
+        the writer's mesh (the mesh object itself: a mesh built alike has another vertex numbering on several ranks),
+        or non-finite values stored as integers (collective)."""
+        where = f"XDMFTimeSeries {self.path.name}"
+        if isinstance(t, bool) or not isinstance(t, int | float | np.integer | np.floating) or not math.isfinite(t):
+            raise InputError(f"{where}: t = {t!r}: give a finite number")
+        if self._grids and float(t) < self.times[-1]:
+            raise InputError(f"{where}: t = {float(t):g} comes before the last time written, {self.times[-1]:g}")
+        message = ""
+        for key, f in named.items():
+            W = getattr(f, "function_space", None)
+            if not isinstance(key, str) or not key or "/" in key:
+                message = f"{where}: field name {key!r}: give a non-empty name without '/'"
+            elif not isinstance(f, dolfinx.fem.Function) or W is None:
+                message = f"{where}: field {key!r} is a {type(f).__name__}, not a dolfinx.fem.Function"
+            elif W.mesh is not self.mesh and W.mesh._cpp_object is not self.mesh._cpp_object:
+                message = (f"{where}: field {key!r} lives on another mesh than the series' (a mesh built alike "
+                           "numbers its vertices otherwise on several ranks)")
+            elif (W.dofmap.list.shape != self._S.dofmap.list.shape
+                  or W.dofmap.index_map.size_global != self.num_vertices):
+                message = f"{where}: field {key!r} is not a P1 (vertex) field"
+            elif np.dtype(dtypes.get(key, np.float64)).kind in "iu" and not np.all(np.isfinite(f.x.array)):
+                message = f"{where}: field {key!r} holds non-finite values, which an integer type cannot store"
+            if message:
+                break
+        check_all(self.comm, not message, message)
+
     def _vertex_values(self, f: dolfinx.fem.Function) -> npt.NDArray[np.float64]:
-        """Values of a P1 Function at this rank's owned vertices (rows in the writer's vertex order)."""
+        """Values of a P1 Function at this rank's owned vertices (rows in the writer's vertex order; checked by
+        :meth:`_check`)."""
         W = f.function_space
-        if W.dofmap.list.shape != self._S.dofmap.list.shape or W.dofmap.index_map.size_global != self.num_vertices:
-            raise ValueError(f"field {f.name!r} is not a P1 (vertex) field")
         imap = self._S.dofmap.index_map
         to_block = np.empty(imap.size_local + imap.num_ghosts, dtype=np.int32)
         to_block[self._S.dofmap.list.ravel()] = W.dofmap.list.ravel()
@@ -193,11 +219,20 @@ class XDMFTimeSeries:
             name: Grid name shown by ParaView (default ``"<series name> t=<t>"``).
             information: Extra ``<Information Name= Value=>`` items of the grid (e.g. convergence).
         """
-        named = dict(fields) if isinstance(fields, Mapping) else {f.name: f for f in fields}
+        if isinstance(fields, Mapping):
+            named = dict(fields)
+        else:
+            named = {getattr(f, "name", repr(f)): f for f in fields}
+            names = [getattr(f, "name", repr(f)) for f in fields]
+            if len(named) != len(names):
+                twice = sorted({n for n in names if names.count(n) > 1})
+                raise InputError(f"XDMFTimeSeries {self.path.name}: two fields named {twice[0]!r} (name them apart, "
+                                 "Function(V, name=...), or pass a dict)")
         dtypes = dict(dtypes or {})
         unknown = set(dtypes) - set(named)
         if unknown:
-            raise ValueError(f"dtypes given for unknown fields {sorted(unknown)}")
+            raise InputError(f"XDMFTimeSeries {self.path.name}: dtypes given for unknown fields {sorted(unknown)}")
+        self._check(t, named, dtypes)
         step = len(self._grids)
         slabs = []
         for key, f in named.items():
@@ -294,131 +329,12 @@ def write_initial_grid(xdmf: XDMFTimeSeries, model: ContactModel, t: float = 0.0
     write_result_grid(xdmf, model, result, t, "initial state")
 
 
-def solution_datasets(path: Path, time: float | None = None) -> dict[str, Any]:
-    """Locate the mesh and the displacement of the last time (or of time ``time``, e.g. a path's step number)
-    of a ``solution.xdmf`` (no MPI).
-
-    Returns:
-        ``cell`` (DOLFINx cell name) and ``(h5 file, dataset)`` pairs for ``topology``, ``geometry`` and
-        ``displacement``.
-
-    Raises:
-        ValueError: The file is not such an XDMF file or lacks a field (message names what is missing).
-        OSError: A file cannot be read.
-    """
-    path = Path(path).with_suffix(".xdmf")
-    try:
-        grid = _last_grid(path, time)
-    except ET.ParseError as err:
-        raise ValueError(f"not an XDMF file ({err})") from err
-    topology = grid.find("Topology")
-    cells = {v: k for k, v in XDMF_CELLS.items()}
-    kind = topology.get("TopologyType") if topology is not None else None
-    if kind not in cells:
-        raise ValueError(f"topology {kind!r} is not one of {', '.join(cells)}")
-    displacement = [a for a in grid.findall("Attribute") if a.get("Name") == "displacement"]
-    if not displacement:
-        raise ValueError("no point field 'displacement'")
-    information = {i.get("Name"): i.get("Value") for i in grid.findall("Information")}
-    return {
-        "converged": information.get("converged", "true") != "false",
-        "cell": cells[kind],
-        "topology": _h5_item(path, topology.find("DataItem"), "the topology"),  # type: ignore[union-attr]
-        "geometry": _h5_item(path, grid.find("Geometry/DataItem"), "the geometry"),
-        "displacement": _h5_item(path, displacement[0].find("DataItem"), "displacement"),
-    }
-
-
-def read_displacement(path: Path, V: dolfinx.fem.FunctionSpace, padding: float | None = None,
-                      time: float | None = None) -> npt.NDArray[np.float64]:
-    """Read ``displacement`` (the last time, or the time ``time``: a load path's step number) of an earlier
-    run's solution.xdmf/.h5 and interpolate it onto V (collective).
-
-    The old mesh is rebuilt in parallel from row blocks of the file; the meshes need not match (nested
-    iteration across levels): the old field is rebuilt as a P1 function on the old mesh and interpolated
-    point-wise; nodes up to ``padding`` outside the old mesh (the bottoms of two levels follow d at different
-    resolutions; default: :func:`~fenics_coulomb.start_rule.interpolate_displacement`'s) take the value of the
-    closest cell.
-
-    Returns:
-        The interpolated physical displacement on V's owned DOFs.
-    """
-    import basix.ufl
-    import h5py
-
-    comm = V.mesh.comm
-    info = solution_datasets(Path(path), time)
-    (tfile, tset), (gfile, gset), (ufile, uset) = info["topology"], info["geometry"], info["displacement"]
-    with h5py.File(tfile, "r") as h5:
-        lo, hi = _rows(comm, h5[tset].shape[0])
-        vtk_cells = np.asarray(h5[tset][lo:hi], dtype=np.int64)
-    with h5py.File(gfile, "r") as h5:
-        lo, hi = _rows(comm, h5[gset].shape[0])
-        x = np.asarray(h5[gset][lo:hi], dtype=np.float64)
-    cell_type = dolfinx.mesh.to_type(info["cell"])
-    perm = np.asarray(dolfinx.cpp.io.perm_vtk(cell_type, vtk_cells.shape[1]))
-    cells = np.empty_like(vtk_cells)
-    cells[:, perm] = vtk_cells
-    domain = ufl.Mesh(basix.ufl.element("Lagrange", info["cell"], 1, shape=(3,)))
-    old = dolfinx.mesh.create_mesh(comm, cells, x, domain)
-    V_old = dolfinx.fem.functionspace(old, ("Lagrange", 1, (3,)))
-    u_old = dolfinx.fem.Function(V_old)
-    # P1 on the mesh's own (degree-1) geometry: cell-local node j is cell-local DOF j.
-    nodes = old.geometry.dofmap.ravel()
-    original = np.asarray(old.geometry.input_global_indices, dtype=np.int64)
-    first, last = (int(original.min()), int(original.max()) + 1) if original.size else (0, 0)
-    with h5py.File(ufile, "r") as h5:
-        values = np.asarray(h5[uset][first:last], dtype=np.float64).reshape(-1, 3)
-    u_old.x.array.reshape(-1, 3)[V_old.dofmap.list.ravel()] = values[original[nodes] - first]
-    u_old.x.scatter_forward()
-    return interpolate_displacement(u_old, V, padding)
-
-
-def displacement_function(V: dolfinx.fem.FunctionSpace, owned: npt.NDArray[np.float64]) -> dolfinx.fem.Function:
-    """A Function on V holding the owned DOF values ``owned`` (ghosts updated)."""
-    return set_owned_values(dolfinx.fem.Function(V, name="displacement"), owned)
-
-
-def _last_grid(path: Path, time: float | None = None) -> ET.Element:
-    """The grid of the last time in an XDMF file written by :class:`XDMFTimeSeries` (or a single grid), or
-    the grid of time ``time``."""
-    root = ET.parse(path).getroot()
-    domain = root.find("Domain")
-    grid = domain.find("Grid") if domain is not None else None
-    if grid is None:
-        raise ValueError("no Domain/Grid")
-    children = grid.findall("Grid") if grid.get("GridType") == "Collection" else [grid]
-    if not children:
-        raise ValueError("an empty grid collection")
-    if time is None:
-        return children[-1]
-    for child in children:
-        stamp = child.find("Time")
-        if stamp is not None and float(stamp.get("Value", "nan")) == float(time):
-            return child
-    raise ValueError(f"no grid of time {time:g}")
-
-
 def _grid_time(grid: ET.Element) -> str:
     """The time of a grid this writer wrote (its Time element's Value)."""
     stamp = grid.find("Time")
     if stamp is None or "Value" not in stamp.attrib:
         raise ValueError("a grid without its time")
     return stamp.attrib["Value"]
-
-
-def _h5_item(path: Path, item: ET.Element | None, what: str) -> tuple[Path, str]:
-    """The HDF5 file and dataset of an XDMF DataItem."""
-    text = item.text if item is not None else None
-    if not text or not text.strip() or ":" not in text:
-        raise ValueError(f"no HDF5 data item for {what}")
-    file, dataset = text.strip().rsplit(":", 1)
-    return path.parent / file, dataset
-
-
-def _rows(comm: MPI.Comm, total: int) -> tuple[int, int]:
-    """This rank's contiguous block of ``total`` rows."""
-    return total * comm.rank // comm.size, total * (comm.rank + 1) // comm.size
 
 
 def _number_type(dtype: np.dtype) -> tuple[str, str]:
