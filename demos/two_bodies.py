@@ -169,7 +169,7 @@ def run(out: Path, n_lower: Sequence[int] = (8, 8, 4), n_upper: Sequence[int] = 
                 _, result = problem.solve()
                 checks = problem.checks(result)
                 forces = problem.report(result).pair_forces
-                xdmf.write(float(k + 1), contact_functions(model, result),  # with `body`, 1 and 2
+                xdmf.write(float(k + 1), contact_functions(problem, result),  # with `body`, 1 and 2
                            dtypes={"contact_state": np.int32, "body": np.int32},
                            information={"step": str(k + 1), "converged": str(result.converged).lower(),
                                         "contact_state": ", ".join(f"{c} {v}" for c, v in CONTACT_STATES.items())})

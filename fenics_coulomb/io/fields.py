@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 import ufl
 
+from fenics_coulomb.errors import InputError, check_all
 from fenics_coulomb.model.contact_model import ContactModel
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.model.forces import block_to_scalar_dofs, contact_areas
@@ -51,12 +52,30 @@ UNITS: dict[str, str] = Units().table()
 FIELD_UNITS: dict[str, str] = Units().fields()
 
 
-def contact_functions(model: ContactModel, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
+def contact_functions(model: Any, result: SolveResult) -> tuple[dolfinx.fem.Function, ...]:
     """The output Functions: displacement, contact_state, contact_pressure (force per area), contact_force
     (nodal force vector), tangential_force, contact_traction (traction vector), gap, contact_normal, stress and
     von_mises (when the bilinear form gives the stress: :func:`stress_from_form`), body (a mesh of several
     bodies: 1, 2, … per connected component, numbered by its smallest mesh-file node index) and master_reaction
-    for contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`."""
+    for contact pairs; see the module docstring and :mod:`fenics_coulomb.io.xdmf`.
+
+    ``model``: the ContactProblem that solved ``result`` — which checks that the result is of its last solve, as
+    ``report`` does — or its ``model`` (a result of another problem of other sizes is refused; one of an earlier
+    state of the same problem cannot be told from it: pass the problem). InputError otherwise, on every rank."""
+    from fenics_coulomb.problem import ContactProblem
+
+    if isinstance(model, ContactProblem):
+        model.check_result(result, "contact_functions")
+        model = model.model
+    elif not isinstance(model, ContactModel):
+        raise InputError(f"contact_functions: {type(model).__name__} given: give the ContactProblem that solved the "
+                         "result")
+    if not isinstance(result, SolveResult):
+        raise InputError(f"contact_functions: result = {type(result).__name__}: give the SolveResult of the "
+                         "problem's solve()")
+    fits = (np.size(result.displacement) == model.V.dofmap.index_map.size_local * 3
+            and np.size(result.states) == model.contact.size)
+    check_all(model.comm, fits, "contact_functions: the result is not one of this model's (other sizes)")
     V = model.V
     S = model.scalar_space
     cmap = model.contact

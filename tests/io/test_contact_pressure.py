@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import ufl
 
-from fenics_coulomb import ContactProblem, InputError, Sphere, write_results
+from fenics_coulomb import ContactProblem, InputError, Sphere, contact_functions, write_results
 from fenics_coulomb.io.fields import stress_from_form, stress_functions
 from fenics_coulomb.io.units import Units
 
@@ -157,6 +157,32 @@ def test_the_units_given_label_every_output(mpi_tmp_path):
     for name, values in fields.items():
         assert np.array_equal(values, unlabelled[name])
     assert data["peak_pressure"] == default["peak_pressure"] and data["contact_area"] == default["contact_area"]
+
+
+def test_contact_functions_take_the_problem_and_check_the_result():
+    """contact_functions(problem, result) checks the result as report() does — one of an earlier solve of the same
+    problem, or of another problem, was drawn with the current normals or crashed deep inside (a review) —; the
+    model is taken too (a result of other sizes refused); the fields are the same either way."""
+    comm = MPI.COMM_WORLD
+    problem, _ = uniform_pressure(comm, 0.05)
+    other, _ = uniform_pressure(comm, 0.05, n=(3, 3, 2))
+    with problem, other:
+        _, result = problem.solve()
+        _, foreign = other.solve()
+        via_problem = contact_functions(problem, result)
+        via_model = contact_functions(problem.model, result)
+        assert [f.name for f in via_problem] == [f.name for f in via_model]
+        for a, b in zip(via_problem, via_model, strict=True):
+            assert np.array_equal(a.x.array, b.x.array)
+        for source, res, match in [(problem, foreign, "not one of this problem's solve"),
+                                   (problem, "x", "result = 'x'"), (object(), result, "object given"),
+                                   (problem.model, foreign, "not one of this model's"),
+                                   (problem.model, None, "result = NoneType")]:
+            with pytest.raises(InputError, match=f"contact_functions: .*{match}"):
+                contact_functions(source, res)
+        problem.solve()
+        with pytest.raises(InputError, match="contact_functions: the result of an earlier solve"):
+            contact_functions(problem, result)
 
 
 def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
