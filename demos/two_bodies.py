@@ -162,7 +162,6 @@ def run(out: Path, n_lower: Sequence[int] = (8, 8, 4), n_upper: Sequence[int] = 
     steps: list[dict[str, Any]] = []
     with ContactProblem(elasticity(V, blocks.cell_tags), None, bcs, contact_pairs=[pair],
                         settings=settings or {"rtol": 1e-10}, petsc_options_prefix="two_bodies_") as problem:
-        model = problem.model
         with XDMFTimeSeries(out / "solution.xdmf", blocks.mesh) as xdmf:
             for k, shear in enumerate([0.0, *shears]):
                 top.value[:] = (shear, 0.0, -press)

@@ -6,6 +6,9 @@ the facet tags without a word: a boundary condition on that surface would miss t
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
 from mpi4py import MPI
 
 import dolfinx.io.gmshio
@@ -104,24 +107,32 @@ def _rows_of(gmsh: object, entity: int) -> list[int]:
     return [int(t) for ty, ts in zip(types, tags, strict=True) if int(ty) in _SURFACE_CORNERS for t in ts]
 
 
-def read_gmsh(path: str, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
+def read_gmsh(path: str | Path, comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
     """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, facet tags)."""
     msh, _, facet_tags = read_gmsh_tags(path, comm)
     return msh, facet_tags
 
 
-def read_gmsh_tags(path: str, comm: MPI.Comm
+def read_gmsh_tags(path: str | Path, comm: MPI.Comm
                    ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags, dolfinx.mesh.MeshTags]:
-    """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, cell tags, facet tags)."""
+    """Read a gmsh .msh file on rank 0 (quietly) and distribute it; return (mesh, cell tags, facet tags). A gmsh
+    session the caller has open is kept: the file is read into a model of its own, removed afterwards, and the
+    caller's current model and terminal option are restored."""
     import gmsh
 
+    path = str(path) if isinstance(path, Path) else path
     message = ""
+    session: tuple[str, float] | None = None  # the caller's open session: its current model, its terminal option
     if comm.rank == 0:
-        # not interruptible: gmsh's default sets SIGINT to SIG_DFL and its finalize() does not restore the
-        # previous handler (gmsh 4.13 keeps it in a local variable): Ctrl-C would kill rank 0 without the
-        # launcher's message and without keeping the earlier results
-        gmsh.initialize(interruptible=False)
+        if gmsh.isInitialized():
+            session = (gmsh.model.getCurrent(), gmsh.option.getNumber("General.Terminal"))
+        else:
+            # not interruptible: gmsh's default sets SIGINT to SIG_DFL and its finalize() does not restore the
+            # previous handler (gmsh 4.13 keeps it in a local variable): Ctrl-C would kill rank 0 without the
+            # launcher's message and without keeping the earlier results
+            gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("fenics_coulomb_read_gmsh")
         try:
             gmsh.merge(path)
             if not gmsh.model.getEntities(3):
@@ -143,7 +154,7 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
         except Exception as err:  # gmsh raises plain Exceptions
             message = f"mesh file {path!r} cannot be read by gmsh: {err}"
         if message:
-            gmsh.finalize()
+            _end_gmsh(gmsh, session)
     message = comm.bcast(message, root=0)
     check_all(comm, not message, message)
     # The deterministic partitioner, from the coordinates gmsh holds on rank 0 (the rows model_to_mesh gives
@@ -152,6 +163,16 @@ def read_gmsh_tags(path: str, comm: MPI.Comm
     msh, cell_tags, facet_tags = dolfinx.io.gmshio.model_to_mesh(gmsh.model if comm.rank == 0 else None, comm, 0,
                                                                  gdim=3, partitioner=create_partitioner(comm, x))
     if comm.rank == 0:
-        gmsh.finalize()
+        _end_gmsh(gmsh, session)
     return msh, cell_tags, facet_tags
+
+
+def _end_gmsh(gmsh: Any, session: tuple[str, float] | None) -> None:
+    """Finalize the gmsh session :func:`read_gmsh_tags` opened, or give the caller's back as it was."""
+    if session is None:
+        gmsh.finalize()
+        return
+    gmsh.model.remove()
+    gmsh.model.setCurrent(session[0])
+    gmsh.option.setNumber("General.Terminal", session[1])
 

@@ -425,6 +425,30 @@ def test_surface_from_msh_leaves_the_callers_gmsh_session(tmp_path):
         gmsh.finalize()
 
 
+@pytest.mark.serial  # rank-local (docs/testing.md)
+def test_read_gmsh_takes_a_path_and_leaves_the_callers_gmsh_session():
+    """read_gmsh(Path(...)) was refused ("'PosixPath' object has no attribute 'encode'") and ended the caller's gmsh
+    session; now a Path reads, and an open session keeps its model and terminal option."""
+    import gmsh
+
+    from fenics_coulomb import read_gmsh
+
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("mine")
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+        gmsh.model.occ.synchronize()
+        msh, tags = read_gmsh(ROOT / "meshes" / "roller.msh", MPI.COMM_SELF)
+        assert msh.topology.index_map(3).size_global > 0 and tags.values.size > 0
+        assert gmsh.isInitialized() and gmsh.model.getCurrent() == "mine" and gmsh.model.list() == ["", "mine"]
+        assert len(gmsh.model.getEntities(3)) == 1 and gmsh.option.getNumber("General.Terminal") == 0
+    finally:
+        gmsh.finalize()
+    msh, _ = read_gmsh(ROOT / "meshes" / "roller.msh", MPI.COMM_SELF)  # without a session: its own, ended after
+    assert not gmsh.isInitialized()
+
+
 def _gmsh_block(path: Path, gaps: bool) -> None:
     """A block [0, 1] x [0, 1] x [0, 0.5] as MSH 2.2 (bottom 1, top 2, volume 1); ``gaps``: node numbers doubled."""
     import gmsh
