@@ -47,6 +47,8 @@ import numpy as np
 import numpy.typing as npt
 from dolfinx import cpp as _cpp
 
+from fenics_coulomb.errors import InputError, check_all
+
 __all__ = ["box_partitioner", "create_partitioner", "partition_cells", "recursive_bisection"]
 
 #: A DOLFINx cell partitioner: (comm, nparts, cell types, cells per type) -> destination ranks per cell.
@@ -189,8 +191,17 @@ def create_partitioner(comm: MPI.Comm, x: npt.NDArray[np.floating],
         A partitioner: the same cells and coordinates on the same number of ranks give the same
         partition in every run.
     """
-    x = np.asarray(x, dtype=np.float64)
-    local = np.ascontiguousarray(x.reshape(x.shape[0], x.shape[1] if x.ndim > 1 else 1))
+    if not isinstance(comm, MPI.Comm):
+        raise InputError(f"create_partitioner: comm = {type(comm).__name__}: give the mesh's MPI communicator")
+    _check_ghost_mode("create_partitioner", ghost_mode)
+    try:
+        x = np.asarray(x, dtype=np.float64)
+        ok = x.ndim == 2 and x.shape[1] in (2, 3) and bool(np.all(np.isfinite(x)))
+    except (TypeError, ValueError):
+        ok = False
+    check_all(comm, ok, "create_partitioner: x: give this rank's vertex coordinates, finite, one row per vertex "
+                        "(k × 3, or k × 2 in 2D), as given to create_mesh")
+    local = np.ascontiguousarray(x)
 
     def coordinates(c: MPI.Comm, vertices: npt.NDArray[np.int64]) -> npt.NDArray:
         return _fetch(c, local, vertices)
@@ -211,9 +222,22 @@ def box_partitioner(points: typing.Sequence[npt.ArrayLike], n: typing.Sequence[i
     create_box numbers the vertex (i, j, k) as i + (n0+1)(j + (n1+1)k) at p0 + (p1 − p0)·(i/n0, j/n1, k/n2);
     the partitioner computes the vertex coordinates from their indices the same way.
     """
+    _check_ghost_mode("box_partitioner", ghost_mode)
+    if isinstance(n, str | bytes) or not isinstance(n, typing.Sequence | np.ndarray) or len(n) != 3 or not all(
+            isinstance(v, int | np.integer) and not isinstance(v, bool) and v >= 1 for v in n):
+        raise InputError(f"box_partitioner: n = {n!r}: give 3 positive integers, the cells per direction given to "
+                         "create_box")
+    try:
+        corners = np.asarray(points, dtype=np.float64)
+        ok = corners.shape == (2, 3) and bool(np.all(np.isfinite(corners))) and bool(np.all(corners[1] != corners[0]))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise InputError(f"box_partitioner: points = {points!r}: give the box's two opposite corners (3 finite "
+                         "coordinates each, apart in every direction), as given to create_box")
     n_ = np.asarray([int(v) for v in n], dtype=np.int64)
-    p0 = np.asarray(points[0], dtype=np.float64)
-    h = (np.asarray(points[1], dtype=np.float64) - p0) / n_
+    p0 = corners[0]
+    h = (corners[1] - p0) / n_
 
     def coordinates(c: MPI.Comm, vertices: npt.NDArray[np.int64]) -> npt.NDArray:
         v = np.asarray(vertices, dtype=np.int64)
@@ -222,3 +246,10 @@ def box_partitioner(points: typing.Sequence[npt.ArrayLike], n: typing.Sequence[i
         return p0 + ijk * h
 
     return _Bisection(coordinates, ghost_mode)
+
+
+def _check_ghost_mode(where: str, ghost_mode: object) -> None:
+    """InputError unless ``ghost_mode`` is a dolfinx.mesh.GhostMode (it must be the one given to the mesh)."""
+    if not isinstance(ghost_mode, dolfinx.mesh.GhostMode):
+        raise InputError(f"{where}: ghost_mode = {ghost_mode!r}: give a dolfinx.mesh.GhostMode, the one given to the "
+                         "mesh")

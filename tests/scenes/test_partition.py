@@ -65,3 +65,31 @@ def test_gmsh_partition_repeats() -> None:
     assert np.array_equal(m1.geometry.x, m2.geometry.x)
     counts = comm.allgather(len(owned_cells(m1)))
     assert max(counts) - min(counts) <= 1
+
+
+def test_partitioners_refuse_what_they_cannot_use() -> None:
+    """box_partitioner and create_partitioner checked nothing (a review): n = (0, 4, 2) or (4.7, 4, 2), corners with a
+    NaN, 2D points, a ghost mode that is no GhostMode were taken (or failed deep inside, IndexError, nanobind
+    TypeError); each is an InputError naming the value now, and the partitioners made from valid input work."""
+    from fenics_coulomb import InputError, box_partitioner, create_partitioner
+
+    corners = [np.zeros(3), np.ones(3)]
+    for n, match in [((0, 4, 2), "n = "), ((4.7, 4, 2), "n = "), ("442", "n = "), ((4, 4), "n = "),
+                     ((True, 4, 2), "n = ")]:
+        with pytest.raises(InputError, match=f"box_partitioner: {match}"):
+            box_partitioner(corners, n)
+    for points in ([[0, 0, 0]], [[0, 0, np.nan], [1, 1, 1]], [[0, 0], [1, 1]], [[0, 0, 0], [1, 0, 1]]):
+        with pytest.raises(InputError, match="box_partitioner: points = "):
+            box_partitioner(points, (2, 2, 2))
+    with pytest.raises(InputError, match="box_partitioner: ghost_mode = 'shared'"):
+        box_partitioner(corners, (2, 2, 2), ghost_mode="shared")
+    comm = MPI.COMM_WORLD
+    with pytest.raises(InputError, match="create_partitioner: comm = NoneType"):
+        create_partitioner(None, np.zeros((1, 3)))
+    for x in (None, np.zeros(3), np.full((2, 3), np.nan), np.zeros((2, 4))):
+        with pytest.raises(InputError, match="create_partitioner: x: "):
+            create_partitioner(comm, x)
+    msh = dolfinx.mesh.create_box(comm, corners, [4, 4, 2], dolfinx.mesh.CellType.hexahedron,
+                                  ghost_mode=dolfinx.mesh.GhostMode.shared_facet,
+                                  partitioner=box_partitioner(corners, (4, 4, 2)))
+    assert msh.topology.index_map(3).size_global == 32
