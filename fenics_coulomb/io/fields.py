@@ -70,9 +70,8 @@ def contact_functions(model: Any, result: SolveResult) -> tuple[dolfinx.fem.Func
     elif not isinstance(model, ContactModel):
         raise InputError(f"contact_functions: {type(model).__name__} given: give the ContactProblem that solved the "
                          "result")
-    if not isinstance(result, SolveResult):
-        raise InputError(f"contact_functions: result = {type(result).__name__}: give the SolveResult of the "
-                         "problem's solve()")
+    elif not isinstance(result, SolveResult):  # (the problem's check_result asks this too)
+        raise InputError(f"contact_functions: result = {type(result).__name__}: give the SolveResult of the solve")
     fits = (np.size(result.displacement) == model.V.dofmap.index_map.size_local * 3
             and np.size(result.states) == model.contact.size)
     check_all(model.comm, fits, "contact_functions: the result is not one of this model's (other sizes)")

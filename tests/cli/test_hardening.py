@@ -7,6 +7,7 @@ The in-process tests run on 1 rank (pytest) and on 2 ranks (mpirun -n 2 ... pyte
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from pathlib import Path
@@ -404,9 +405,9 @@ def test_api_entry_points_name_bad_arguments(mpi_tmp_path):
             use()
 
 
-@pytest.mark.serial  # rank-local (docs/testing.md)
-def test_surface_from_msh_leaves_the_callers_gmsh_session(tmp_path):
-    """Surface("x.msh") finalized the caller's gmsh session (and replaced its model)."""
+@contextlib.contextmanager
+def _callers_gmsh_session():
+    """A gmsh session of the caller's, quiet, with its current model "mine" holding a unit box (finalized after)."""
     import gmsh
 
     gmsh.initialize(interruptible=False)
@@ -415,36 +416,34 @@ def test_surface_from_msh_leaves_the_callers_gmsh_session(tmp_path):
         gmsh.model.add("mine")
         gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
         gmsh.model.occ.synchronize()
+        yield gmsh
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.serial  # rank-local (docs/testing.md)
+def test_surface_from_msh_leaves_the_callers_gmsh_session(tmp_path):
+    """Surface("x.msh") finalized the caller's gmsh session (and replaced its model)."""
+    with _callers_gmsh_session() as gmsh:
         gmsh.model.mesh.generate(2)
         gmsh.write(str(tmp_path / "box.msh"))
         surface = Surface(file=str(tmp_path / "box.msh"))
         assert gmsh.isInitialized() and gmsh.model.getCurrent() == "mine"
         assert len(gmsh.model.getEntities(3)) == 1
         assert surface.signed_distance(np.array([[0.5, 0.5, 2.0]]))[0] == pytest.approx(1.0)
-    finally:
-        gmsh.finalize()
 
 
 @pytest.mark.serial  # rank-local (docs/testing.md)
 def test_read_gmsh_takes_a_path_and_leaves_the_callers_gmsh_session():
     """read_gmsh(Path(...)) was refused ("'PosixPath' object has no attribute 'encode'") and ended the caller's gmsh
     session; now a Path reads, and an open session keeps its model and terminal option."""
-    import gmsh
-
     from fenics_coulomb import read_gmsh
 
-    gmsh.initialize(interruptible=False)
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("mine")
-        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
-        gmsh.model.occ.synchronize()
+    with _callers_gmsh_session() as gmsh:
         msh, tags = read_gmsh(ROOT / "meshes" / "roller.msh", MPI.COMM_SELF)
         assert msh.topology.index_map(3).size_global > 0 and tags.values.size > 0
         assert gmsh.isInitialized() and gmsh.model.getCurrent() == "mine" and gmsh.model.list() == ["", "mine"]
         assert len(gmsh.model.getEntities(3)) == 1 and gmsh.option.getNumber("General.Terminal") == 0
-    finally:
-        gmsh.finalize()
     msh, _ = read_gmsh(ROOT / "meshes" / "roller.msh", MPI.COMM_SELF)  # without a session: its own, ended after
     assert not gmsh.isInitialized()
 
