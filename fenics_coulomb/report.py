@@ -140,6 +140,24 @@ class ContactReport:
     nodes: ContactNodes
     extra: dict[str, Any] = field(default_factory=dict)
 
+    def __str__(self) -> str:
+        """A few lines an engineer reads: the resultants, per obstacle, pair and support, and the contact nodes (the
+        dataclass's repr lists every node)."""
+        def vector(v: npt.ArrayLike) -> str:
+            return "(" + ", ".join(f"{c:.6g}" for c in np.asarray(v, dtype=np.float64)) + ")"
+
+        closed = self.nodes.closed
+        lines = [f"contact force on the body {vector(self.total_force)}, applied load {vector(self.applied_load)}"]
+        lines += [f"  obstacle {name}: {vector(force)}" for name, force in self.obstacle_forces.items()]
+        for i, pair in enumerate(self.pair_forces):
+            slave, master = vector(pair["force_on_slave_body"]), vector(pair["force_on_master_body"])
+            label = pair.get("name") or f"pair {i + 1}"
+            lines.append(f"  {label}: on the slave body {slave}, on the master body {master}")
+        lines += [f"  reaction {name}: {vector(force)}" for name, force in self.reactions.items()]
+        peak = float(np.max(self.nodes.pressure, initial=0.0))
+        lines.append(f"{int(np.sum(closed))} of {closed.size} contact nodes in contact, peak pressure {peak:.6g}")
+        return "\n".join(lines)
+
     def contact_radius(self, center: npt.ArrayLike, normal: npt.ArrayLike | None = None) -> float:
         """The largest distance of a node in contact from the line through ``center`` along ``normal``.
 
@@ -158,6 +176,7 @@ class ContactReport:
         if not np.any(closed):
             return 0.0
         n = np.asarray(normal, dtype=np.float64) if normal is not None else self.nodes.normal[closed].mean(axis=0)
+        n = n / max(float(np.max(np.abs(n))), np.finfo(float).tiny)  # scaled first: 1e-300 or 1e308 are directions
         length = float(np.linalg.norm(n))
         if not np.isfinite(length) or length == 0.0:
             raise InputError(f"contact_radius: normal {normal!r} is not a non-zero finite vector")
@@ -273,6 +292,14 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
     for i, name in enumerate(obstacle_names(obstacles)):
         per_obstacle[name] = nodes.force[nodes.obstacle == i].sum(axis=0)
     groups = reaction_groups(model.V, reactions or {})
+    held = np.unique(np.asarray(model.dirichlet_rows) // 3)
+    for name, group in groups.items():  # node blocks no condition holds have no reaction: 0 would mislead
+        if isinstance(group, np.ndarray):
+            n = comm.allreduce(np.array([group.size, np.isin(group, held).sum()], dtype=np.int64), op=MPI.SUM)
+            if n[0] and not n[1]:  # (no node on any rank: nothing named, a zero reaction)
+                raise InputError(f"reactions[{name!r}]: none of its {int(n[0])} node(s) is held by a boundary "
+                                 "condition of the problem (a reaction is the force a support exerts on the nodes it "
+                                 "holds)")
     support = boundary_reactions(model, result.displacement, groups, result.master_force,
                                  result.contact_force) if groups else {}
     return ContactReport(

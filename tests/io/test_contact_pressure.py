@@ -185,6 +185,31 @@ def test_contact_functions_take_the_problem_and_check_the_result():
             contact_functions(problem, result)
 
 
+def test_the_report_reads_and_refuses_nodes_no_support_holds():
+    """From a review: str(report) was the dataclass repr (59 k characters for 169 nodes), now a few lines; node blocks
+    that no boundary condition holds gave the reaction [0, 0, 0] without a word, now an InputError; contact_radius
+    took a normal of length 1e-300 or 1e308 for no direction."""
+    comm = MPI.COMM_WORLD
+    problem, bcs = uniform_pressure(comm, 0.05)
+    with problem:
+        _, result = problem.solve()
+        report = problem.report(result)
+        text = str(report)
+        assert len(text.splitlines()) <= 4 and "contact force on the body" in text
+        assert "of 20 contact nodes in contact" in text and len(text) < 1000
+        x = problem.model.V.tabulate_dof_coordinates()
+        n = problem.model.V.dofmap.index_map.size_local
+        top = np.flatnonzero(np.isclose(x[:n, 2], 0.5) & (x[:n, 0] > 1e-9) & (x[:n, 1] > 1e-9)).astype(np.int32)
+        rollers = np.flatnonzero(np.isclose(x[:n, 0], 0.0) & (x[:n, 2] > 1e-9)).astype(np.int32)
+        with pytest.raises(InputError, match=r"reactions\['top'\]: none of its \d+ node\(s\) is held"):
+            problem.report(result, reactions={"top": top, "rollers": rollers})
+        held = problem.report(result, reactions={"rollers": rollers}).reactions["rollers"]
+        assert np.all(np.isfinite(held))
+        radius = report.contact_radius([0.5, 0.375, 0.0], [0.0, 0.0, 1.0])
+        for tiny in ([0.0, 0.0, 1e-300], [0.0, 0.0, 1e308]):
+            assert report.contact_radius([0.5, 0.375, 0.0], tiny) == radius
+
+
 def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
     """A rigid sphere pressed 0.01 into a block: the XDMF contact_pressure is report.nodes.pressure at every contact
     node, contact_traction's normal part is it, and summary.json's area and peak (with its node) are the report's."""
