@@ -116,6 +116,10 @@ class XDMFTimeSeries:
 
     def __init__(self, path: Path | str, mesh: dolfinx.mesh.Mesh, name: str = "solution") -> None:
         """Create ``path`` (.xdmf) and ``path.with_suffix('.h5')`` and write the mesh (collective)."""
+        if not isinstance(path, str | Path) or not str(path).strip() or "\0" in str(path):
+            raise InputError(f"XDMFTimeSeries: path = {path!r}: give the .xdmf file's name")
+        if not isinstance(mesh, dolfinx.mesh.Mesh):
+            raise InputError(f"XDMFTimeSeries: mesh = {type(mesh).__name__}: give a dolfinx.mesh.Mesh")
         self.path = Path(path).with_suffix(".xdmf")
         self.h5_path = self.path.with_suffix(".h5")
         self.name = name
@@ -123,7 +127,7 @@ class XDMFTimeSeries:
         self.comm: MPI.Intracomm = mesh.comm
         cell = mesh.topology.cell_name()
         if cell not in XDMF_CELLS:
-            raise ValueError(f"XDMFTimeSeries supports {', '.join(XDMF_CELLS)} meshes, not {cell}")
+            raise InputError(f"XDMFTimeSeries supports {', '.join(XDMF_CELLS)} meshes, not {cell}")
         self._cell = XDMF_CELLS[cell]
         self._S = dolfinx.fem.functionspace(mesh, ("Lagrange", 1))
         imap = self._S.dofmap.index_map

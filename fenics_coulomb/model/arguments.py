@@ -152,7 +152,6 @@ def stiffness_rows(V: dolfinx.fem.FunctionSpace, diagonal: np.ndarray, free: np.
                    "does it integrate over every cell (a dx without a subdomain, or every cell tag)?")
 
 
-
 def integrates_every_cell(a: ufl.Form, V: dolfinx.fem.FunctionSpace) -> tuple[bool, str]:
     """(whether the bilinear form's cell integrals cover every cell this rank owns, the message naming one they
     leave out): ``dx(1) + dx(3)`` of three cell tags leaves the cells of tag 2 without stiffness — a body in pieces,

@@ -134,6 +134,10 @@ def test_time_series_refuses_what_it_cannot_write(mpi_tmp_path):
     f, g = dolfinx.fem.Function(V, name="f"), dolfinx.fem.Function(V, name="f")
     g.x.array[:] = np.inf
     other = dolfinx.fem.Function(dolfinx.fem.functionspace(alike, ("Lagrange", 1)), name="other")
+    with pytest.raises(InputError, match="XDMFTimeSeries: mesh = str"):
+        XDMFTimeSeries(mpi_tmp_path / "x.xdmf", "mesh")
+    with pytest.raises(InputError, match="XDMFTimeSeries: path = ''"):
+        XDMFTimeSeries("", msh)
     with XDMFTimeSeries(mpi_tmp_path / "checked.xdmf", msh) as xdmf:
         xdmf.write(1.0, [f])
         for t, fields, dtypes, match in [
