@@ -16,6 +16,10 @@ thresholds do not depend on units:
   inside the other — the obstacle, or the pair's master surface);
 * ``obstacle_penetration``: the same for the obstacles' contact nodes against every obstacle (a node meets its
   own obstacle's constraint and must not end inside another: a corner between two obstacles);
+* ``uncovered_penetration``: the same for the slave nodes of the pairs that no part of their master surface lies
+  beneath (beyond the master surface's border: no constraint keeps them out) inside the master body in X + u, their
+  depth the distance to the body's boundary (:mod:`fenics_coulomb.model.pairs.uncovered`), and
+  ``uncovered_penetration_at``, the deepest one's position;
 * ``master_penetration`` (reported, not decisive): the same for the master nodes of the pairs inside their slave body
   in X + u, less the depth the facetting of curved surfaces allows (:mod:`fenics_coulomb.model.pairs.master_nodes`;
   a pair does not constrain its master's nodes: a master smaller than the slave, or its border under a slave that
@@ -193,6 +197,11 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
                                                    model.sliding == "finite", 1e-12 * model.placement.size)
     out["obstacle_penetration"] = _gmax(comm, contact_depth) / max(gap_scale, tiny)
     out["support_penetration"] = _gmax(comm, support_depth) / max(gap_scale, tiny)
+    # nothing keeps a slave node with no master surface beneath it out of the master body
+    uncovered, uncovered_at = model.coupling.uncovered_depth(model, physical)
+    out["uncovered_penetration"] = uncovered / max(gap_scale, tiny)
+    if uncovered_at is not None:
+        out["uncovered_penetration_at"] = [float(c) for c in uncovered_at]  # type: ignore[assignment]
     # a pair keeps its slave nodes out of the master body, not the master's nodes out of the slave body
     master_depth, master_at, master_facet = model.coupling.master_depth(model, physical)
     out["master_penetration"] = master_depth / max(gap_scale, tiny)
@@ -265,7 +274,7 @@ PHYSICS_LOOSEST = 1e-2
 #: mismatch of up to F·1e-3 of the largest force from the solve's own error, and reaction_balance divides
 #: by the supports' own forces, which are the solver's noise when a prescribed motion is rigid.
 DECISIVE_CHECKS = ("equilibrium", "penetration", "free_penetration", "shared_penetration", "obstacle_penetration",
-                   "free_balance", "negative_pressure", "complementarity", "cone")
+                   "uncovered_penetration", "free_balance", "negative_pressure", "complementarity", "cone")
 
 
 #: ``master_penetration`` is warned above this: dual mortar meets the gaps weakly, and a master node at the border of
@@ -288,7 +297,7 @@ def physics_bound(rtol: float) -> float:
     return min(max(PHYSICS_TOL, PHYSICS_PER_RTOL * rtol), PHYSICS_LOOSEST)
 
 
-def physics_failure(checks: dict[str, float], rtol: float) -> str:
+def physics_failure(checks: Mapping[str, Any], rtol: float) -> str:
     """"" when every decisive check of :func:`physics_residuals` passes, else the first failure in words."""
     bound = physics_bound(rtol)
     for key in DECISIVE_CHECKS:
@@ -305,6 +314,10 @@ def physics_failure(checks: dict[str, float], rtol: float) -> str:
                      "constraint (the smallest gap), and a node between two obstacles (a corner, an edge resting on "
                      "two) needs both: this model cannot; keep the contact boundary of each obstacle apart (e.g. the "
                      "faces meeting the wall and the floor without their common edge)" if key == "obstacle_penetration"
+                     else "slave nodes of a pair that no part of its master surface lies beneath end inside the "
+                     "master body (deepest at (" + ", ".join(f"{c:.6g}" for c in checks.get(
+                         "uncovered_penetration_at", [])) + ")): nothing keeps them out; tag the master surface over "
+                     "all of the partner's face the slave may touch" if key == "uncovered_penetration"
                      else "the loads push the body along a motion its supports leave free and its contacts do not hold "
                      "(e.g. sideways on a frictionless floor): the solve ran off along it; support that motion"
                      if key == "free_balance"

@@ -252,6 +252,12 @@ class Coupling:
         (:func:`fenics_coulomb.model.pairs.master_nodes.master_excess`; collective; (0, None, 0) for one body)."""
         return 0.0, None, 0.0
 
+    def uncovered_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None]:
+        """The deepest slave node that no part of its master surface lies beneath inside the master body in X + u
+        (``u`` physical), and where it is (:func:`fenics_coulomb.model.pairs.uncovered.uncovered_depth`; collective;
+        (0, None) for one body)."""
+        return 0.0, None
+
     def contact_areas(self, areas: Array) -> Array:
         """The contact nodes' areas with the coupling's own (mortar D_j) where its method gives them."""
         return areas

@@ -43,7 +43,7 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError
 from fenics_coulomb.model.obstacles import Obstacle, Rotation, register_obstacle
-from fenics_coulomb.model.pairs.projection import TIE_TOL, _closest, empty_closest, select_candidates
+from fenics_coulomb.model.pairs.projection import TIE_TOL, closest_points, empty_closest, select_candidates
 from fenics_coulomb.model.pairs.projection import Surface as _Surface
 from fenics_coulomb.model.pairs.projection import norm as _norm
 from fenics_coulomb.model.triangulation import Source, file_source, read_triangles
@@ -240,7 +240,7 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, npt.NDArray[A
     k0 = min(nf, 4)
     _, ii = index.tree.query(x, k=k0)
     ii = ii.reshape(m, k0)
-    _, _, dist = _closest(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
+    _, _, dist = closest_points(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
     bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
     # the boxes' and the planes' distances (each at most the triangle's) are compared with a bound widened by its
     # own round-off

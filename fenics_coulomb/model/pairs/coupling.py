@@ -39,6 +39,7 @@ from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
 from fenics_coulomb.model.reproducible import TripleProduct, assemble_matrix, same_pattern
+from fenics_coulomb.model.pairs.uncovered import uncovered_depth
 from fenics_coulomb.model.pairs.two_body import (body_rigid_modes, check_rigid_support, connected_bodies, lost_support,
                                                  coupling_matrix, linearized_pair_gaps)
 
@@ -51,7 +52,6 @@ __all__ = ["PairCoupling"]
 logger = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
-
 
 
 class PairCoupling(Coupling):
@@ -117,10 +117,9 @@ class PairCoupling(Coupling):
         self._adopt(model, self._merge(model, pair_surfaces(V, self.pairs, self._excluded), None))
 
     def held_pairing(self, model: ContactModel, pairing: Pairing) -> tuple[Pairing, npt.NDArray[np.bool_]]:
-        """The pairing with the frames of its slave nodes with held components (held axes first, the normal
-        projected: :func:`~fenics_coulomb.model.frames.held_frames` with the pairs' tolerance), without the nodes
-        whose held direction is not orthogonal to their normal (logged; collective), and the held components of
-        its nodes, shape (m, 3)."""
+        """The pairing with the frames of its slave nodes with held components (held axes first, the normal projected:
+        :func:`~fenics_coulomb.model.frames.held_frames`), without the nodes whose held direction is not orthogonal
+        to their normal (logged; collective), and the held components of its nodes, shape (m, 3)."""
         held = model.held[pairing.blocks]
         if not model.comm.allreduce(bool(np.any(held)), op=MPI.LOR):
             return pairing, held
@@ -138,8 +137,7 @@ class PairCoupling(Coupling):
     def _merge(self, model: ContactModel, pairing: Pairing, u: Array | None) -> Pairing:
         """The pairing without the nodes that belong to a rigid obstacle: a node that is both a paired slave node
         and an obstacle contact node belongs to the one with the smaller signed gap g in X + u (``u`` ghosted,
-        None: X; ties: the pair; collective): the constraint it meets first, or violates more. (The smaller |g|
-        handed a node pressed onto its master (g ≈ 0) to the pair while it was 2.2e-3 inside a rigid plane, exit 0.)"""
+        None: X; ties: the pair; collective): the constraint it meets first, or violates more (not the smaller |g|)."""
         obstacle_map = self._obstacle_map
         if obstacle_map is None:
             return pairing
@@ -156,8 +154,6 @@ class PairCoupling(Coupling):
                                    shared=int(model.comm.allreduce(int(np.sum(both_p)), op=MPI.SUM)))
 
     def shared_nodes(self) -> int:
-        """The contact nodes on both a pair's slave surface (paired) and the obstacles' contact boundary in the
-        model's configuration: each meets one of its two constraints, the one with the smaller gap."""
         return 0 if self.pairing is None else self.pairing.shared
 
     def _adopt(self, model: ContactModel, pairing: Pairing) -> None:
@@ -329,8 +325,8 @@ class PairCoupling(Coupling):
         x.array[:] = z
         self.M.mult(x, y)
         u = y.getArray(readonly=True).copy()
-        x.destroy()
-        y.destroy()
+        for vec in (x, y):
+            vec.destroy()
         return u
 
     def relative(self, u: Array) -> Array:
@@ -357,8 +353,8 @@ class PairCoupling(Coupling):
         self.M.multTranspose(x, y)  # Mᵀ f = f + Φᵀ f
         y.axpy(-1.0, x)
         out = -y.getArray(readonly=True).copy()
-        x.destroy()
-        y.destroy()
+        for vec in (x, y):
+            vec.destroy()
         return out
 
     def initial_master_force(self, size: int) -> Array:
@@ -419,7 +415,6 @@ class PairCoupling(Coupling):
         return count, float(model.comm.allreduce(float(np.max(-gap, initial=0.0)), op=MPI.MAX))
 
     def free_slave_penetrations(self, model: ContactModel, u: Array, tol: float = 1e-8) -> int:
-        """The number of free slave nodes whose gap is below −tol × the mesh size, on all ranks (collective)."""
         return self._free_penetration(model, u, tol)[0]
 
     def free_slave_depth(self, model: ContactModel, u: Array) -> float:
@@ -445,6 +440,11 @@ class PairCoupling(Coupling):
         nodes = [self.pairing.blocks[self.pairing.pair_index == i] for i in range(len(self.pairs))]
         return master_excess(model.V, list(self.pairs), model.V.tabulate_dof_coordinates()
                              + model.ghosted(u).reshape(-1, 3), nodes, self.body_of_block)
+
+    def uncovered_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None]:
+        assert self.pairing is not None and self.body_of_block is not None
+        x = model.V.tabulate_dof_coordinates() + model.ghosted(u).reshape(-1, 3)
+        return uncovered_depth(model.V, list(self.pairs), self.pairing, x, self.body_of_block, self._excluded)
 
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""

@@ -31,15 +31,14 @@ from typing import Any
 from mpi4py import MPI
 
 import dolfinx.fem
-import dolfinx.geometry
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.model.mesh_checks import displaced_geometry
 from fenics_coulomb.model.pairs.pair import ContactPair
 from fenics_coulomb.model.pairs.projection import (Surface, dot, facet_data, facet_ranks, facet_sizes,
                                                    gather_surface, layer_thickness, local_facets, norm, outward_normals,
                                                    project)
+from fenics_coulomb.model.pairs.uncovered import body_of_facets, in_body
 
 __all__ = ["FACETTING_ALLOWANCE", "SLAVE_FACTOR", "FACING", "turn_angles", "master_excess"]
 
@@ -90,34 +89,6 @@ def _slave_depth(y: Array, master: Surface, search: float) -> float:
     return float(np.max(-g[inside], initial=0.0))
 
 
-def _in_body(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np.int64],
-             slave_facets: npt.NDArray[np.int32], points: Array) -> npt.NDArray[np.bool_]:
-    """Which of this rank's ``points`` lie in a cell of the slave body in the configuration ``x`` (collective: the
-    points of every rank are located in every rank's cells; nothing is built when no rank has any). Deeper than the
-    slave's cell layer under it, a master node's side of the slave surface does not tell inside the body from beyond
-    a thin one (a 0.004 top layer hid a border 9.1e-3 inside): the deformed cells do."""
-    comm = V.mesh.comm
-    counts = comm.allgather(points.shape[0])
-    if not sum(counts):
-        return np.zeros(0, dtype=bool)
-    everyone = np.concatenate(comm.allgather(np.ascontiguousarray(points.reshape(-1, 3))))
-    msh = V.mesh
-    tdim = msh.topology.dim
-    f2c = msh.topology.connectivity(tdim - 1, tdim)
-    facing = f2c.array[f2c.offsets[slave_facets]] if slave_facets.size else np.zeros(0, np.int32)
-    body = comm.allreduce(int(body_of_block[V.dofmap.list[facing[0], 0]]) if facing.size else -1, op=MPI.MAX)
-    num = msh.topology.index_map(tdim).size_local
-    cells = np.flatnonzero(body_of_block[V.dofmap.list[:num, 0]] == body).astype(np.int32)
-    inside = np.zeros(everyone.shape[0], dtype=np.int32)
-    with displaced_geometry(V, (x - V.tabulate_dof_coordinates()).ravel()):
-        tree = dolfinx.geometry.bb_tree(msh, tdim, cells)
-        candidates = dolfinx.geometry.compute_collisions_points(tree, everyone)
-        inside[:] = np.diff(dolfinx.geometry.compute_colliding_cells(msh, candidates, everyone).offsets) > 0
-    comm.Allreduce(MPI.IN_PLACE, inside, op=MPI.MAX)
-    start = sum(counts[:comm.rank])
-    return inside[start:start + points.shape[0]].astype(bool)
-
-
 def master_excess(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], x: Array,
                   slave_nodes: list[npt.NDArray[np.int32]], body_of_block: npt.NDArray[np.int64]
                   ) -> tuple[float, Array | None, float]:
@@ -158,7 +129,10 @@ def master_excess(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], x: Arr
         over = np.asarray(res["paired"], dtype=bool) & (np.abs(depth) <= search)
         deep = over & (depth >= thickness[res["facet"]])  # below the slave's cell layer: located in its body
         over &= ~deep
-        over[deep] = _in_body(V, x, body_of_block, local_facets(pair.facet_tags, pair.slave_tags), y[deep])
+        # deeper than the slave's cell layer, a master node's side of the slave surface does not tell inside the
+        # body from beyond a thin one (a 0.004 top layer hid a border 9.1e-3 inside): the deformed cells do
+        body = body_of_facets(V, body_of_block, local_facets(pair.facet_tags, pair.slave_tags))
+        over[deep] = in_body(V, x, body_of_block, body, y[deep])
         allowed = np.maximum(FACETTING_ALLOWANCE * sizes[res["facet"]] * alpha, SLAVE_FACTOR * floor)
         excess = np.where(over, depth - allowed, 0.0)
         if excess.size and excess.max() > best[0]:

@@ -86,7 +86,7 @@ import numpy.typing as npt
 
 __all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals", "layer_thickness",
            "local_facets", "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes",
-           "facet_ranks", "empty_closest"]
+           "facet_ranks", "empty_closest", "closest_points"]
 
 Array = npt.NDArray[np.float64]
 
@@ -312,7 +312,7 @@ def gather_surface(comm: MPI.Comm, surface: Surface, nv: int) -> Surface:
 
 
 # -- closest points ---------------------------------------------------------------------------------------
-def _closest(p: Array, X: Array) -> tuple[Array, Array, Array]:
+def closest_points(p: Array, X: Array) -> tuple[Array, Array, Array]:
     return _closest_triangle(p, X) if X.shape[1] == 3 else _closest_quad(p, X)
 
 
@@ -377,7 +377,7 @@ def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp])
 
     _, ii = cKDTree(centres).query(x, k=k0)
     ii = ii.reshape(m, k0)
-    _, _, dist = _closest(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
+    _, _, dist = closest_points(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
     bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
     # the candidate (node, facet) pairs, by radius classes
     level = np.floor(np.log2(np.maximum(radius, np.finfo(float).tiny))).astype(np.int64)
@@ -401,7 +401,7 @@ def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[n
     """The closest point of each point x_i among its candidate facets (the pairs (``node``, ``facet``), sorted by
     node), with the tie and normal-cone rules (:func:`_select`), written into ``out``."""
     m = x.shape[0]
-    q, w, dist = _closest(x[node], surface.X[facet])
+    q, w, dist = closest_points(x[node], surface.X[facet])
     # rectangular batches of nodes with similar candidate counts (padding: distance inf, never tied or chosen)
     count = np.bincount(node, minlength=m)
     first = np.concatenate([[0], np.cumsum(count)[:-1]])

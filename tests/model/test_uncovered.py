@@ -1,0 +1,88 @@
+"""Slave nodes with no master surface beneath them (fenics_coulomb/model/pairs/uncovered.py).
+
+The pressed blocks with the master surface tagged only where x < 1: the slave nodes over the rest of the lower
+block's top have no partner, nothing keeps them out, and they sank 0.0098 into the lower block — converged, exit 0,
+with a non-decisive master-node warning at most. Now `uncovered_penetration` is decisive: the solve fails its
+physics checks naming the deepest node, and the depth is checked against a brute force of its own (the deformed
+lower top's height under the node, from the lower body's displacement there)."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import dolfinx
+import dolfinx.fem
+import dolfinx.geometry
+import dolfinx.mesh
+import numpy as np
+import pytest
+
+from fenics_coulomb import ContactProblem
+from fenics_coulomb.errors import SolverError
+from fenics_coulomb.model.checks import displacement_scale
+from fenics_coulomb.model.pairs import ContactPair
+from test_two_body import LOWER_BOTTOM, MASTER, SLAVE, UPPER_TOP, elasticity, two_blocks
+
+PART = 99  # the tag of the lower top's facets with x < 1: the master surface
+
+
+def _lower_top_height(V, uh, points):
+    """z of the deformed lower block's top above (x, y) of each point: 0 + u_z(x, y, 0) of the lower body (its
+    lateral displacement, 1e-4 of the depth here, neglected; collective)."""
+    msh = V.mesh
+    everyone = np.concatenate(msh.comm.allgather(points.reshape(-1, 3)))  # every rank's points, on every rank
+    q = np.column_stack([everyone[:, 0], everyone[:, 1], np.full(everyone.shape[0], -1e-12)])
+    tree = dolfinx.geometry.bb_tree(msh, 3)
+    cells = dolfinx.geometry.compute_colliding_cells(msh, dolfinx.geometry.compute_collisions_points(tree, q), q)
+    found = np.diff(cells.offsets) > 0
+    value = np.zeros(q.shape[0])
+    if found.any():
+        first = cells.array[cells.offsets[:-1][found]]
+        value[found] = uh.eval(q[found], first)[:, 2]
+    hits = found.astype(np.int32)
+    msh.comm.Allreduce(MPI.IN_PLACE, hits, op=MPI.SUM)
+    msh.comm.Allreduce(MPI.IN_PLACE, value, op=MPI.SUM)
+    start = sum(msh.comm.allgather(points.shape[0])[:msh.comm.rank])
+    return (value / np.maximum(hits, 1))[start:start + points.shape[0]]
+
+
+@pytest.mark.parametrize("sliding", ["finite", "small"])
+@pytest.mark.parametrize("method", ["node-to-surface", "mortar"])
+def test_slave_nodes_beyond_the_master_surface_fail_the_checks(method, sliding):
+    comm = MPI.COMM_WORLD
+    msh, ft = two_blocks(comm)
+    mid = dolfinx.mesh.compute_midpoints(msh, 2, ft.indices)
+    values = ft.values.copy()
+    values[(ft.values == MASTER) & (mid[:, 0] < 1.0)] = PART
+    tags = dolfinx.mesh.meshtags(msh, 2, ft.indices, values)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    top = dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -0.01]))
+    bcs = [dolfinx.fem.dirichletbc(top, dolfinx.fem.locate_dofs_topological(V, 2, tags.find(UPPER_TOP)), V),
+           dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, tags.find(LOWER_BOTTOM)),
+                                   V)]
+    pair = ContactPair(tags, slave=SLAVE, master=PART, method=method)
+    with ContactProblem(elasticity(V), None, bcs, contact_pairs=[pair], petsc_options_prefix="uncovered_",
+                        sliding=sliding) as problem:
+        with pytest.raises(SolverError, match="uncovered_penetration") as failed:
+            problem.solve()
+        assert failed.value.reason == "physics_check"
+        result = failed.value.result
+        checks = problem.checks(result)
+        depth = checks["uncovered_penetration"] * displacement_scale(problem.model, result.displacement)
+        at = np.asarray(checks["uncovered_penetration_at"])
+        # brute force: every slave node over the untagged part (x > 1 + a facet: no master facet beneath it), its
+        # depth below the deformed lower top
+        uh = dolfinx.fem.Function(V)
+        n = 3 * V.dofmap.index_map.size_local
+        uh.x.array[:n] = result.displacement[:n]
+        uh.x.scatter_forward()
+        x = V.tabulate_dof_coordinates()
+        slave = dolfinx.fem.locate_dofs_topological(V, 2, tags.find(SLAVE))
+        slave = slave[slave < V.dofmap.index_map.size_local]
+        y = x[slave] + uh.x.array.reshape(-1, 3)[slave]
+        beyond = y[:, 0] > 1.0 + 0.5
+        sunk = _lower_top_height(V, uh, y[beyond]) - y[beyond, 2]
+        deepest = comm.allreduce(float(np.max(sunk, initial=0.0)), op=MPI.MAX)
+        assert deepest > 5e-3  # the defect: sunk by about the press
+        assert depth == pytest.approx(deepest, rel=1e-3)
+        assert at[0] > 1.0 and -0.011 < at[2] < -5e-3
