@@ -21,6 +21,7 @@ from fenics_coulomb import ContactProblem
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.model.checks import displacement_scale
 from fenics_coulomb.model.pairs import ContactPair
+import fenics_coulomb.model.pairs.uncovered as uncovered
 from test_two_body import LOWER_BOTTOM, MASTER, SLAVE, UPPER_TOP, elasticity, two_blocks
 
 PART = 99  # the tag of the lower top's facets with x < 1: the master surface
@@ -86,3 +87,25 @@ def test_slave_nodes_beyond_the_master_surface_fail_the_checks(method, sliding):
         assert deepest > 5e-3  # the defect: sunk by about the press
         assert depth == pytest.approx(deepest, rel=1e-3)
         assert at[0] > 1.0 and -0.011 < at[2] < -5e-3
+
+
+@pytest.mark.parametrize("cell", [dolfinx.mesh.CellType.tetrahedron, dolfinx.mesh.CellType.hexahedron])
+def test_the_depth_ignores_symmetry_planes_only(cell):
+    """A point on the unit cube's face x = 0, 0.01 below its top: 0 from that face, 0.01 inside when the face is a
+    symmetry plane (every vertex held along x: the body goes on beyond it) — the shrink fit's bore nodes on the
+    quarter model's planes ended 5.5e-4 inside the shaft with a depth of 0. A face held in another component, or
+    held at some of its vertices only, still counts."""
+    comm = MPI.COMM_WORLD
+    msh = dolfinx.mesh.create_unit_cube(comm, 4, 4, 4, cell)
+    msh.topology.create_connectivity(2, 3)
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
+    x = V.tabulate_dof_coordinates()
+    body = np.zeros(x.shape[0], dtype=np.int64)
+    point = np.array([[0.0, 0.5, 0.99]]) if comm.rank == 0 else np.zeros((0, 3))
+    on_plane = np.isclose(x[:, 0], 0.0)
+    cases = {"free": (np.zeros((x.shape[0], 3), bool), 0.0), "mirror": (np.outer(on_plane, [1, 0, 0]) > 0, 0.01),
+             "held along y": (np.outer(on_plane, [0, 1, 0]) > 0, 0.0),
+             "held at half": (np.outer(on_plane & (x[:, 2] < 0.5), [1, 0, 0]) > 0, 0.0)}
+    for name, (held, expected) in cases.items():
+        depth = uncovered._depth(V, x, body, 0, held, point)
+        assert depth == pytest.approx([expected] if comm.rank == 0 else [], abs=1e-14), name

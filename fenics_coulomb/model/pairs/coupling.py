@@ -444,7 +444,7 @@ class PairCoupling(Coupling):
     def uncovered_depth(self, model: ContactModel, u: Array) -> tuple[float, Array | None]:
         assert self.pairing is not None and self.body_of_block is not None
         x = model.V.tabulate_dof_coordinates() + model.ghosted(u).reshape(-1, 3)
-        return uncovered_depth(model.V, list(self.pairs), self.pairing, x, self.body_of_block, self._excluded)
+        return uncovered_depth(model.V, self.pairs, self.pairing, x, self.body_of_block, self._excluded, model.held)
 
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""

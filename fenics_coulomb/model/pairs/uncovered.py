@@ -9,8 +9,8 @@ into it unseen (the pressed blocks with the master surface tagged where x < 1: t
 
 :func:`uncovered_depth` finds them after a solve: every slave node of a pair that is neither a contact node, nor a
 free node, nor given to an obstacle (nor held by a support), located in a cell of the pair's master body in X + u, and
-its depth there — its distance to the body's boundary (the exterior facets of the body's cells, all of them: the
-surface the node crossed may be untagged).
+its depth there: its distance to the nearest exterior facet of the body's cells (all of them: the surface the node
+crossed may be untagged) that is no symmetry plane (a face held along its normal, beyond which the body goes on).
 """
 
 from __future__ import annotations
@@ -27,13 +27,16 @@ import numpy.typing as npt
 
 from fenics_coulomb.model.mesh_checks import displaced_geometry
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
-from fenics_coulomb.model.pairs.projection import closest_points, facet_data, gather_surface, local_facets
+from fenics_coulomb.model.pairs.projection import (Surface, closest_points, facet_data, gather_surface, local_facets,
+                                                   outward_normals)
 
 __all__ = ["body_of_facets", "in_body", "uncovered_depth"]
 
 Array = npt.NDArray[np.float64]
 
-#: Points × facets per batch of the brute-force distance to the body's boundary.
+#: A facet is a symmetry plane when the held components at each vertex carry this much of |n|² but 1.
+MIRROR_TOL = 1e-8
+#: Points × facets per batch of the brute-force depth inside the body.
 _BATCH = 200_000
 
 
@@ -72,18 +75,28 @@ def in_body(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[n
     return inside[start:start + points.shape[0]].astype(bool)
 
 
-def _boundary_distance(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np.int64], body: int,
-                       points: Array) -> Array:
-    """The distance of each of this rank's ``points`` to the boundary of ``body`` in the configuration ``x`` (every
-    exterior facet of the body's cells, gathered; brute force in batches; collective)."""
+def _depth(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np.int64], body: int,
+           held: npt.NDArray[np.bool_], points: Array) -> Array:
+    """The depth of each of this rank's ``points`` inside ``body`` in the configuration ``x``: the distance to the
+    nearest exterior facet of the body's cells that is no mirror — a facet whose every vertex a support holds along
+    the facet's normal (``held``: the held components of V's local blocks) is a symmetry plane, beyond which the body
+    goes on: a bore node on a quarter model's symmetry plane lies on the shaft's face there, 2.1e-4 inside the shaft
+    (the shrink fit's other state). Collective: every rank's facets of the body gathered; brute force in batches."""
     msh = V.mesh
     tdim = msh.topology.dim
     exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)
     f2c = msh.topology.connectivity(tdim - 1, tdim)
     cells = f2c.array[f2c.offsets[exterior]] if exterior.size else np.zeros(0, np.int32)
-    mine = exterior[body_of_block[V.dofmap.list[cells, 0]] == body] if cells.size else exterior
+    facets = exterior[body_of_block[V.dofmap.list[cells, 0]] == body] if cells.size else exterior
     nv = 4 if msh.topology.cell_name() == "hexahedron" else 3
-    surface = gather_surface(msh.comm, facet_data(V, mine.astype(np.int32), x), nv)
+    local = facet_data(V, facets.astype(np.int32), x)
+    if facets.size:
+        normal = outward_normals(local.X, np.full((facets.size, nv), 1.0 / nv), local.sign)
+        blocks = V.dofmap.index_map.global_to_local(local.blocks.ravel()).reshape(local.blocks.shape)
+        along = np.einsum("fvi,fi->fv", held[blocks].astype(np.float64), normal**2)  # |n|² in the held components
+        kept = ~np.all(along >= 1.0 - MIRROR_TOL, axis=1)
+        local = Surface(local.X[kept], local.blocks[kept], local.sign[kept])
+    surface = gather_surface(msh.comm, local, nv)
     k = surface.X.shape[0]
     out = np.full(points.shape[0], np.inf)
     step = max(1, _BATCH // max(k, 1))
@@ -95,12 +108,13 @@ def _boundary_distance(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: np
 
 
 def uncovered_depth(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], pairing: Pairing, x: Array,
-                    body_of_block: npt.NDArray[np.int64], excluded: npt.NDArray[np.int32]
-                    ) -> tuple[float, Array | None]:
+                    body_of_block: npt.NDArray[np.int64], excluded: npt.NDArray[np.int32],
+                    held: npt.NDArray[np.bool_]) -> tuple[float, Array | None]:
     """The deepest slave node without a partner on the master surface (the module docstring) inside its pair's
     master body in the configuration ``x`` (the positions of V's local DOF blocks, owned and ghost), over every pair
     and rank, and where that node is (None when none lies inside; collective). ``excluded``: the local blocks that
-    are no contact nodes (held by a support)."""
+    are no contact nodes (held by a support); ``held``: the held components of every local block (owned and
+    ghost)."""
     comm = V.mesh.comm
     tdim = V.mesh.topology.dim
     V.mesh.topology.create_connectivity(tdim - 1, tdim)
@@ -121,7 +135,7 @@ def uncovered_depth(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], pair
         inside = in_body(V, x, body_of_block, body, y)
         if not comm.allreduce(int(inside.sum()), op=MPI.SUM):
             continue
-        depth = _boundary_distance(V, x, body_of_block, body, y[inside])
+        depth = _depth(V, x, body_of_block, body, held, y[inside])
         if depth.size and depth.max() > best[0]:
             best = (float(depth.max()), y[inside][int(np.argmax(depth))])
     everyone: list[tuple[float, Any]] = comm.allgather(best)
