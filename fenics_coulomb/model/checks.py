@@ -19,7 +19,8 @@ thresholds do not depend on units:
 * ``uncovered_penetration``: the same for the slave nodes of the pairs that no part of their master surface lies
   beneath (beyond the master surface's border: no constraint keeps them out) inside the master body in X + u, their
   depth the distance to the body's boundary (:mod:`fenics_coulomb.model.pairs.uncovered`), and
-  ``uncovered_penetration_at``, the deepest one's position;
+  ``uncovered_penetration_at``, the deepest one's position in X + u; under small sliding (which pairs in X: the
+  deformed master's edge may pass such a node) reported, not decisive, as ``uncovered_small_sliding`` (``_at``);
 * ``master_penetration`` (reported, not decisive): the same for the master nodes of the pairs inside their slave body
   in X + u, less the depth the facetting of curved surfaces allows (:mod:`fenics_coulomb.model.pairs.master_nodes`;
   a pair does not constrain its master's nodes: a master smaller than the slave, or its border under a slave that
@@ -198,10 +199,13 @@ def physics_residuals(model: ContactModel, displacement: npt.NDArray[np.float64]
     out["obstacle_penetration"] = _gmax(comm, contact_depth) / max(gap_scale, tiny)
     out["support_penetration"] = _gmax(comm, support_depth) / max(gap_scale, tiny)
     # nothing keeps a slave node with no master surface beneath it out of the master body
+    # (small sliding pairs in X: a node beyond the master's border there may meet the deformed master's edge, which
+    # that model does not see: reported and warned)
     uncovered, uncovered_at = model.coupling.uncovered_depth(model, physical)
-    out["uncovered_penetration"] = uncovered / max(gap_scale, tiny)
+    key = "uncovered_penetration" if model.sliding == "finite" else "uncovered_small_sliding"
+    out[key] = uncovered / max(gap_scale, tiny)
     if uncovered_at is not None:
-        out["uncovered_penetration_at"] = [float(c) for c in uncovered_at]  # type: ignore[assignment]
+        out[f"{key}_at"] = [float(c) for c in uncovered_at]  # type: ignore[assignment]
     # a pair keeps its slave nodes out of the master body, not the master's nodes out of the slave body
     master_depth, master_at, master_facet = model.coupling.master_depth(model, physical)
     out["master_penetration"] = master_depth / max(gap_scale, tiny)
@@ -316,8 +320,8 @@ def physics_failure(checks: Mapping[str, Any], rtol: float) -> str:
                      "faces meeting the wall and the floor without their common edge)" if key == "obstacle_penetration"
                      else "slave nodes of a pair that no part of its master surface lies beneath end inside the "
                      "master body (deepest at (" + ", ".join(f"{c:.6g}" for c in checks.get(
-                         "uncovered_penetration_at", [])) + ")): nothing keeps them out; tag the master surface over "
-                     "all of the partner's face the slave may touch" if key == "uncovered_penetration"
+                         "uncovered_penetration_at", [])) + ") in X + u): nothing keeps them out; tag the master "
+                     "surface over all of the partner's face the slave may touch" if key == "uncovered_penetration"
                      else "the loads push the body along a motion its supports leave free and its contacts do not hold "
                      "(e.g. sideways on a frictionless floor): the solve ran off along it; support that motion"
                      if key == "free_balance"
@@ -334,6 +338,13 @@ def reported_warnings(checks: dict[str, Any], rtol: float) -> list[str]:
         out.append(f"nodes of the contact boundary that a support holds (no contact nodes: a support moving them along "
                    f"or into the contact) end inside an obstacle, by up to {depth:.3g} of the displacement scale: "
                    "leave them out of the support or out of the contact boundary")
+    depth = checks.get("uncovered_small_sliding", 0.0)
+    if depth > physics_bound(rtol):
+        at = "(" + ", ".join(f"{c:.6g}" for c in checks.get("uncovered_small_sliding_at", [])) + ")"
+        out.append(f"slave nodes of a pair that no part of its master surface lies beneath in the reference "
+                   f"configuration end inside the master body, by up to {depth:.3g} of the displacement scale (at "
+                   f"{at} in X + u): small sliding pairs once, in X; use sliding = 'finite', or tag the master surface "
+                   "over all of the partner's face the slave may touch")
     depth, facet = checks.get("master_penetration", 0.0), checks.get("master_penetration_facet", 0.0)
     if depth > MASTER_WARNING or facet > MASTER_WARNING:
         at = "(" + ", ".join(f"{c:.6g}" for c in checks.get("master_penetration_at", [])) + ")"

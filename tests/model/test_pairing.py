@@ -491,3 +491,24 @@ def test_ranks_agree(cell, partitioner, method):
         f_one = np.einsum("kj,kj->k", one["w"], np.exp(one["mx"] @ a))
         assert np.allclose(f_many, f_one, atol=1e-12, rtol=0)
 
+
+
+def test_a_held_node_decides_its_cone_in_the_directions_it_can_move():
+    """A slave node on the plane y = 0 where the master facet ends, 1e-3 inside it; the facet tilted out of the plane
+    by 0.01 (as the shrink fit's deformation tilted the shaft's facets at the quarter model's planes). Its closest
+    point lies on the border edge, x − x_m is off the facet's normal by 1e-5: no contact node by the cone rule.
+    Held along y (a symmetry plane: it cannot leave it), x − x_m and n agree in x and z: a contact node. Held along x
+    only, it can move in y, where they disagree: still none."""
+    from fenics_coulomb.model.pairs.node_to_surface import _held_cone
+    from fenics_coulomb.model.pairs.projection import Surface, facet_ranks, facet_sizes, project
+
+    surface = Surface(np.array([[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 1.0, 0.01]]]), np.array([[0, 1, 2]]),
+                      np.array([1.0]))
+    x = np.array([[0.5, 0.0, -1e-3]])
+    res = project(x, surface, facet_sizes(surface), facet_ranks(surface))
+    assert not res["paired"][0]
+    assert np.allclose(res["closest"], [[0.5, 0.0, 0.0]], atol=1e-15)
+    size = facet_sizes(surface)
+    assert _held_cone(x, res, np.array([[False, True, False]]), size)[0]
+    assert not _held_cone(x, res, np.array([[True, False, False]]), size)[0]
+    assert not _held_cone(x, res, np.array([[False, False, False]]), size)[0]

@@ -114,7 +114,7 @@ class PairCoupling(Coupling):
                                                    model.obstacles, held=model.held)
             check_not_overlapping(model.obstacles, self._obstacle_map.coordinates, comm=comm)
             self._obstacle_friction = np.asarray(model.friction_at_nodes(friction, self._obstacle_map.blocks))
-        self._adopt(model, self._merge(model, pair_surfaces(V, self.pairs, self._excluded), None))
+        self._adopt(model, self._merge(model, pair_surfaces(V, self.pairs, self._excluded, held=model.held), None))
 
     def held_pairing(self, model: ContactModel, pairing: Pairing) -> tuple[Pairing, npt.NDArray[np.bool_]]:
         """The pairing with the frames of its slave nodes with held components (held axes first, the normal projected:
@@ -130,7 +130,7 @@ class PairCoupling(Coupling):
             if model.comm.rank == 0:
                 logger.info("%d slave node(s) with a held component not orthogonal to the contact normal are moved "
                             "by their support, not contact nodes", count)
-            pairing = pairing.subset(~conflict, model.comm)
+            pairing = pairing.to_free(conflict, model.comm)  # moved by their support: checked as free nodes
             held = held[~conflict]
         return pairing, np.ascontiguousarray(held)
 
@@ -277,11 +277,11 @@ class PairCoupling(Coupling):
         """The pairing of X + u (``u`` the physical displacement of the owned DOFs; None: X), the obstacles' nodes
         merged (collective)."""
         if u is None:
-            return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded), None)
+            return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded, held=model.held), None)
         ug = model.ghosted(u)
         x = model.V.tabulate_dof_coordinates() + ug.reshape(-1, 3)
         return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded, coordinates=x,
-                                                resolution=resolution), ug)
+                                                resolution=resolution, held=model.held), ug)
 
     def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None,
                   resolution: float = 0.0) -> bool:

@@ -38,7 +38,7 @@ from fenics_coulomb.model.pairs.pair import ContactPair
 from fenics_coulomb.model.pairs.projection import (Surface, dot, facet_data, facet_ranks, facet_sizes,
                                                    gather_surface, layer_thickness, local_facets, norm, outward_normals,
                                                    project)
-from fenics_coulomb.model.pairs.uncovered import body_of_facets, in_body
+from fenics_coulomb.model.pairs.uncovered import bodies_of_facets, in_body
 
 __all__ = ["FACETTING_ALLOWANCE", "SLAVE_FACTOR", "FACING", "turn_angles", "master_excess"]
 
@@ -131,8 +131,10 @@ def master_excess(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], x: Arr
         over &= ~deep
         # deeper than the slave's cell layer, a master node's side of the slave surface does not tell inside the
         # body from beyond a thin one (a 0.004 top layer hid a border 9.1e-3 inside): the deformed cells do
-        body = body_of_facets(V, body_of_block, local_facets(pair.facet_tags, pair.slave_tags))
-        over[deep] = in_body(V, x, body_of_block, body, y[deep])
+        located = np.zeros(int(deep.sum()), dtype=bool)
+        for body in bodies_of_facets(V, body_of_block, local_facets(pair.facet_tags, pair.slave_tags)):
+            located |= in_body(V, x, body_of_block, body, y[deep])
+        over[deep] = located
         allowed = np.maximum(FACETTING_ALLOWANCE * sizes[res["facet"]] * alpha, SLAVE_FACTOR * floor)
         excess = np.where(over, depth - allowed, 0.0)
         if excess.size and excess.max() > best[0]:

@@ -150,6 +150,27 @@ class Pairing:
                        friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM),
                        free=self.free, to_obstacles=self.to_obstacles, shared=self.shared)
 
+    def to_free(self, drop: npt.NDArray[np.bool_], comm: MPI.Comm) -> Pairing:
+        """The pairing without the nodes ``drop`` selects, which join ``free``: no contact nodes, their penetration
+        measured after a solve (collective: the global count)."""
+        kept = self.subset(~drop, comm)
+        width = max(self.master_blocks.shape[1], *(self.free["master_blocks"].shape[1:] if self.free else ()))
+
+        def padded(a: npt.NDArray[Any], fill: float) -> npt.NDArray[Any]:
+            out = np.full((a.shape[0], width), fill, dtype=a.dtype)
+            out[:, :a.shape[1]] = a
+            return out
+
+        moved: dict[str, np.ndarray] = {
+            "blocks": self.blocks[drop], "gap": self.gap[drop], "normals": self.normals[drop],
+            "master_blocks": padded(self.master_blocks[drop], -1), "weights": padded(self.weights[drop], 0.0)}
+        if self.free:
+            old: dict[str, np.ndarray] = {**self.free, "master_blocks": padded(self.free["master_blocks"], -1),
+                                          "weights": padded(self.free["weights"], 0.0)}
+            moved = {k: np.concatenate([old[k], v]) for k, v in moved.items()}
+        kept.free = moved
+        return kept
+
     @property
     def normals(self) -> Array:
         """n of each contact node, shape (m, 3)."""

@@ -45,6 +45,9 @@ class PairInput:
         resolution: The configuration's own displacement error (a length; 0 for the reference configuration):
             geometric decisions finer than it are not made (dual mortar: an uncovered border strip up to twice as
             wide counts as covered, :func:`~fenics_coulomb.model.pairs.segmentation.mortar_nodes`).
+        held: The Cartesian components a support holds, of every local DOF block (owned and ghost), shape
+            (blocks, 3); None: none (node-to-surface decides the normal cone of a held node in the directions it
+            can move, :func:`~fenics_coulomb.model.pairs.node_to_surface.stencils`).
     """
 
     comm: MPI.Comm
@@ -59,6 +62,7 @@ class PairInput:
     search: float
     gather_slave: Callable[[], Surface]
     resolution: float = 0.0
+    held: npt.NDArray[np.bool_] | None = None
 
 
 @dataclass

@@ -15,6 +15,7 @@ crossed may be untagged) that is no symmetry plane (a face held along its normal
 
 from __future__ import annotations
 
+from itertools import chain
 from typing import Any
 
 from mpi4py import MPI
@@ -30,25 +31,25 @@ from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.projection import (Surface, closest_points, facet_data, gather_surface, local_facets,
                                                    outward_normals)
 
-__all__ = ["body_of_facets", "in_body", "uncovered_depth"]
+__all__ = ["bodies_of_facets", "in_body", "signed_distance", "uncovered_depth"]
 
 Array = npt.NDArray[np.float64]
 
 #: A facet is a symmetry plane when the held components at each vertex carry this much of |n|² but 1.
 MIRROR_TOL = 1e-8
-#: Points × facets per batch of the brute-force depth inside the body.
-_BATCH = 200_000
+#: Facets within this × (their radius + the point's coordinates) of the nearest one are tied at a point.
+TIE = 1e-10
 
 
-def body_of_facets(V: dolfinx.fem.FunctionSpace, body_of_block: npt.NDArray[np.int64],
-                   facets: npt.NDArray[np.int32]) -> int:
-    """The body (index of :func:`fenics_coulomb.model.pairs.two_body.connected_bodies`) whose boundary holds
-    ``facets`` (this rank's; −1 when no rank has any; collective)."""
+def bodies_of_facets(V: dolfinx.fem.FunctionSpace, body_of_block: npt.NDArray[np.int64],
+                     facets: npt.NDArray[np.int32]) -> list[int]:
+    """The bodies (indices of :func:`fenics_coulomb.model.pairs.two_body.connected_bodies`) whose boundary holds
+    any of ``facets`` (this rank's), the same ascending list on every rank (collective)."""
     tdim = V.mesh.topology.dim
     f2c = V.mesh.topology.connectivity(tdim - 1, tdim)
     cells = f2c.array[f2c.offsets[facets]] if facets.size else np.zeros(0, np.int32)
-    return int(V.mesh.comm.allreduce(int(body_of_block[V.dofmap.list[cells[0], 0]]) if cells.size else -1,
-                                     op=MPI.MAX))
+    mine = np.unique(body_of_block[V.dofmap.list[cells, 0]]) if cells.size else np.zeros(0, np.int64)
+    return sorted({int(b) for part in V.mesh.comm.allgather(mine) for b in part})
 
 
 def in_body(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np.int64], body: int,
@@ -75,13 +76,11 @@ def in_body(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[n
     return inside[start:start + points.shape[0]].astype(bool)
 
 
-def _depth(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np.int64], body: int,
-           held: npt.NDArray[np.bool_], points: Array) -> Array:
-    """The depth of each of this rank's ``points`` inside ``body`` in the configuration ``x``: the distance to the
-    nearest exterior facet of the body's cells that is no mirror — a facet whose every vertex a support holds along
-    the facet's normal (``held``: the held components of V's local blocks) is a symmetry plane, beyond which the body
-    goes on: a bore node on a quarter model's symmetry plane lies on the shaft's face there, 2.1e-4 inside the shaft
-    (the shrink fit's other state). Collective: every rank's facets of the body gathered; brute force in batches."""
+def _boundary(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np.int64], body: int,
+              held: npt.NDArray[np.bool_]) -> Surface:
+    """The exterior facets of ``body``'s cells in the configuration ``x`` but its symmetry planes — a facet whose
+    every vertex a support holds along the facet's normal (``held``: the held components of V's local blocks), beyond
+    which the body goes on — gathered on every rank (collective)."""
     msh = V.mesh
     tdim = msh.topology.dim
     exterior = dolfinx.mesh.exterior_facet_indices(msh.topology)
@@ -96,15 +95,44 @@ def _depth(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray[np
         along = np.einsum("fvi,fi->fv", held[blocks].astype(np.float64), normal**2)  # |n|² in the held components
         kept = ~np.all(along >= 1.0 - MIRROR_TOL, axis=1)
         local = Surface(local.X[kept], local.blocks[kept], local.sign[kept])
-    surface = gather_surface(msh.comm, local, nv)
-    k = surface.X.shape[0]
-    out = np.full(points.shape[0], np.inf)
-    step = max(1, _BATCH // max(k, 1))
-    for start in range(0, points.shape[0] if k else 0, step):  # batches of points, each against every facet
-        p = points[start:start + step]
-        _, _, dist = closest_points(np.repeat(p, k, axis=0), np.tile(surface.X, (p.shape[0], 1, 1)))
-        out[start:start + step] = dist.reshape(p.shape[0], k).min(axis=1)
-    return out
+    return gather_surface(msh.comm, local, nv)
+
+
+def signed_distance(points: Array, surface: Surface) -> Array:
+    """The distance of each point to the ``surface`` (facets oriented outward of a body), negative inside the body:
+    the sign of (x − x_q)·n with x_q the closest point and n the sum of the outward normals at x_q of the facets
+    tied there (a facet's own inside it; an edge's or a vertex's pseudo-normal on them), the candidates found with a
+    KD-tree of the facet centres (the rule of :func:`~fenics_coulomb.model.pairs.projection.project`; +inf without
+    facets)."""
+    m, nf = points.shape[0], surface.X.shape[0]
+    if m == 0 or nf == 0:
+        return np.full(m, np.inf)
+    from scipy.spatial import cKDTree  # scipy only where used (fenics_coulomb/__init__.py)
+
+    centres = surface.X.mean(axis=1)
+    radius = np.linalg.norm(surface.X - centres[:, None], axis=2).max(axis=1)
+    tree = cKDTree(centres)
+    k0 = min(nf, 8)
+    _, near = tree.query(points, k=k0)
+    near = near.reshape(m, k0)
+    _, _, dist = closest_points(np.repeat(points, k0, axis=0), surface.X[near.ravel()])
+    bound = dist.reshape(m, k0).min(axis=1) + radius.max() * (1.0 + 1e-8)
+    lists = tree.query_ball_point(points, bound)
+    lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
+    node = np.repeat(np.arange(m), lengths)
+    facet = np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))
+    q, w, dist = closest_points(points[node], surface.X[facet])
+    nearest = np.full(m, np.inf)
+    np.minimum.at(nearest, node, dist)
+    tied = dist <= nearest[node] + TIE * (radius[facet] + np.abs(points[node]).max(axis=1))
+    normal = outward_normals(surface.X[facet], w, surface.sign[facet])
+    pseudo = np.zeros((m, 3))
+    np.add.at(pseudo, node[tied], normal[tied])
+    first = np.zeros(m, np.intp)
+    order = np.lexsort((dist, node))
+    first[node[order][::-1]] = order[::-1]  # each point's nearest candidate
+    side = np.einsum("ij,ij->i", points - q[first], pseudo)
+    return np.where(side < 0.0, -nearest, nearest)
 
 
 def uncovered_depth(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], pairing: Pairing, x: Array,
@@ -120,24 +148,38 @@ def uncovered_depth(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], pair
     V.mesh.topology.create_connectivity(tdim - 1, tdim)
     lo, hi = V.dofmap.index_map.local_range
     nv = 4 if V.mesh.topology.cell_name() == "hexahedron" else 3
-    covered = np.concatenate([pairing.blocks, *(np.asarray(d.get("blocks", np.zeros(0, np.int32)))
-                                                for d in (pairing.free, pairing.to_obstacles)), excluded])
+    others = np.concatenate([*(np.asarray(d.get("blocks", np.zeros(0, np.int32)))
+                               for d in (pairing.free, pairing.to_obstacles)), excluded])
+    masters = [bodies_of_facets(V, body_of_block, local_facets(pair.facet_tags, pair.master_tags)) for pair in pairs]
     best: tuple[float, Any] = (0.0, None)
-    for pair in pairs:
+    for pair, bodies in zip(pairs, masters, strict=True):
         slave = gather_surface(comm, facet_data(V, local_facets(pair.facet_tags, pair.slave_tags), x), nv)
         nodes = np.unique(slave.blocks)
         nodes = nodes[(nodes >= lo) & (nodes < hi)] - lo
-        nodes = nodes[~np.isin(nodes, covered)]
-        body = body_of_facets(V, body_of_block, local_facets(pair.facet_tags, pair.master_tags))
-        if body < 0:
-            continue
+        # a contact node is kept out of the bodies of its own pair's master, not out of another pair's
+        kept_out = [j for j, other in enumerate(masters) if set(other) & set(bodies)]
+        paired = pairing.blocks[np.isin(pairing.pair_index, kept_out)]
+        nodes = nodes[~np.isin(nodes, paired) & ~np.isin(nodes, others)]
         y = x[nodes]
-        inside = in_body(V, x, body_of_block, body, y)
-        if not comm.allreduce(int(inside.sum()), op=MPI.SUM):
-            continue
-        depth = _depth(V, x, body_of_block, body, held, y[inside])
-        if depth.size and depth.max() > best[0]:
-            best = (float(depth.max()), y[inside][int(np.argmax(depth))])
+        for body in bodies:
+            located = in_body(V, x, body_of_block, body, y)  # DOLFINx's test: a tolerance of its own, hulls
+            if not comm.allreduce(int(located.sum()), op=MPI.SUM):
+                continue
+            depth = np.zeros(y.shape[0])
+            depth[located] = -signed_distance(y[located], _boundary(V, x, body_of_block, body, held))
+            best = _deeper(best, depth, y)
     everyone: list[tuple[float, Any]] = comm.allgather(best)
-    deepest, at = max(everyone, key=lambda item: item[0])
+    deepest, at = max(everyone, key=lambda item: (item[0], *(-np.asarray(item[1]) if item[1] is not None else ())))
     return (float(deepest), np.asarray(at)) if at is not None else (0.0, None)
+
+
+def _deeper(best: tuple[float, Any], depth: Array, y: Array) -> tuple[float, Any]:
+    """``best`` or the deepest of the points ``y`` when deeper (ties: the lexicographically smallest point, the same
+    whatever the partition)."""
+    if not depth.size or depth.max() <= 0.0 or depth.max() < best[0]:
+        return best
+    tied = np.flatnonzero(depth == depth.max())
+    k = tied[np.lexsort(y[tied].T[::-1])[0]]
+    if depth[k] == best[0] and best[1] is not None and tuple(best[1]) <= tuple(y[k]):
+        return best
+    return float(depth[k]), y[k]
