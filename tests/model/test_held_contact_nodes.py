@@ -281,15 +281,18 @@ def test_half_two_body_model_equals_the_full_model(method):
     """Two blocks (non-matching hexahedra), the half model with a symmetry roller through the slave's bottom edge
     against the full model: the slave nodes on the plane are contact nodes (Φ's x1 rows 0 there) carrying half
     the full model's force, the others the same, total normal force × 2. Mortar: every component to 1e-7 of the
-    largest force. Node-to-surface: the normal components to 1e-5 (the full model itself is not symmetric to
-    better than that: its slave nodes on x1 = 0.5 lie on a master edge, where the tie rule picks one facet's
-    stencil — they carry x1 forces of 3e-4 of the largest force, the half model's 0)."""
+    largest force. Node-to-surface: the normal components to 2e-5 (neither model is symmetric to better than
+    1e-5: the slave nodes on x1 = 0.5, and on x2 = 0.5, lie on master edges, where the tie rule picks one facet's
+    stencil — the full model's nodes on x1 = 0.5 carry x1 forces of 3e-4 of the largest force, the half model's
+    0 — and the two nodes either side of x2 = 0.5 carry normal forces 1.0e-5 of the largest force apart, in either
+    model, on either side, as the geometry iteration's two-state cycle there settles: 0.10563931 / 0.10563771
+    in the half model on 2 ranks against 0.10563777 / 0.10563937 in the full one)."""
     comm = MPI.COMM_WORLD
     full, full_held = stacked(comm, False, method)
     half, held = stacked(comm, True, method)
     assert full_held == 0 and held == 6 + 1  # the slave bottom's nodes on x1 = 0.5
     scale = np.max(np.abs(full.nodes.force))
-    bound, components = (1e-7, slice(None)) if method == "mortar" else (1e-5, slice(2, 3))
+    bound, components = (1e-7, slice(None)) if method == "mortar" else (2e-5, slice(2, 3))
     assert abs(2.0 * half.total_force[2] - full.total_force[2]) <= bound * scale
     x = half.nodes.coordinates
     mine = full.nodes.coordinates[:, 0] >= 0.5 - 1e-12
