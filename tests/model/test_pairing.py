@@ -498,7 +498,9 @@ def test_a_held_node_decides_its_cone_in_the_directions_it_can_move():
     by 0.01 (as the shrink fit's deformation tilted the shaft's facets at the quarter model's planes). Its closest
     point lies on the border edge, x − x_m is off the facet's normal by 1e-5: no contact node by the cone rule.
     Held along y (a symmetry plane: it cannot leave it), x − x_m and n agree in x and z: a contact node. Held along x
-    only, it can move in y, where they disagree: still none."""
+    only, it can move in y, where they disagree: still none. Held along y but beyond the border (a slave wider than
+    its master, a roller on its side): none — the first version paired those too, a phantom support carrying 19 %
+    of a plate's load over the gap between two rails."""
     from fenics_coulomb.model.pairs.node_to_surface import _held_cone
     from fenics_coulomb.model.pairs.projection import Surface, facet_ranks, facet_sizes, project
 
@@ -512,3 +514,8 @@ def test_a_held_node_decides_its_cone_in_the_directions_it_can_move():
     assert _held_cone(x, res, np.array([[False, True, False]]), size)[0]
     assert not _held_cone(x, res, np.array([[True, False, False]]), size)[0]
     assert not _held_cone(x, res, np.array([[False, False, False]]), size)[0]
+    # held along y but beyond the border (y = −0.001 … −100): the master does not go on there, no contact node
+    for beyond in (1e-3, 0.1, 1.0, 100.0):
+        far = np.array([[0.5, -beyond, -1e-3]])
+        res = project(far, surface, size, facet_ranks(surface))
+        assert not res["paired"][0] and not _held_cone(far, res, np.array([[False, True, False]]), size)[0]

@@ -20,6 +20,7 @@ import pytest
 from fenics_coulomb import ContactProblem
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.model.checks import displacement_scale, reported_warnings
+from fenics_coulomb.model.pairs.projection import Surface
 from fenics_coulomb.model.pairs import ContactPair
 import fenics_coulomb.model.pairs.uncovered as uncovered
 from test_two_body import LOWER_BOTTOM, MASTER, SLAVE, UPPER_TOP, elasticity, two_blocks
@@ -116,3 +117,41 @@ def test_the_depth_ignores_symmetry_planes_only(cell):
     for name, (held, expected) in cases.items():
         depth = -uncovered.signed_distance(point, uncovered._boundary(V, x, body, 0, held))
         assert depth == pytest.approx([expected] if comm.rank == 0 else [], abs=1e-14), name
+
+
+def _fan(w, n, k):
+    """k + 1 triangles of the wall spanned by e_y and w, k of them meeting at the origin, oriented along n."""
+    ey = np.array([0.0, 1.0, 0.0])
+    ring = [-ey] + [w + y * ey for y in np.linspace(-1, 1, k)] + [ey] if k > 1 else [-ey, w, ey]
+    X = np.array([[np.zeros(3), ring[i], ring[i + 1]] for i in range(len(ring) - 1)])
+    normals = np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0])
+    return X, np.sign(normals @ n)
+
+
+@pytest.mark.parametrize("fans", [(2, 2), (5, 2), (2, 5)])
+def test_the_signed_distance_at_a_vertex_weighs_the_facets_by_their_angles(fans):
+    """The root vertex of a 60° V-notch cut into a body, k triangles of one wall and m of the other meeting there;
+    points 1e-3 inside whose closest point is the vertex. An unweighted sum of the normals let the wall with more
+    triangles outvote the other (5 against 2: +9.5e-4, 'outside', depth 0); the angle-weighted pseudo-normal
+    (Bærentzen and Aanæs) tells inside at any vertex: −|p| every time."""
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    nA, nB = np.array([-c, 0, s]), np.array([c, 0, s])
+    XA, sA = _fan(np.array([s, 0, c]), nA, fans[0] - 1)
+    XB, sB = _fan(np.array([-s, 0, c]), nB, fans[1] - 1)
+    X = np.concatenate([XA, XB])
+    surface = Surface(X, np.arange(3 * len(X)).reshape(-1, 3), np.concatenate([sA, sB]))
+    for a, b in ((1.0, 1.0), (1.0, 0.3), (0.3, 1.0), (0.1, 1.0), (1.0, 0.1)):
+        p = -1e-3 * (a * nA + b * nB)
+        assert uncovered.signed_distance(p[None], surface)[0] == pytest.approx(-np.linalg.norm(p), rel=1e-12)
+
+
+def test_the_signed_distance_on_a_slabs_mid_plane():
+    """A point on the mid-plane of a slab 0 < z < 2h is equidistant from both faces: their normals cancelled
+    (distance +h, 'outside'). Facets count as tied only where their closest points coincide: −h."""
+    h = 1e-3
+    square = lambda z: [[[0, 0, z], [1, 0, z], [1, 1, z]], [[0, 0, z], [1, 1, z], [0, 1, z]]]  # noqa: E731
+    slab = Surface(np.array(square(0.0) + square(2 * h), dtype=float), np.arange(12).reshape(4, 3),
+                   np.array([-1.0, -1.0, 1.0, 1.0]))
+    for delta in (0.0, 1e-14, 1e-12, 1e-9):
+        d = uncovered.signed_distance(np.array([[0.3, 0.4, h + delta]]), slab)[0]
+        assert d == pytest.approx(-(h - delta), rel=1e-9)

@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.model.frames import frames_from_normals
-from fenics_coulomb.model.pairs.projection import CONE_TOL, dot, norm, project
+from fenics_coulomb.model.pairs.projection import CONE_TOL, TIE_TOL, dot, norm, project
 from fenics_coulomb.model.pairs.stencils import PairInput, Stencils
 
 __all__ = ["stencils"]
@@ -22,20 +22,22 @@ Array = npt.NDArray[np.float64]
 
 def _held_cone(x: Array, res: dict[str, Array], held: npt.NDArray[np.bool_], size: Array) -> npt.NDArray[np.bool_]:
     """The normal-cone test of :func:`~fenics_coulomb.model.pairs.projection.project` again for the nodes it left
-    unpaired that a support holds in some component, in the directions they can move: x − x_m along the facet's
-    normal n once the held components are taken out of both. A held node on a symmetry plane where the master
-    surface ends (its closest point on the border edge in that plane) lies off n by n's tilt out of the plane —
-    the master beyond the plane, its mirror image, would put it in the cone (the shrink fit's bore nodes on the
-    quarter model's planes: off by 2.6e-7 against the cone's 1e-8 of a facet, after the deformation tilted the
-    shaft's facets by 4.7e-4)."""
+    unpaired that a support holds in a component in which the node shares its closest point's coordinate (the node
+    on the plane where the master surface ends, which it cannot leave — a symmetry plane, beyond which the master
+    goes on as its mirror image): x − x_m along the facet's normal n once those components are taken out of both.
+    A node held on the shrink fit's quarter planes, its closest point on the shaft's border edge in the plane, lay
+    off n by n's tilt out of the plane (2.6e-7 against the cone's 1e-8 of a facet, the shaft's facets tilted by
+    4.7e-4). A held node beyond the master's border (x_i ≠ x_m,i) stays unpaired: the master does not go on there."""
     paired = np.asarray(res["paired"], dtype=bool).copy()
     retry = np.flatnonzero(~paired & held.any(axis=1))
     if retry.size:
-        free = (~held[retry]).astype(np.float64)
-        d, n = free * (x[retry] - res["closest"][retry]), free * res["normal"][retry]
-        n /= np.maximum(norm(n), np.finfo(float).tiny)[:, None]
         h = size[res["facet"][retry]]
-        paired[retry] = norm(d - dot(d, n)[:, None] * n) <= CONE_TOL * h
+        d = x[retry] - res["closest"][retry]
+        mirror = held[retry] & (np.abs(d) <= TIE_TOL * h[:, None])  # on the plane x_i = x_m,i it cannot leave
+        free = (~mirror).astype(np.float64)
+        d, n = free * d, free * res["normal"][retry]
+        n /= np.maximum(norm(n), np.finfo(float).tiny)[:, None]
+        paired[retry] = mirror.any(axis=1) & (norm(d - dot(d, n)[:, None] * n) <= CONE_TOL * h)
     return paired
 
 

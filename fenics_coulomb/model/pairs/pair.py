@@ -154,7 +154,7 @@ class Pairing:
         """The pairing without the nodes ``drop`` selects, which join ``free``: no contact nodes, their penetration
         measured after a solve (collective: the global count)."""
         kept = self.subset(~drop, comm)
-        width = max(self.master_blocks.shape[1], *(self.free["master_blocks"].shape[1:] if self.free else ()))
+        width = max([self.master_blocks.shape[1]] + ([self.free["master_blocks"].shape[1]] if self.free else []))
 
         def padded(a: npt.NDArray[Any], fill: float) -> npt.NDArray[Any]:
             out = np.full((a.shape[0], width), fill, dtype=a.dtype)

@@ -98,11 +98,30 @@ def _boundary(V: dolfinx.fem.FunctionSpace, x: Array, body_of_block: npt.NDArray
     return gather_surface(msh.comm, local, nv)
 
 
+def _corner_angles(X: Array, w: Array) -> Array:
+    """The interior angle of each facet X (k, nv, 3) at the vertex its closest point's weights w (k, nv) sit on (1
+    where the point is no vertex: inside the facet or on an edge, where the facets' weights are equal)."""
+    k, nv = w.shape
+    vertex = np.argmax(w, axis=1)
+    at = w[np.arange(k), vertex] >= 1.0 - 1e-12
+    # the two neighbours of each vertex: triangles the other two; quadrilaterals (0 1 / 2 3) along the edges
+    neighbours = np.array([[1, 2], [0, 2], [0, 1]]) if nv == 3 else np.array([[1, 2], [0, 3], [0, 3], [1, 2]])
+    rows = np.arange(k)
+    a = X[rows, neighbours[vertex, 0]] - X[rows, vertex]
+    b = X[rows, neighbours[vertex, 1]] - X[rows, vertex]
+    cosine = np.einsum("ij,ij->i", a, b) / np.maximum(np.linalg.norm(a, axis=1) * np.linalg.norm(b, axis=1),
+                                                      np.finfo(float).tiny)
+    return np.where(at, np.arccos(np.clip(cosine, -1.0, 1.0)), 1.0)
+
+
 def signed_distance(points: Array, surface: Surface) -> Array:
     """The distance of each point to the ``surface`` (facets oriented outward of a body), negative inside the body:
-    the sign of (x − x_q)·n with x_q the closest point and n the sum of the outward normals at x_q of the facets
-    tied there (a facet's own inside it; an edge's or a vertex's pseudo-normal on them), the candidates found with a
-    KD-tree of the facet centres (the rule of :func:`~fenics_coulomb.model.pairs.projection.project`; +inf without
+    the sign of (x − x_q)·n with x_q the closest point and n the pseudo-normal there — the sum of the outward normals
+    at x_q of the facets whose closest point is x_q, each weighted by its angle at x_q where x_q is a vertex
+    (Bærentzen and Aanæs' angle-weighted normal, which tells inside from outside at any vertex of a closed surface).
+    The candidate facets as in :func:`~fenics_coulomb.model.pairs.projection.project`: a bound from the 8 nearest
+    facet centres, then, per class of facet radius (powers of 2, so that a graded surface's small facets are not
+    searched with its largest radius), the facets whose centre lies within the bound + their radius (+inf without
     facets)."""
     m, nf = points.shape[0], surface.X.shape[0]
     if m == 0 or nf == 0:
@@ -111,26 +130,32 @@ def signed_distance(points: Array, surface: Surface) -> Array:
 
     centres = surface.X.mean(axis=1)
     radius = np.linalg.norm(surface.X - centres[:, None], axis=2).max(axis=1)
-    tree = cKDTree(centres)
     k0 = min(nf, 8)
-    _, near = tree.query(points, k=k0)
+    _, near = cKDTree(centres).query(points, k=k0)
     near = near.reshape(m, k0)
     _, _, dist = closest_points(np.repeat(points, k0, axis=0), surface.X[near.ravel()])
-    bound = dist.reshape(m, k0).min(axis=1) + radius.max() * (1.0 + 1e-8)
-    lists = tree.query_ball_point(points, bound)
-    lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
-    node = np.repeat(np.arange(m), lengths)
-    facet = np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))
+    bound = dist.reshape(m, k0).min(axis=1) * (1.0 + 1e-8) + 1e-12 * (1.0 + np.abs(points).max(axis=1))
+    level = np.floor(np.log2(np.maximum(radius, np.finfo(float).tiny))).astype(np.int64)
+    nodes_l, facets_l = [], []
+    for lv in np.unique(level):
+        members = np.flatnonzero(level == lv)
+        lists = cKDTree(centres[members]).query_ball_point(points, bound + radius[members].max())
+        lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
+        nodes_l.append(np.repeat(np.arange(m), lengths))
+        facets_l.append(members[np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))])
+    node, facet = np.concatenate(nodes_l), np.concatenate(facets_l)
     q, w, dist = closest_points(points[node], surface.X[facet])
     nearest = np.full(m, np.inf)
     np.minimum.at(nearest, node, dist)
-    tied = dist <= nearest[node] + TIE * (radius[facet] + np.abs(points[node]).max(axis=1))
-    normal = outward_normals(surface.X[facet], w, surface.sign[facet])
-    pseudo = np.zeros((m, 3))
-    np.add.at(pseudo, node[tied], normal[tied])
     first = np.zeros(m, np.intp)
     order = np.lexsort((dist, node))
     first[node[order][::-1]] = order[::-1]  # each point's nearest candidate
+    tol = TIE * (radius[facet] + np.abs(points[node]).max(axis=1))
+    tied = (dist <= nearest[node] + tol) & (np.linalg.norm(q - q[first][node], axis=1) <= tol)
+    normal = outward_normals(surface.X[facet], w, surface.sign[facet])
+    weight = _corner_angles(surface.X[facet], w)
+    pseudo = np.zeros((m, 3))
+    np.add.at(pseudo, node[tied], weight[tied, None] * normal[tied])
     side = np.einsum("ij,ij->i", points - q[first], pseudo)
     return np.where(side < 0.0, -nearest, nearest)
 
