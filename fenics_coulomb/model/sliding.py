@@ -2,8 +2,7 @@ r"""Finite sliding: when the contact geometry of a configuration has settled.
 
 Small strain and small rotations stay (A assembled once); the contact geometry G(u) — the contact nodes, the
 node-to-surface stencils or the dual-mortar data of every pair, the obstacles' closest points, gaps, normals and
-frames — is evaluated with both surfaces at x = X + u (:meth:`ContactModel.configure
-<fenics_coulomb.model.contact_model.ContactModel.configure>`). A solve linearizes G about a configuration u⁽ᵐ⁾:
+frames — is evaluated with both surfaces at x = X + u (``ContactModel.configure``). A solve linearizes G about u⁽ᵐ⁾:
 
     pairs       g_j(X + u⁽ᵐ⁾) + n_j·(w_j − w_j⁽ᵐ⁾),   w_j = u_s − Σ_l Φ_jl u_l   (the unknown z on slave node j),
     obstacles   g_i(X + u⁽ᵐ⁾) + n_i·(u_i − u_i⁽ᵐ⁾),
@@ -75,11 +74,11 @@ nodes, weights 4e-5 on the far vertex, the two solutions 0.75e-5 to 1.5e-5 apart
 exact fixed point lies on the edge, where neither facet's rule applies. Such a 2-cycle — the new geometry is the one
 solved with two updates before — ends the iteration when its two solutions differ by at most
 :data:`CYCLE_TOLERANCE`·h (h the smallest cell diameter at the contact nodes: a position error of a thousandth of
-an element, far below the
-discretization's; the amplitude is a local slip across the edge and does not scale with |u|): of its two
-solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved once more if it was the
-earlier one) — a choice that depends on neither the path that led to the cycle, nor the mesh's numbering and
-partition, nor a rigid translation of a body; a warning names the nodes and the amplitude. A wider cycle fails as
+an element, far below the discretization's; the amplitude is a local slip across the edge and does not scale with
+|u|): of its two solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved once more if
+it was the earlier one; energies within :data:`CYCLE_ENERGY_TIE` are the solves' noise — mirror states: the one
+with the smaller Σ_i u_i·:data:`CYCLE_DIRECTION`) — a choice that depends on neither the path that led to the cycle,
+nor the mesh's numbering and partition; a warning names the nodes and the amplitude. A wider cycle fails as
 above. (The cycle itself is recognized by a digest of the contact nodes and supports, the same on every rank.)
 """
 
@@ -114,9 +113,11 @@ MAX_GEOMETRY_UPDATES = 10
 #: Small sliding warns when a contact node has slid farther than this many partner sizes (:func:`largest_slide`).
 SMALL_SLIDE_WARNING = 0.5
 
-#: A 2-cycle of the geometry (nodes flipping across a master edge) is accepted when its two solutions differ by at
-#: most this × the smallest cell diameter at the contact nodes (see "Nodes on a master edge").
-CYCLE_TOLERANCE = 1e-3
+#: A 2-cycle of the geometry is accepted when its solutions differ by at most this × the smallest cell diameter at
+#: the contact nodes ("Nodes on a master edge"); the smaller energy kept unless within this relative difference ...
+CYCLE_TOLERANCE, CYCLE_ENERGY_TIE = 1e-3, 1e-7
+#: ... then the smaller Σ_i u_i · this (the same for every partition: energies differed by 5e-9 with the partition).
+CYCLE_DIRECTION = np.array([1.0, 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(3.0)])
 
 #: The geometry's round-off: a check at full accuracy whose nodes and supports are unchanged, like the previous
 #: such check's, and whose largest change did not shrink below this × the previous one (the iteration contracts by
@@ -409,8 +410,7 @@ class GeometryIteration:
                     f"displacement per change ({measured}), may exceed the accuracy {self.accuracy:g} asked")
         self._pending = change
         # measured between two solves at the full accuracy only: from a loose solve, the first change (a drag's whole
-        # increment) moves u in another pattern than the iteration's last ones (the drag's solve 4: 13.3 measured
-        # there, 79.8 at the next update, whose change then left u 1.05 EPS away)
+        # increment) moves u in another pattern than the iteration's last ones
         self._update = (change.discrepancy, u.copy()) if self.accuracy is not None and not change.changed \
             and change.discrepancy > ACCURACY_FLOOR * self.extent and reduction <= rtol else None
         solved = self._solved
@@ -427,7 +427,11 @@ class GeometryIteration:
                                        "differ by %.3g (%.2g of the smallest cell at the contact nodes): the one of "
                                        "the smaller elastic energy is kept", change.describe(), amplitude,
                                        amplitude / h)
-                    if model.elastic_energy(u) <= model.elastic_energy(solved[-2][1]):
+                    now, other = model.elastic_energy(u), model.elastic_energy(solved[-2][1])
+                    if abs(now - other) <= CYCLE_ENERGY_TIE * max(abs(now), abs(other)):
+                        now, other = (float(model.comm.allreduce(w.reshape(-1, 3).sum(axis=0), op=MPI.SUM)
+                                            @ CYCLE_DIRECTION) for w in (u, solved[-2][1]))
+                    if now <= other:
                         return Step("settled", change)
                     self._last = True  # one more solve, in the other geometry of the cycle
         if self.updates == MAX_GEOMETRY_UPDATES:
