@@ -13,10 +13,6 @@ Master facets are P1 triangles (tetrahedral meshes) or Q1 bilinear quadrilateral
 x(ξ, η) = v₀(1−ξ)(1−η) + v₁ξ(1−η) + v₂(1−ξ)η + v₃ξη on [0, 1]² (DOLFINx/basix tensor vertex order). For
 each vertex x_s of S (owned by this rank, with no Dirichlet component):
 
-Master facets are P1 triangles (tetrahedral meshes) or Q1 bilinear quadrilaterals (hexahedral meshes),
-x(ξ, η) = v₀(1−ξ)(1−η) + v₁ξ(1−η) + v₂(1−ξ)η + v₃ξη on [0, 1]² (DOLFINx/basix tensor vertex order). For
-each vertex x_s of S (owned by this rank, with no Dirichlet component):
-
 * x_m = the closest point of M to x_s: the minimum over the master facets of the distance to the facet
   (triangle: projection on the plane, else the closest point of the three edges; quadrilateral: Newton's
   method for the stationary point (ξ, η) of ½|x(ξ, η) − x_s|² from the centre (the Gauss–Newton matrix
@@ -86,7 +82,7 @@ import numpy.typing as npt
 
 __all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals", "layer_thickness",
            "local_facets", "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes",
-           "facet_ranks", "empty_closest", "closest_points"]
+           "facet_ranks", "empty_closest", "closest_points", "candidate_facets"]
 
 Array = npt.NDArray[np.float64]
 
@@ -357,29 +353,36 @@ def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
 
 
 def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp]) -> dict[str, Array]:
-    """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface.
-
-    Candidate facets: a first bound U on each node's distance from its 4 nearest facet centres, then every facet
-    whose centre lies within U + r_f (+ the tie tolerance) of the node — a facet nearer than U, or tied with the
-    nearest, is among them (its distance is at least its centre distance − its radius r_f). The facets are
-    grouped by radius (powers of 2) with a KD-tree per group, so the small facets of a graded surface are not
-    searched with the radius of its largest facet."""
+    """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface (the
+    candidate facets of :func:`candidate_facets`: a facet nearer than the bound, or tied with the nearest, is among
+    them, its distance at least its centre's distance − its radius)."""
     m, nv = x.shape[0], surface.X.shape[1]
     out = empty_closest(m, nv)
     nf = surface.X.shape[0]
     if m == 0 or nf == 0:
         return out
-    centres = surface.X.mean(axis=1)
-    radius = norm(surface.X - centres[:, None]).max(axis=1)
     hmax = float(size.max())
-    k0 = min(nf, 4)
+    node, facet = candidate_facets(x, surface, 4, (TIE_TOL * hmax, 1e-12 * (hmax + np.abs(x).max())))
+    select_candidates(x, node, facet, surface, size, rank, out)
+    return out
+
+
+def candidate_facets(x: Array, surface: Surface, k0: int, slack: tuple[Any, ...]
+                     ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """The (point, facet) pairs, sorted by point then facet, whose facet may hold a point's closest point: a bound
+    on each point's distance from its ``k0`` nearest facet centres (+ the ``slack`` terms, added in turn), then, per
+    class of facet radius (powers of 2), every facet whose centre lies within the bound + the class's radius."""
     from scipy.spatial import cKDTree  # scipy only where used (fenics_coulomb/__init__.py)
 
+    m, nf = x.shape[0], surface.X.shape[0]
+    centres = surface.X.mean(axis=1)
+    radius = norm(surface.X - centres[:, None]).max(axis=1)
+    k0 = min(nf, k0)
     _, ii = cKDTree(centres).query(x, k=k0)
-    ii = ii.reshape(m, k0)
-    _, _, dist = closest_points(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
-    bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
-    # the candidate (node, facet) pairs, by radius classes
+    _, _, dist = closest_points(np.repeat(x, k0, axis=0), surface.X[ii.reshape(m, k0).ravel()])
+    bound = dist.reshape(m, k0).min(axis=1)
+    for term in slack:
+        bound = bound + term
     level = np.floor(np.log2(np.maximum(radius, np.finfo(float).tiny))).astype(np.int64)
     nodes_l, facets_l = [], []
     for lv in np.unique(level):
@@ -388,12 +391,9 @@ def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp])
         lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
         nodes_l.append(np.repeat(np.arange(m), lengths))
         facets_l.append(members[np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))])
-    node = np.concatenate(nodes_l)
-    facet = np.concatenate(facets_l)
+    node, facet = np.concatenate(nodes_l), np.concatenate(facets_l)
     order = np.lexsort((facet, node))
-    node, facet = node[order], facet[order]
-    select_candidates(x, node, facet, surface, size, rank, out)
-    return out
+    return node[order], facet[order]
 
 
 def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[np.intp], surface: Surface,

@@ -15,7 +15,6 @@ crossed may be untagged) that is no symmetry plane (a face held along its normal
 
 from __future__ import annotations
 
-from itertools import chain
 from typing import Any
 
 from mpi4py import MPI
@@ -28,8 +27,8 @@ import numpy.typing as npt
 
 from fenics_coulomb.model.mesh_checks import displaced_geometry
 from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
-from fenics_coulomb.model.pairs.projection import (Surface, closest_points, facet_data, gather_surface, local_facets,
-                                                   outward_normals)
+from fenics_coulomb.model.pairs.projection import (Surface, candidate_facets, closest_points, facet_data,
+                                                   gather_surface, local_facets, outward_normals)
 
 __all__ = ["bodies_of_facets", "in_body", "signed_distance", "uncovered_depth"]
 
@@ -126,24 +125,9 @@ def signed_distance(points: Array, surface: Surface) -> Array:
     m, nf = points.shape[0], surface.X.shape[0]
     if m == 0 or nf == 0:
         return np.full(m, np.inf)
-    from scipy.spatial import cKDTree  # scipy only where used (fenics_coulomb/__init__.py)
-
-    centres = surface.X.mean(axis=1)
-    radius = np.linalg.norm(surface.X - centres[:, None], axis=2).max(axis=1)
-    k0 = min(nf, 8)
-    _, near = cKDTree(centres).query(points, k=k0)
-    near = near.reshape(m, k0)
-    _, _, dist = closest_points(np.repeat(points, k0, axis=0), surface.X[near.ravel()])
-    bound = dist.reshape(m, k0).min(axis=1) * (1.0 + 1e-8) + 1e-12 * (1.0 + np.abs(points).max(axis=1))
-    level = np.floor(np.log2(np.maximum(radius, np.finfo(float).tiny))).astype(np.int64)
-    nodes_l, facets_l = [], []
-    for lv in np.unique(level):
-        members = np.flatnonzero(level == lv)
-        lists = cKDTree(centres[members]).query_ball_point(points, bound + radius[members].max())
-        lengths = np.fromiter(map(len, lists), dtype=np.intp, count=m)
-        nodes_l.append(np.repeat(np.arange(m), lengths))
-        facets_l.append(members[np.fromiter(chain.from_iterable(lists), dtype=np.intp, count=int(lengths.sum()))])
-    node, facet = np.concatenate(nodes_l), np.concatenate(facets_l)
+    radius = np.linalg.norm(surface.X - surface.X.mean(axis=1)[:, None], axis=2).max(axis=1)
+    scale = np.abs(points).max(axis=1)
+    node, facet = candidate_facets(points, surface, 8, (TIE * (radius.max() + scale), 1e-12 * (1.0 + scale)))
     q, w, dist = closest_points(points[node], surface.X[facet])
     nearest = np.full(m, np.inf)
     np.minimum.at(nearest, node, dist)
