@@ -18,7 +18,8 @@ thresholds do not depend on units:
   own obstacle's constraint and must not end inside another: a corner between two obstacles);
 * ``uncovered_penetration``: the same for the slave nodes of the pairs that no part of their master surface lies
   beneath (beyond the master surface's border: no constraint keeps them out) inside the master body in X + u, their
-  depth the distance to the body's boundary (:mod:`fenics_coulomb.model.pairs.uncovered`), and
+  depth the signed distance to the body's boundary but its symmetry planes
+  (:mod:`fenics_coulomb.model.pairs.uncovered`), and
   ``uncovered_penetration_at``, the deepest one's position in X + u; under small sliding (which pairs in X: the
   deformed master's edge may pass such a node) reported, not decisive, as ``uncovered_small_sliding`` (``_at``);
 * ``master_penetration`` (reported, not decisive): the same for the master nodes of the pairs inside their slave body

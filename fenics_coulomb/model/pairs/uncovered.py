@@ -7,10 +7,12 @@ partner's face, a slave larger than the master surface — is kept out of the ma
 into it unseen (the pressed blocks with the master surface tagged where x < 1: the slave nodes over the rest end
 0.0098 inside the lower block, converged, exit 0).
 
-:func:`uncovered_depth` finds them after a solve: every slave node of a pair that is neither a contact node, nor a
-free node, nor given to an obstacle (nor held by a support), located in a cell of the pair's master body in X + u, and
-its depth there: its distance to the nearest exterior facet of the body's cells (all of them: the surface the node
-crossed may be untagged) that is no symmetry plane (a face held along its normal, beyond which the body goes on).
+:func:`uncovered_depth` finds them after a solve: every slave node of a pair that is neither a contact node of a pair
+with the same master body, nor a free node, nor given to an obstacle, nor supported, located in a cell of a body of
+the pair's master tag in X + u (DOLFINx's collision test: an absolute tolerance, a hexahedron's convex hull), and its
+depth there: minus its :func:`signed_distance` to the exterior facets of the body's cells (all of them: the surface
+the node crossed may be untagged) but the symmetry planes (:func:`_boundary`); a node outside by the signed distance
+has none.
 """
 
 from __future__ import annotations
