@@ -300,13 +300,14 @@ def make_report(model: ContactModel, result: SolveResult, obstacles: Sequence[Ob
                 raise InputError(f"reactions[{name!r}]: none of its {int(n[0])} node(s) is held by a boundary "
                                  "condition of the problem (a reaction is the force a support exerts on the nodes it "
                                  "holds)")
+    load = model.owned_load()  # assembled once: the reactions and the applied load's resultant
     support = boundary_reactions(model, result.displacement, groups, result.master_force,
-                                 result.contact_force) if groups else {}
+                                 result.contact_force, load) if groups else {}
     return ContactReport(
         total_force=nodes.force[nodes.obstacle >= 0].sum(axis=0),  # a pair's forces are internal
         obstacle_forces=per_obstacle,
         pair_forces=model.coupling.pair_forces(model, result),
         reactions={name: np.asarray(v) for name, v in support.items()},
-        applied_load=np.asarray(model.total_load(), dtype=np.float64),
+        applied_load=np.asarray(model.total_load(load), dtype=np.float64),
         nodes=nodes,
     )

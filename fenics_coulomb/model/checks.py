@@ -100,13 +100,14 @@ _ACTIONS: weakref.WeakKeyDictionary[ContactModel, tuple[dolfinx.fem.Function, do
     weakref.WeakKeyDictionary()
 
 
-def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.float64],
+                           load: npt.NDArray[np.float64] | None = None) -> npt.NDArray[np.float64]:
     """K ũ − l̃⁰ per owned node (shape (owned nodes, 3)), assembled with UFL WITHOUT boundary conditions: the
     force the supports and the obstacles exert on the body, node by node (collective).
 
     Both vectors are completed on their owners (each its own reverse ghost scatter) before they are subtracted:
     the owned part of a ghosted vector does not hold the other ranks' contributions to a node on a partition
-    boundary."""
+    boundary. ``load``: l̃⁰ so completed (:meth:`ContactModel.owned_load`) when the caller has it already."""
     if model not in _ACTIONS:  # compiled once per model (a load path asks at every step)
         w = dolfinx.fem.Function(model.V)
         _ACTIONS[model] = (w, dolfinx.fem.form(ufl.action(model.a_ufl, w)))
@@ -115,13 +116,10 @@ def unconstrained_residual(model: ContactModel, displacement: npt.NDArray[np.flo
     # K ũ and l̃⁰ assembled apart: a and L may integrate over measures with different subdomain data (e.g.
     # dx(body) with cell tags in a and the default L's plain dx), which one form cannot combine
     b = dolfinx.fem.petsc.assemble_vector(action)
-    load = dolfinx.fem.petsc.assemble_vector(model.L)
-    for vec in (b, load):
-        vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-    b.axpy(-1.0, load)
-    full = b.getArray(readonly=True).reshape(-1, 3).copy()
+    b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    owned = model.owned_load() if load is None else load
+    full = b.getArray(readonly=True).reshape(-1, 3) - owned  # (x − y is x + (−1)·y: VecAXPY's bits)
     b.destroy()
-    load.destroy()
     return full
 
 
@@ -410,7 +408,8 @@ def support_dofs(model: ContactModel, support: Any, name: str = "") -> npt.NDArr
 
 def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64], groups: Mapping[str, Any],
                        master_force: npt.NDArray[np.float64] | None = None,
-                       contact_force: npt.NDArray[np.float64] | None = None) -> dict[str, list[float]]:
+                       contact_force: npt.NDArray[np.float64] | None = None,
+                       load: npt.NDArray[np.float64] | None = None) -> dict[str, list[float]]:
     """The reaction force each support exerts on the body (collective, same on all ranks).
 
     At a DOF, r = K ũ − l̃⁰ (the stiffness and load assembled WITHOUT boundary conditions) is the sum of the
@@ -433,9 +432,10 @@ def boundary_reactions(model: ContactModel, displacement: npt.NDArray[np.float64
         master_force: Two bodies: the result's master reaction (owned DOFs; None for one body).
         contact_force: The result's contact force per owned contact node, shape (m, 3) (None: taken as 0, right
             while no contact node has a constrained component).
+        load: l̃⁰ completed on its owners (:meth:`ContactModel.owned_load`), when the caller has it already.
     """
     comm = model.V.mesh.comm
-    full = unconstrained_residual(model, displacement)
+    full = unconstrained_residual(model, displacement, load)
     if master_force is not None:
         full -= np.asarray(master_force, dtype=np.float64).reshape(-1, 3)[: full.shape[0]]
     if contact_force is not None and model.contact.size:

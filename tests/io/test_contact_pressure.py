@@ -250,6 +250,12 @@ def test_sphere_pressure_field_is_the_report(mpi_tmp_path):
     assert np.linalg.norm(np.asarray(data["peak_pressure_at"][:2]) - 0.5) <= 1.5 / n
     assert data["obstacles"]["ball"]["peak_pressure"] == data["peak_pressure"]
     assert np.allclose(data["obstacles"]["ball"]["force"], report.obstacle_forces["ball"], rtol=1e-10)
+    # the stress maxima: a brute force over every written vertex (the eigenvalues of all the tensors)
+    principal = np.linalg.eigvalsh(fields["stress"].reshape(-1, 3, 3))
+    shear = 0.5 * (principal[:, -1] - principal[:, 0])
+    assert data["max_shear"] == shear.max() > 0 and data["max_von_mises"] == fields["von_mises"].max()
+    first = np.flatnonzero(shear >= shear.max() * (1 - 1e-9))[0]  # rows are in lexicographic order
+    assert np.allclose(data["max_shear_at"], x[first], atol=1e-12)
 
 
 def test_uniaxial_stress_and_von_mises():

@@ -14,7 +14,7 @@ import pytest
 import ufl
 from petsc4py import PETSc
 
-from fenics_coulomb.io.fields import stress_from_form, stress_functions
+from fenics_coulomb.io.fields import shear_candidates, stress_from_form, stress_functions
 
 MU, LMBDA = 26.9, 40.4
 
@@ -101,3 +101,46 @@ def test_a_uniform_stress_on_distorted_hexahedra():
     sigma, _ = stress_functions(stress_from_form(_law(V), u), msh)
     got = sigma.x.array.reshape(-1, 9)[: V.dofmap.index_map.size_local]
     assert np.abs(got - exact.ravel()).max(initial=0.0) <= 1e-12 * np.abs(exact).max()
+
+
+def test_the_largest_shear_is_found_where_von_mises_is_not_largest():
+    """summary.json's largest shear τ = (σ₁ − σ₃)/2 from the eigenvalues of the candidate nodes only
+    (io/fields.shear_candidates): the same largest τ, at the same node, as the eigenvalues of every node — on a
+    pure shear τ = 1 (von Mises √3) beside a uniaxial stress 1.9 (von Mises 1.9, τ 0.95), where the largest von
+    Mises stress and the largest shear lie at different nodes, and on random tensors spanning six decades, with
+    a hydrostatic half and a non-finite tensor. Each rank has its own nodes; the maxima are over all ranks."""
+    comm = MPI.COMM_WORLD
+    rng = np.random.default_rng(7 + comm.rank)
+
+    def von_mises(t):
+        s = t - np.einsum("nii->n", t)[:, None, None] / 3 * np.eye(3)
+        return np.sqrt(1.5 * np.einsum("nij,nij->n", s, s))
+
+    pure_shear = np.diag([1.0, 0.0, -1.0])
+    rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    cases = [np.stack([rotation @ pure_shear @ rotation.T, np.diag([1.9, 0.0, 0.0]), np.zeros((3, 3))])]
+    for _ in range(20):
+        a = rng.normal(size=(500, 3, 3)) * 10.0 ** rng.integers(-3, 3, size=(500, 1, 1))
+        t = a + a.transpose(0, 2, 1)
+        t[:250] = np.eye(3) * rng.normal(size=(250, 1, 1))
+        cases.append(t)
+    failures = []  # asserted after the last collective call: a rank must not leave the others waiting
+    for k, t in enumerate(cases):
+        shear = shear_candidates(comm, t, von_mises(t))
+        principal = np.linalg.eigvalsh(t)
+        every = 0.5 * (principal[:, -1] - principal[:, 0])
+        largest = comm.allreduce(every.max(), op=MPI.MAX)
+        computed = shear != 0.0
+        if comm.allreduce(shear.max(), op=MPI.MAX) != largest:
+            failures.append(f"case {k}: largest shear")
+        if every.max() == largest and np.argmax(shear) != np.argmax(every):  # the rank that holds it: same node
+            failures.append(f"case {k}: its node")
+        if not (np.array_equal(shear[computed], every[computed]) and np.all(shear <= every)):
+            failures.append(f"case {k}: the computed values")
+    broken = cases[1].copy()
+    broken[3, 0, 0] = np.nan
+    shear = shear_candidates(comm, broken, von_mises(broken))
+    assert not failures, failures
+    assert np.isnan(shear[3]) and np.isfinite(np.delete(shear, 3)).all()
+    # the pure shear (node 0, on every rank) carries the largest τ although node 1 has the largest von Mises stress
+    assert np.argmax(shear_candidates(MPI.COMM_SELF, cases[0], von_mises(cases[0]))) == 0
