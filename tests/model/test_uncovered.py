@@ -155,3 +155,22 @@ def test_the_signed_distance_on_a_slabs_mid_plane():
     for delta in (0.0, 1e-14, 1e-12, 1e-9):
         d = uncovered.signed_distance(np.array([[0.3, 0.4, h + delta]]), slab)[0]
         assert d == pytest.approx(-(h - delta), rel=1e-9)
+
+
+def test_the_deepest_node_named_is_the_same_on_any_partition():
+    """Mirror nodes whose depths differ by round-off (1e-14) and whose positions differ by 1e-13: the first in x₁,
+    x₂, x₃ is named, on whichever rank each lies and whichever is deeper by round-off; a clearly deeper node wins."""
+    comm = MPI.COMM_WORLD
+    mirror = [(0.5 - 1e-13, 0.75, -0.004), (0.5, 0.25, -0.004)]
+    for deeper in (0, 1):
+        depth = np.array([0.004, 0.004])
+        depth[deeper] *= 1 + 1e-14
+        # the two nodes on the last and the first rank (one rank: both)
+        mine = [k for k, rank in enumerate((comm.size - 1, 0)) if rank == comm.rank]
+        value, at = uncovered.deepest_point(comm, depth[mine], np.asarray(mirror)[mine].reshape(-1, 3), 1.0)
+        assert value == depth.max() and np.array_equal(at, mirror[1])
+    depth = np.array([0.00401, 0.004])
+    mine = [k for k, rank in enumerate((0, comm.size - 1)) if rank == comm.rank]
+    value, at = uncovered.deepest_point(comm, depth[mine], np.asarray(mirror)[mine].reshape(-1, 3), 1.0)
+    assert value == 0.00401 and np.array_equal(at, mirror[0])
+    assert uncovered.deepest_point(comm, np.zeros(0), np.zeros((0, 3)), 1.0) == (0.0, None)

@@ -17,8 +17,6 @@ has none.
 
 from __future__ import annotations
 
-from typing import Any
-
 from mpi4py import MPI
 
 import dolfinx.fem
@@ -32,7 +30,7 @@ from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
 from fenics_coulomb.model.pairs.projection import (Surface, candidate_facets, closest_points, facet_data,
                                                    gather_surface, local_facets, outward_normals)
 
-__all__ = ["bodies_of_facets", "in_body", "signed_distance", "uncovered_depth"]
+__all__ = ["bodies_of_facets", "deepest_point", "in_body", "signed_distance", "uncovered_depth"]
 
 Array = npt.NDArray[np.float64]
 
@@ -40,6 +38,8 @@ Array = npt.NDArray[np.float64]
 MIRROR_TOL = 1e-8
 #: Facets within this × (their radius + the point's coordinates) of the nearest one are tied at a point.
 TIE = 1e-10
+#: Depths within this fraction of the deepest are tied (the node named is then the same on any partition).
+DEPTH_TIE = 1e-6
 
 
 def bodies_of_facets(V: dolfinx.fem.FunctionSpace, body_of_block: npt.NDArray[np.int64],
@@ -162,7 +162,8 @@ def uncovered_depth(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], pair
     others = np.concatenate([*(np.asarray(d.get("blocks", np.zeros(0, np.int32)))
                                for d in (pairing.free, pairing.to_obstacles)), excluded])
     masters = [bodies_of_facets(V, body_of_block, local_facets(pair.facet_tags, pair.master_tags)) for pair in pairs]
-    best: tuple[float, Any] = (0.0, None)
+    depths: list[Array] = [np.zeros(0)]
+    points: list[Array] = [np.zeros((0, 3))]
     for pair, bodies in zip(pairs, masters, strict=True):
         slave = gather_surface(comm, facet_data(V, local_facets(pair.facet_tags, pair.slave_tags), x), nv)
         nodes = np.unique(slave.blocks)
@@ -178,19 +179,23 @@ def uncovered_depth(V: dolfinx.fem.FunctionSpace, pairs: list[ContactPair], pair
                 continue
             depth = np.zeros(y.shape[0])
             depth[located] = -signed_distance(y[located], _boundary(V, x, body_of_block, body, held))
-            best = _deeper(best, depth, y)
-    everyone: list[tuple[float, Any]] = comm.allgather(best)
-    deepest, at = max(everyone, key=lambda item: (item[0], *(-np.asarray(item[1]) if item[1] is not None else ())))
-    return (float(deepest), np.asarray(at)) if at is not None else (0.0, None)
+            depths.append(depth[depth > 0.0])
+            points.append(y[depth > 0.0])
+    extent = comm.allreduce(float(np.abs(x).max(initial=0.0)), op=MPI.MAX)
+    return deepest_point(comm, np.concatenate(depths), np.concatenate(points), extent)
 
 
-def _deeper(best: tuple[float, Any], depth: Array, y: Array) -> tuple[float, Any]:
-    """``best`` or the deepest of the points ``y`` when deeper (ties: the lexicographically smallest point, the same
-    whatever the partition)."""
-    if not depth.size or depth.max() <= 0.0 or depth.max() < best[0]:
-        return best
-    tied = np.flatnonzero(depth == depth.max())
-    k = tied[np.lexsort(y[tied].T[::-1])[0]]
-    if depth[k] == best[0] and best[1] is not None and tuple(best[1]) <= tuple(y[k]):
-        return best
-    return float(depth[k]), y[k]
+def deepest_point(comm: MPI.Comm, depth: Array, y: Array, extent: float) -> tuple[float, Array | None]:
+    """The largest of every rank's ``depth`` (> 0) and where: of the points ``y`` within DEPTH_TIE of it, the
+    lexicographically smallest with its coordinates rounded to 1e-6 of ``extent`` — the same node on any partition,
+    whose round-off tells mirror nodes' depths apart by 1e-14 and their positions by ~1e-12 (collective; (0, None)
+    when no depth is positive)."""
+    deepest = comm.allreduce(float(np.max(depth, initial=0.0)), op=MPI.MAX)
+    if deepest <= 0.0:
+        return 0.0, None
+    near = y[depth >= deepest * (1.0 - DEPTH_TIE)]
+    key = np.round(near / (extent or 1.0), 6)
+    first = int(np.lexsort(key.T[::-1])[0]) if near.size else -1
+    mine = (tuple(float(c) for c in key[first]), near[first]) if near.size else None
+    candidates = [c for c in comm.allgather(mine) if c is not None]
+    return deepest, np.asarray(min(candidates, key=lambda c: c[0])[1])
