@@ -17,7 +17,11 @@ def terminal_forcing(tol: float, residual: float, target: float) -> float:
     solved to η reduces ‖ŷ‖ by about η (docs/tradeoff: ~10× per step at tol = 0.1). When ‖ŷ⁽ᵏ⁾‖·tol would still
     miss the target but TERMINAL_SAFETY·target/‖ŷ⁽ᵏ⁾‖ >= TERMINAL_MIN, one step solved to that η reaches it:
     a GMRES solve a little tighter instead of another Newton step (matrix update, solve and line search).
-    Otherwise ``tol``.
+    Otherwise ``tol``. The solver asks only once the contact states have settled (every node's state that of the
+    iterate before): while they change, the Newton model is not the problem near the iterate, a tightened step
+    does not cut ‖ŷ‖ by its η, and its extra Krylov iterations are lost (a loose first solve of finite sliding's
+    geometry iteration, whose target a step of ‖ŷ‖ ~ 1e2 × target meets the bounds of, took 35–40 Krylov
+    iterations per step instead of 18 while the states still moved: docs/sliding/README.md, "Cost").
 
     Args:
         tol: The fixed forcing term.

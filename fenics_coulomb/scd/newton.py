@@ -241,13 +241,15 @@ class SCDNewtonSolver(NewtonLinearSolves):
                                        -self.model.load.getArray(readonly=True))
 
     # -- the Newton direction ---------------------------------------------------------------------
-    def forcing(self, history: list[float], eta: float, rule: StoppingRule) -> float:
+    def forcing(self, history: list[float], eta: float, rule: StoppingRule, settled: bool = True) -> float:
         """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term; at most
-        ACCURACY_FORCING once the residual rule holds and the correction checks an accuracy (it is the estimate)."""
+        ACCURACY_FORCING once the residual rule holds and the correction checks an accuracy (it is the estimate).
+        The fixed rule's terminal tightening only when ``settled`` (every node's contact state that of the iterate
+        before): a step cuts ‖ŷ‖ by its η only in the final states."""
         if rule.accuracy is not None and rule.satisfied(history[-1]):
             return min(self.tol, ACCURACY_FORCING)
         if not self.settings.adaptive_tol:
-            return terminal_forcing(self.tol, history[-1], rule.threshold)
+            return terminal_forcing(self.tol, history[-1], rule.threshold) if settled else self.tol
         return forcing_term(self.tol, history, eta, rule.threshold)
 
     def newton_direction(self, it: Iterate, eta: float) -> Direction:
@@ -369,6 +371,8 @@ class SCDNewtonSolver(NewtonLinearSolves):
         history = [it.residual]
         records: list[IterationRecord] = []
         eta = self.tol
+        friction, settled = self.model.friction, True  # the first step as the fixed rule has it
+        states = contact_states(classify(it.v, it.z, friction), friction)
         lo, hi = self._node_gamma_range()  # collective
         if self.comm.rank == 0:
             gammas = f"{self.gamma:.4g}" if lo == hi == self.gamma else f"{self.gamma:.4g} (contact {lo:.3g}-{hi:.3g})"
@@ -380,13 +384,15 @@ class SCDNewtonSolver(NewtonLinearSolves):
             correction = 0.0 if it is not first else None  # ũ = 0 for a load below round-off: exact
             while not rule.converged(it.residual, correction):
                 rule.check(len(records), it.residual, correction)
-                eta = self.forcing(history, eta, rule)
+                eta = self.forcing(history, eta, rule, settled)
                 direction = self.newton_direction(it, eta)
                 alpha, it = self.line_search(it, direction, len(records))
                 if rule.accuracy is not None:
                     correction = self.correction(it, direction.du) if alpha == 1.0 else math.inf
                 history.append(it.residual)
-                records.append(self.record(len(records) + 1, it, alpha, direction, rule))
+                previous, states = states, contact_states(classify(it.v, it.z, friction), friction)
+                settled = bool(self.comm.allreduce(np.array_equal(previous, states), op=MPI.LAND))
+                records.append(self.record(len(records) + 1, it, alpha, direction, rule, states))
         except SolverError as err:
             err.result = self.result(it, history, records, False, err.reason, t_start, rule=rule)
             raise
@@ -400,10 +406,10 @@ class SCDNewtonSolver(NewtonLinearSolves):
         size = self.comm.allreduce(np.array([float(np.dot(step, step)), float(np.dot(u, u))]), op=MPI.SUM)
         return math.sqrt(size[0] / size[1]) if size[1] > 0.0 else (0.0 if size[0] == 0.0 else math.inf)
 
-    def record(self, k: int, it: Iterate, alpha: float, direction: Direction, rule: StoppingRule) -> IterationRecord:
-        """The record of iteration k (logged on rank 0)."""
-        counts = global_state_counts(self.comm, contact_states(classify(it.v, it.z, self.model.friction),
-                                                               self.model.friction))
+    def record(self, k: int, it: Iterate, alpha: float, direction: Direction, rule: StoppingRule,
+               states: npt.NDArray[np.int8]) -> IterationRecord:
+        """The record of iteration k (logged on rank 0); ``states`` the contact states at ``it``."""
+        counts = global_state_counts(self.comm, states)
         if self.comm.rank == 0:
             logger.info("it %3d  |y|/|y0| = %.3e  step %.4g  krylov %4d  open/stick/slip %d/%d/%d",
                         k, it.residual / rule.initial, alpha, direction.krylov_iterations,

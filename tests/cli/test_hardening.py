@@ -20,6 +20,7 @@ import pytest
 
 from fenics_coulomb import InputError, Surface
 from fenics_coulomb.cli import EXIT_DIVERGED, EXIT_INPUT, main
+from fenics_coulomb.model.checks import DECISIVE_CHECKS
 
 ROOT = Path(__file__).resolve().parents[2]
 from meshes.surfaces import icosphere, rectangle, write_stl  # noqa: E402
@@ -296,7 +297,8 @@ def test_accuracy_and_rtol_together_exit_2(mpi_tmp_path, capsys):
 
 def test_a_loose_accuracy_is_not_checks_passed(mpi_tmp_path, capsys):
     """--accuracy 0.9 left a penetration of 3.4 % beside "checks passed" (the bound grew with rtol): the checks'
-    bound is at most 1 %, the solve is not converged (exit 3) and says why."""
+    bound is at most 1 %, the solve is not converged (exit 3) and says why: a decisive check beyond 1 % (which one
+    depends on where the loose iteration stops: the penetration, or the equilibrium residual, 2.3 %)."""
     out = mpi_tmp_path / "loose"
     assert main(["--lev", "3", "--accuracy", "0.9", "--out", str(out), "--no-plots"]) == EXIT_DIVERGED
     MPI.COMM_WORLD.barrier()
@@ -304,7 +306,8 @@ def test_a_loose_accuracy_is_not_checks_passed(mpi_tmp_path, capsys):
     if MPI.COMM_WORLD.rank == 0:
         assert "the physics checks fail" in err and "too loose" in err, err
         summary = json.loads((out / "summary.json").read_text())
-        assert summary["converged"] is False and summary["physics_checks"]["penetration"] > 1e-2
+        checks = summary["physics_checks"]
+        assert summary["converged"] is False and max(checks.get(key, 0.0) for key in DECISIVE_CHECKS) > 1e-2
 
 
 # -- the API's entry points ----------------------------------------------------------------------------------

@@ -129,7 +129,10 @@ def test_no_load_along_the_free_motion_needs_no_contact(mpi_tmp_path):
         _, result = problem.solve()
         assert result.converged
         force = MPI.COMM_WORLD.allreduce(result.contact_force.sum(axis=0), op=MPI.SUM)
-        assert np.linalg.norm(force) <= 1e-9
+        # the force the solve's accuracy leaves: with r the free vertical motion (A r = 0, rᵀl = 0), A u − l + z = Γe
+        # gives rᵀz = rᵀΓe, |Σ pᵢ| <= √N ‖Γe‖ <= √N × the stopping target (N nodes), and |Σ tᵢ| <= F Σ pᵢ
+        nodes = problem.V.dofmap.index_map.size_global
+        assert np.linalg.norm(force) <= np.sqrt(1 + 0.3**2) * np.sqrt(nodes) * result.target
         assert problem.checks(result)["reaction_balance"] <= 1e-6
 
 
