@@ -385,15 +385,14 @@ def test_adaptive_forcing_reaches_the_linear_solves(problem_factory):
             assert etas[0] == 0.1 and np.sum(etas < 0.1) <= 2
 
 
-@pytest.mark.parametrize("case", [(2, "d3", "L2", 1e-4), (4, "d2", "L2", 1e-5)])
-def test_the_fixed_rule_tightens_only_once_the_states_have_settled(problem_factory, monkeypatch, case):
+def test_the_fixed_rule_tightens_only_once_the_states_have_settled(problem_factory, monkeypatch):
     """The fixed rule's terminal tightening (forcing.terminal_forcing) is asked only when every node's contact state
     after the last step is that of the iterate before (the start counts; the first step as ever): while the states
-    move, a step solved to η does not cut ‖ŷ‖ by η. The states are recorded where the solver computes them; at a
-    loose target the tightening would have fired in a step whose states still moved, and takes tol there."""
+    move, a step solved to η does not cut ‖ŷ‖ by η. The states are recorded where the solver computes them. Two
+    cuboid cases at loose targets, where the tightening would have fired in steps whose states still moved (which
+    steps those are depends on the iterates' round-off, so the counts are over both cases)."""
     import fenics_coulomb.scd.newton as newton
 
-    *level, rtol = case
     seen: list[np.ndarray] = []
     original = newton.contact_states
 
@@ -403,20 +402,22 @@ def test_the_fixed_rule_tightens_only_once_the_states_have_settled(problem_facto
         return states
 
     monkeypatch.setattr(newton, "contact_states", recording)
-    problem = problem_factory(*level, rtol=rtol)
-    _, result = problem.solve()
-    assert result.converged
     comm = MPI.COMM_WORLD
-    history, target, etas = result.residual_history, result.target, [rec.forcing for rec in result.records]
-    states = seen[: result.iterations + 1]  # the start's, then after each step
-    moved_but_tightened = 0
-    for k, eta in enumerate(etas):
-        settled = k == 0 or comm.allreduce(bool(np.array_equal(states[k], states[k - 1])), op=MPI.LAND)
-        tightened = terminal_forcing(0.1, history[k], target)
-        assert eta == (tightened if settled else 0.1), (k, eta, settled, tightened)
-        moved_but_tightened += (not settled) and tightened < 0.1
-    assert moved_but_tightened >= 1  # the case exercises the rule: the earlier rule tightened a step there
-    assert min(etas) < 0.1  # and it still tightens the last step once the states hold
+    withheld = applied = 0
+    for *level, rtol in [(2, "d3", "L2", 1e-4), (4, "d2", "L2", 1e-5)]:
+        seen.clear()
+        problem = problem_factory(*level, rtol=rtol)
+        _, result = problem.solve()
+        assert result.converged
+        history, target, etas = result.residual_history, result.target, [rec.forcing for rec in result.records]
+        states = seen[: result.iterations + 1]  # the start's, then after each step
+        for k, eta in enumerate(etas):
+            settled = k == 0 or comm.allreduce(bool(np.array_equal(states[k], states[k - 1])), op=MPI.LAND)
+            tightened = terminal_forcing(0.1, history[k], target)
+            assert eta == (tightened if settled else 0.1), (level, k, eta, settled, tightened)
+            withheld += (not settled) and tightened < 0.1  # the earlier rule tightened here
+            applied += settled and tightened < 0.1
+    assert withheld >= 1 and applied >= 1  # both branches of the rule were taken
 
 
 def test_adaptive_tolerance_reaches_the_same_solution(problem_factory):
