@@ -19,9 +19,9 @@ def terminal_forcing(tol: float, residual: float, target: float) -> float:
     a GMRES solve a little tighter instead of another Newton step (matrix update, solve and line search).
     Otherwise ``tol``. The solver asks only once the contact states have settled (every node's state that of the
     iterate before): while they change, the Newton model is not the problem near the iterate, a tightened step
-    does not cut ‖ŷ‖ by its η, and its extra Krylov iterations are lost (a loose first solve of finite sliding's
-    geometry iteration, whose target a step of ‖ŷ‖ ~ 1e2 × target meets the bounds of, took 35–40 Krylov
-    iterations per step instead of 18 while the states still moved: docs/sliding/README.md, "Cost").
+    does not cut ‖ŷ‖ by its η, and its extra Krylov iterations are lost (finite sliding solves its first geometry
+    to a loose target, which this rule reaches from ‖ŷ‖ up to 250 × the target: on the ν = 0.49 block that made
+    35–40 Krylov iterations per step instead of 18 while the states still moved; docs/sliding/README.md, "Cost").
 
     Args:
         tol: The fixed forcing term.

@@ -241,7 +241,7 @@ class SCDNewtonSolver(NewtonLinearSolves):
                                        -self.model.load.getArray(readonly=True))
 
     # -- the Newton direction ---------------------------------------------------------------------
-    def forcing(self, history: list[float], eta: float, rule: StoppingRule, settled: bool = True) -> float:
+    def forcing(self, history: list[float], eta: float, rule: StoppingRule, settled: bool) -> float:
         """The tolerance of the next linear solve: the fixed tol, or the Eisenstat–Walker term; at most
         ACCURACY_FORCING once the residual rule holds and the correction checks an accuracy (it is the estimate).
         The fixed rule's terminal tightening only when ``settled`` (every node's contact state that of the iterate
