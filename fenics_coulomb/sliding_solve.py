@@ -21,7 +21,8 @@ import numpy.typing as npt
 
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.model.checks import ONE_CONSTRAINT, physics_failure, physics_residuals
-from fenics_coulomb.model.sliding import SMALL_SLIDE_WARNING, GeometryIteration, largest_slide
+from fenics_coulomb.model.sliding import GeometryIteration
+from fenics_coulomb.model.small_sliding import SMALL_SLIDE_WARNING, largest_slide
 from fenics_coulomb.scd.resolvent import OPEN
 from fenics_coulomb.settings import ERROR_PER_RTOL, SolverSettings
 
@@ -96,8 +97,8 @@ class SlidingSolve:
 
     def _measure_slide(self, result: SolveResult) -> None:
         """Small sliding says when it breaks: the largest slide of a contact node against its partner in units of
-        the partner's size (:func:`~fenics_coulomb.model.sliding.largest_slide`), kept in the result and a
-        warning above :data:`~fenics_coulomb.model.sliding.SMALL_SLIDE_WARNING` (collective)."""
+        the partner's size (:func:`~fenics_coulomb.model.small_sliding.largest_slide`), kept in the result and a
+        warning above :data:`~fenics_coulomb.model.small_sliding.SMALL_SLIDE_WARNING` (collective)."""
         model = self.model
         z = np.asarray(result.displacement, dtype=np.float64)
         ratio, where = largest_slide(model, model.physical(z), z)

@@ -78,8 +78,11 @@ an element, far below the discretization's; the amplitude is a local slip across
 |u|): of its two solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved once more if
 it was the earlier one; energies within :data:`CYCLE_ENERGY_TIE` are the solves' noise — mirror states: the one
 with the smaller Σ_i u_i·:data:`CYCLE_DIRECTION`) — a choice that depends on neither the path that led to the cycle,
-nor the mesh's numbering and partition; a warning names the nodes and the amplitude. A wider cycle fails as
-above. (The cycle itself is recognized by a digest of the contact nodes and supports, the same on every rank.)
+nor the mesh's numbering and partition; a warning names the nodes and the amplitude. A wider cycle fails (exit 3)
+as soon as it comes back without its amplitude halved, naming the nodes, the amplitude and, under node-to-surface,
+the cure (mortar's averaged normals; measured: a slave over a soft master's corner on tetrahedra, 7 nodes over the
+master's Kuhn diagonal, 3e-3 of a cell, tests/problems/test_geometry_cycle.py). (The cycle itself is recognized by a
+digest of the contact nodes and supports, the same on every rank.)
 """
 
 from __future__ import annotations
@@ -100,7 +103,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.pairs import Pairing
 
 __all__ = ["ACCURACY_SHARE", "ACCURACY_FLOOR", "MAX_GEOMETRY_UPDATES", "ROUND_OFF_STAGNATION", "ROUND_OFF_CAP",
-           "CYCLE_TOLERANCE", "SMALL_SLIDE_WARNING", "LOOSE_FACTOR", "largest_slide", "GeometryChange",
+           "CYCLE_TOLERANCE", "LOOSE_FACTOR", "GeometryChange",
            "GeometryIteration", "supports", "geometry_change"]
 
 Array = npt.NDArray[np.float64]
@@ -109,9 +112,6 @@ logger = logging.getLogger(__name__)
 
 #: The most geometry updates of one solve (finite sliding).
 MAX_GEOMETRY_UPDATES = 10
-
-#: Small sliding warns when a contact node has slid farther than this many partner sizes (:func:`largest_slide`).
-SMALL_SLIDE_WARNING = 0.5
 
 #: A 2-cycle of the geometry is accepted when its solutions differ by at most this × the smallest cell diameter at
 #: the contact nodes ("Nodes on a master edge"); the smaller energy kept unless within this relative difference ...
@@ -283,6 +283,16 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
                           signature(new_nodes, new_rows))
 
 
+def _cycle_advice(model: ContactModel, amplitude: float, h: float) -> str:
+    """The failure's clause for a 2-cycle wider than the accepted one ("Nodes on a master edge")."""
+    methods = {q.method for q in getattr(model.coupling, "pairs", [])}
+    advice = (": node-to-surface's constraint normal jumps where a slave node's closest point crosses a master edge "
+              "with a kink (a slave node over a crease of the deformed master); method = 'mortar' (averaged slave "
+              "normals) or a finer master there" if "node-to-surface" in methods else "")
+    return (f"; back and forth between two geometries whose solutions differ by {amplitude:.3g} ({amplitude / h:.2g} "
+            f"of the smallest cell at the contact nodes, {CYCLE_TOLERANCE:g} accepted){advice}")
+
+
 @dataclass
 class Step:
     """What the geometry iteration does after a solve.
@@ -331,6 +341,7 @@ class GeometryIteration:
         self.updates = 0
         self._solved: list[tuple[str, Array, float]] = []  # (geometry, solution, reduction) of every solve
         self._last = False
+        self._cycle: float | None = None  # the amplitude of the last 2-cycle too wide to accept
         self._unchanged: float | None = None  # the last full-accuracy check's change with the same nodes
         self._pending: GeometryChange | None = None  # the last update's change, until a Newton step has followed it
         self._restore: float | None = None  # the reduction after a solve tightened to resolve an update
@@ -413,7 +424,7 @@ class GeometryIteration:
         # increment) moves u in another pattern than the iteration's last ones
         self._update = (change.discrepancy, u.copy()) if self.accuracy is not None and not change.changed \
             and change.discrepancy > ACCURACY_FLOOR * self.extent and reduction <= rtol else None
-        solved = self._solved
+        solved, cycle = self._solved, ""
         if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
             if max(solved[-1][2], solved[-2][2]) > rtol:
                 self.reduction = rtol  # a cycle seen at loose accuracy: look again at rtol
@@ -434,9 +445,15 @@ class GeometryIteration:
                     if now <= other:
                         return Step("settled", change)
                     self._last = True  # one more solve, in the other geometry of the cycle
+                else:
+                    cycle = _cycle_advice(model, amplitude, h)
+                    previous, self._cycle = self._cycle, amplitude
+                    if previous is not None and amplitude > 0.5 * previous:  # the same cycle again, not shrinking
+                        return Step("fail", change, f"finite sliding: the contact geometry did not settle after "
+                                                    f"{self.updates} updates ({change.describe()}){cycle}")
         if self.updates == MAX_GEOMETRY_UPDATES:
             return Step("fail", change, f"finite sliding: the contact geometry did not settle after "
-                                        f"{self.updates} updates ({change.describe()})")
+                                        f"{self.updates} updates ({change.describe()}){cycle}")
         if not change.changed:
             scale = model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
             wanted = LOOSE_FACTOR * change.discrepancy / (self.error_per_rtol * scale) if scale > 0 else rtol
@@ -469,32 +486,3 @@ class GeometryIteration:
             return False
         size = math.sqrt(self.model.comm.allreduce(float(np.dot(u, u)), op=MPI.SUM))
         return change.discrepancy * self.amplification <= ACCURACY_SHARE * self.accuracy * size
-
-
-def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[float]]:
-    """Small sliding: the largest slide of a contact node against its partner, in units of the partner's size, and
-    that node's reference position (collective; the same on every rank).
-
-    A paired node's slide is its total relative tangential displacement against the master material point beneath
-    it, |P w| with w = u_s − Σ_l Φ_jl u_l (the unknown z on the node) and P = I − n nᵀ, over the largest cell
-    diameter at the node (the master facets beneath are of the pair's mesh size); an obstacle node's is its
-    tangential displacement against the obstacle's translation, |P(u − δ)|, over the obstacle's radius (sphere,
-    cylinder) or the cell diameter (a triangulated surface); a plane has no size (no warning).
-    """
-    comm = model.comm
-    cmap = model.contact
-    paired = model.coupling.paired_mask(cmap.size)
-    n = cmap.normals
-    v = np.asarray(z, dtype=np.float64).reshape(-1)[cmap.local_dofs] - np.where(
-        paired[:, None], 0.0, getattr(model, "obstacle_displacement", np.zeros((cmap.size, 3))))
-    slide = np.linalg.norm(_tangential(n, v), axis=1) if cmap.size else np.zeros(0)
-    size = model.node_size()[cmap.blocks].copy()
-    for j, obstacle in enumerate(model.obstacles):
-        mine = ~paired & (cmap.obstacle_index == j)
-        radius = getattr(obstacle, "radius", None)
-        size[mine] = np.inf if obstacle.affine else (float(radius) if radius is not None else size[mine])
-    ratio = slide / size
-    local = (float(ratio.max()), list(map(float, cmap.coordinates[int(np.argmax(ratio))]))) if ratio.size \
-        else (0.0, [])
-    best = max(comm.allgather(local), key=lambda r: r[0])
-    return best

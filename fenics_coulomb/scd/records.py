@@ -106,7 +106,7 @@ class SolveResult:
         geometry_updates: Finite sliding: how often the contact geometry was evaluated again in the deformed
             configuration and the problem solved again (0: the first geometry held).
         largest_slide: Small sliding: the largest slide of a contact node against its partner in partner sizes and
-            that node (:func:`fenics_coulomb.model.sliding.largest_slide`); empty for finite sliding.
+            that node (:func:`fenics_coulomb.model.small_sliding.largest_slide`); empty for finite sliding.
         free_penetration: Contact pairs: the free slave nodes (over a master surface, but no contact nodes) that
             penetrate it, ``{"nodes": count, "depth": deepest −g}``; empty when none does.
         history_geometry: Finite sliding: the solve of the geometry iteration (0, 1, ...) each entry of
