@@ -127,7 +127,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         t_model = time.perf_counter() - t0 - t_nested
         logger.info("%s: n = %d unknowns, p = %d contact nodes, %s, %d rank(s)", built.body.description,
                     problem.n, problem.p, friction_text(scene), comm.size)
-        status = 0
+        status, finite = 0, problem.finite_sliding
         try:
             t_start = time.perf_counter()
             u0 = start_from_coarse(coarse, scene, problem.V) if coarse else start_function(scene.start, problem.V)
@@ -157,7 +157,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         print(
             f"{'converged' if result.converged else 'NOT converged (' + result.reason + ')'}: "
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
-            + (f"{result.geometry_updates} geometry update(s), " if result.geometry_updates else "") +
+            + (f"{result.geometry_updates} geometry update(s), " if finite else "") +
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
             f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
             flush=True,

@@ -99,7 +99,8 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
     contact force, the applied load's resultant, the reaction per Dirichlet boundary and δ per obstacle (x, y,
     z components each; a boundary group "a,b" is named "a+b"), per obstacle and contact pair (the steps'
     "groups") the normal and tangential force, peak pressure, contact area, nodes in contact and stick/slip
-    nodes, wall time. Columns of a quantity with a unit carry it after the name: ``contact_force_x [GPa*L^2]``,
+    nodes, under small sliding each solve's largest slide in partner sizes (``slide_per_size``), wall time.
+    Columns of a quantity with a unit carry it after the name: ``contact_force_x [GPa*L^2]``,
     ``delta_ball_z [L]``, ``normal_force_ball [GPa*L^2]``, ``peak_pressure_pair 1 [GPa]``."""
     if comm.rank != 0 or not steps:
         return
@@ -108,6 +109,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
     reactions = list(steps[0]["reactions"])
     obstacles = list(steps[0]["obstacle_displacements"])
     groups = list(steps[0].get("groups", {}))
+    small = any(s.get("small_sliding") for s in steps)  # small sliding: each solve's largest slide
     units = {"normal_force": f" {FORCE}", "tangential_force": f" {FORCE}", "peak_pressure": f" [{UNITS['pressure']}]",
              "contact_area": f" [{UNITS['area']}]", "contact_nodes": "", "stick": "", "slip": ""}
     header = ["solve", "time", "step", "substep", "load_factor", "converged", "newton_iterations",
@@ -116,7 +118,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
               *[f"reaction_{name.replace(',', '+')}_{c} {FORCE}" for name in reactions for c in xyz],
               *[f"delta_{name.replace(',', '+')}_{c} {LENGTH}" for name in obstacles for c in xyz],
               *[f"{key}_{name.replace(',', '+')}{units[key]}" for name in groups for key in GROUP_COLUMNS],
-              "wall_time_s"]
+              *(["slide_per_size"] if small else []), "wall_time_s"]
     lines = [",".join(header)]
     for s in steps:
         counts = s["state_counts"]
@@ -127,6 +129,7 @@ def write_path_csv(path: Path, steps: Sequence[Mapping[str, Any]], comm: MPI.Com
                *[f"{c:.17g}" for name in reactions for c in s["reactions"][name]],
                *[f"{c:.17g}" for name in obstacles for c in s["obstacle_displacements"][name]],
                *[format(s["groups"][name][key], ".17g") for name in groups for key in GROUP_COLUMNS],
+               *([format(s.get("small_sliding", {}).get("slide_per_size", 0.0), ".17g")] if small else []),
                f"{s['wall_time_s']:.6g}"]
         lines.append(",".join(map(str, row)))
     path.write_text("\n".join(lines) + "\n")

@@ -228,6 +228,9 @@ class PathResultSet:
             files += write_path_figure(directory, steps, label, comm)
         data = summary(model, result, dict(extra or {}))
         data["steps"] = steps
+        slid = [s["small_sliding"] for s in steps if s.get("small_sliding")]
+        if slid:  # small sliding: the largest slide over the path, not the last solve's
+            data["small_sliding"] = dict(max(slid, key=lambda s: s["slide_per_size"]))
         data["reactions"] = steps[-1]["reactions"]
         data["contact_force"] = steps[-1]["contact_force"]
         data["applied_load"] = steps[-1]["applied_load"]

@@ -193,6 +193,11 @@ class Coupling:
         """The matrix K of the elastic energy ½ uᵀ K u of the physical displacement."""
         return model.A
 
+    def partner_sizes(self, sizes: Array) -> Array:
+        """Small sliding's unit of a slide per contact node, ``sizes`` (the obstacles') with the coupling's own
+        nodes' partner facet diameters set."""
+        return sizes
+
     # -- outputs -----------------------------------------------------------------------------------------
     def master_forces(self, contact_force: Array, local_dofs: npt.NDArray[np.int32]) -> Array | None:
         """The reaction on the master nodes (owned DOFs), or None without master bodies (collective)."""

@@ -25,10 +25,11 @@ def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[
     that node's reference position (collective; the same on every rank).
 
     A paired node's slide is its total relative tangential displacement against the master material point beneath
-    it, |P w| with w = u_s − Σ_l Φ_jl u_l (the unknown z on the node) and P = I − n nᵀ, over the largest cell
-    diameter at the node (the master facets beneath are of the pair's mesh size); an obstacle node's is its
-    tangential displacement against the obstacle's translation, |P(u − δ)|, over the obstacle's radius (sphere,
-    cylinder) or the cell diameter (a triangulated surface); a plane has no size (no warning).
+    it, |P w| with w = u_s − Σ_l Φ_jl u_l (the unknown z on the node) and P = I − n nᵀ, over the diameter of the
+    master facet beneath it (its node-to-surface closest point's, at the pairing: the partner's size whatever the
+    slave's mesh); an obstacle node's is its tangential displacement against the obstacle's translation,
+    |P(u − δ)|, over the obstacle's radius (sphere, cylinder) or the node's cell diameter (a triangulated surface);
+    a plane has no size (no warning).
     """
     comm = model.comm
     cmap = model.contact
@@ -42,6 +43,7 @@ def largest_slide(model: ContactModel, u: Array, z: Array) -> tuple[float, list[
         mine = ~paired & (cmap.obstacle_index == j)
         radius = getattr(obstacle, "radius", None)
         size[mine] = np.inf if obstacle.affine else (float(radius) if radius is not None else size[mine])
+    size = model.coupling.partner_sizes(size)
     ratio = slide / size
     local = (float(ratio.max()), list(map(float, cmap.coordinates[int(np.argmax(ratio))]))) if ratio.size \
         else (0.0, [])

@@ -146,6 +146,9 @@ class StepRecord:
     groups: dict[str, dict[str, Any]] = field(default_factory=dict)
     #: Contact pairs: the force on each pair's slave body (its master body takes the opposite).
     pair_forces: list[list[float]] = field(default_factory=list)
+    #: Small sliding: the largest slide of a contact node in partner sizes and that node
+    #: (:func:`~fenics_coulomb.model.small_sliding.largest_slide`); empty under finite sliding.
+    small_sliding: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, Any]:
         """The record as plain data (summary.json "steps")."""
@@ -161,6 +164,7 @@ class StepRecord:
             **({"pair_forces": self.pair_forces} if self.pair_forces else {}),
             "residual_history": self.residual_history,
             **({"free_slave_penetration": dict(self.free_slave_penetration)} if self.free_slave_penetration else {}),
+            **({"small_sliding": dict(self.small_sliding)} if self.small_sliding else {}),
         }
 
 
@@ -275,7 +279,8 @@ def run_path(
             wall_time_s=wall, residual_history=[float(r) for r in step_result.residual_history],
             geometry_updates=int(step_result.geometry_updates), groups=contact_groups(model, step_result),
             free_slave_penetration=dict(step_result.free_penetration),
-            pair_forces=[[float(c) for c in p["force_on_slave_body"]] for p in report.pair_forces])
+            pair_forces=[[float(c) for c in p["force_on_slave_body"]] for p in report.pair_forces],
+            small_sliding=dict(step_result.largest_slide))
         records.append(record)
         if solve.substeps == 1:
             where = f"step {solve.step}/{last_step} (load factor {solve.load_factor:.4g})"
@@ -285,7 +290,8 @@ def run_path(
         walls.append(wall)
         left = len(solves) - i - 1
         eta = f", about {remaining_time(walls, left):.1f} s left" if left and not failure else ""
-        updates = f", {record.geometry_updates} geometry update(s)" if record.geometry_updates else ""
+        # every solve whose contact geometry follows the deformation says how often it was evaluated again (0 too)
+        updates = f", {record.geometry_updates} geometry update(s)" if problem.finite_sliding else ""
         forces = [f"contact force ({', '.join(f'{c:.6g}' for c in record.contact_force)})"] if model.obstacles else []
         forces += [f"pair {k + 1} on the slave side ({', '.join(f'{c:.6g}' for c in f)})"
                    for k, f in enumerate(record.pair_forces)]

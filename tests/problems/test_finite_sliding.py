@@ -125,6 +125,31 @@ def test_a_bad_sliding_model_is_named(value):
         SlidingBlocks(MPI.COMM_WORLD, 0.5, sliding=value, prefix="slide_bad_", **SMALL)
 
 
+def test_small_sliding_keeps_the_largest_slide_of_a_path(mpi_tmp_path):
+    """slide_off slid out and back under small sliding: summary.json's small_sliding is the path's largest slide (it
+    was the last solve's, 0.014 against the 6.2 warned on the way), each step records its own."""
+    import json
+
+    from fenics_coulomb.cli import main
+
+    demo = Path(__file__).resolve().parents[2] / "demos" / "scenes" / "slide_off.toml"
+    text = demo.read_text().replace('"../../meshes/slide_off.msh"', json.dumps(str(demo.parents[2] / "meshes" /
+                                                                                  "slide_off.msh")))
+    held = '[[path.step]]         # 3: held\nprescribed = { upper_top = [0.8, 0.0, -0.01] }'
+    assert held in text
+    scene = mpi_tmp_path / "out_and_back.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        scene.write_text(text.replace(held, '[[path.step]]\nprescribed = { upper_top = [0.0, 0.0, -0.01] }\n'
+                                            'substeps = 2'))
+    MPI.COMM_WORLD.barrier()
+    out = mpi_tmp_path / "out"
+    assert main(["--scene", str(scene), "--out", str(out), "--quiet", "--no-plots", "--sliding", "small"]) == 0
+    data = json.loads((out / "summary.json").read_text())
+    slides = [s["small_sliding"]["slide_per_size"] for s in data["steps"]]
+    assert slides[-1] < 0.1 < 1.0 < max(slides)  # back where it started, far slid on the way
+    assert data["small_sliding"] == max((s["small_sliding"] for s in data["steps"]), key=lambda s: s["slide_per_size"])
+
+
 def test_the_slide_off_demo_scene(mpi_tmp_path):
     """demos/scenes/slide_off.toml with the real command: the contact nodes leave with the slid part (55 → 32),
     the normal force falls with the supported area and the slid substeps re-pair; with --sliding small every node
@@ -158,6 +183,8 @@ def test_the_slide_off_demo_scene(mpi_tmp_path):
     assert all(s["state_counts"]["slip"] + s["state_counts"]["stick"] == nodes[0] for s in small)
     assert abs(small[-1]["groups"]["pair 1"]["normal_force"] / small[0]["groups"]["pair 1"]["normal_force"] - 1) < 1e-3
     assert runs["small"]["small_sliding"]["slide_per_size"] > 0.5 and "small_sliding" not in runs["finite"]
+    assert [s["small_sliding"]["slide_per_size"] for s in small] == [
+        float(row.split(",")[-2]) for row in (mpi_tmp_path / "small" / "path.csv").read_text().splitlines()[1:]]
     # mortar's full-coverage rule frees the slave nodes whose facets straddle the lower block's edge once the block
     # hangs over it; they sink into the lower block, and summary.json says so per step (3.4e-3 – 3.7e-3 measured)
     hanging = [s.get("free_slave_penetration") for s in finite]

@@ -4,10 +4,9 @@ obstacles' contact nodes into the model's contact map, and the outputs of pairs 
 :class:`fenics_coulomb.model.coupling.Coupling`).
 
 Construction (:meth:`PairCoupling.build`): the bodies and their supports, A_free and the obstacles' contact nodes
-once; then the pairing of the reference configuration. A node that is both a paired slave node and an obstacle
-contact node belongs to the one with the smaller signed gap (ties: the pair); obstacle nodes keep z = u (no row of Φ).
-Finite sliding pairs again in X + u (:meth:`PairCoupling.configure`) and rebuilds M, Ã, l̃ and the contact map.
-"""
+once; then the pairing of the reference configuration. A node both a paired slave node and an obstacle contact node
+belongs to the one with the smaller signed gap (ties: the pair); obstacle nodes keep z = u (no row of Φ). Finite
+sliding pairs again in X + u (:meth:`PairCoupling.configure`) and rebuilds M, Ã, l̃ and the contact map."""
 
 from __future__ import annotations
 
@@ -446,13 +445,16 @@ class PairCoupling(Coupling):
         x = model.V.tabulate_dof_coordinates() + model.ghosted(u).reshape(-1, 3)
         return uncovered_depth(model.V, self.pairs, self.pairing, x, self.body_of_block, self._excluded, model.held)
 
+    def partner_sizes(self, sizes: Array) -> Array:
+        assert self.pairing is not None
+        sizes[self._paired] = self.pairing.partner_size  # the pairing's nodes, in the same ascending block order
+        return sizes
+
     def contact_areas(self, areas: Array) -> Array:
         """D_j on a dual mortar pair's slave nodes (the pressure there is f_j·n_j / D_j)."""
         assert self.pairing is not None
-        if self.pairing.size:
-            paired = np.flatnonzero(self._paired)  # the pairing's nodes, in the same ascending block order
-            mortar = np.isfinite(self.pairing.area)
-            areas[paired[mortar]] = self.pairing.area[mortar]
+        mortar = np.isfinite(self.pairing.area)  # the pairing's order, as partner_sizes
+        areas[np.flatnonzero(self._paired)[mortar]] = self.pairing.area[mortar]
         return areas
 
     def contact_groups(self, obstacle_index: npt.NDArray[np.int64], num_obstacles: int) -> npt.NDArray[np.int64]:
@@ -487,8 +489,7 @@ class PairCoupling(Coupling):
 
     def summary_entries(self, model: ContactModel, result: SolveResult, per_pair: list[dict[str, Any]]
                         ) -> dict[str, Any]:
-        """``contact_pairs``: per pair its forces (:func:`~fenics_coulomb.model.pairs.forces.pair_forces`) and its
-        contact statistics."""
+        """``contact_pairs``: the pair forces (:func:`~fenics_coulomb.model.pairs.forces.pair_forces`), statistics."""
         return {"contact_pairs": [{**forces, **{k: v for k, v in stats.items() if k != "name"}}
                                   for forces, stats in zip(pair_forces(model, result), per_pair, strict=False)]}
 

@@ -61,7 +61,8 @@ def stencils(pair: PairInput) -> Stencils:
     D = np.zeros(nodes.size)
     D[near] = mortar.D
     others = np.setdiff1d(owned_slave, nodes[contact]).astype(np.int32)
+    partner_size = pair.size[projected["facet"][at_nodes]] if nodes.size else np.zeros(0)
     at = position[np.searchsorted(owned_slave, others)]
     return Stencils(gap=g, frames=frames, contact=contact, closest=closest, master_blocks=master_blocks,
                     weights=weights, area=D, pointwise=pointwise, others=others,
-                    projected={key: value[at] for key, value in projected.items()})
+                    projected={key: value[at] for key, value in projected.items()}, partner_size=partner_size)

@@ -56,4 +56,5 @@ def stencils(pair: PairInput) -> Stencils:
                     master_blocks=master.blocks[res["facet"]] if nodes.size else np.zeros((0, nv), np.int64),
                     weights=res["weights"], area=np.full(nodes.size, np.nan),
                     pointwise=np.where(paired, g, np.inf), others=others,
-                    projected=project(x[others], master, pair.size, pair.rank))
+                    projected=project(x[others], master, pair.size, pair.rank),
+                    partner_size=pair.size[res["facet"]] if nodes.size else np.zeros(0))

@@ -125,6 +125,8 @@ class Pairing:
             (the smaller gap), with the same keys as ``free``: their pair constraint is not enforced, and the check
             after a solve measures it (:meth:`~fenics_coulomb.model.pairs.coupling.PairCoupling.shared_depth`).
         shared: The number of paired slave nodes that are obstacle contact nodes too, on all ranks.
+        partner_size: The diameter of the master facet beneath each node (small sliding's unit of a slide), shape
+            (m,).
     """
 
     blocks: npt.NDArray[np.int32]
@@ -141,6 +143,7 @@ class Pairing:
     free: dict[str, np.ndarray] = field(default_factory=dict)
     to_obstacles: dict[str, np.ndarray] = field(default_factory=dict)
     shared: int = 0
+    partner_size: Array = field(default_factory=lambda: np.zeros(0))
 
     def subset(self, keep: npt.NDArray[np.bool_], comm: MPI.Comm) -> Pairing:
         """The pairing of the nodes ``keep`` selects (collective: the global count)."""
@@ -148,7 +151,8 @@ class Pairing:
                        gap=self.gap[keep], frames=self.frames[keep], master_blocks=self.master_blocks[keep],
                        weights=self.weights[keep], area=self.area[keep], pair_index=self.pair_index[keep],
                        friction=self.friction[keep], num_global=comm.allreduce(int(np.sum(keep)), op=MPI.SUM),
-                       free=self.free, to_obstacles=self.to_obstacles, shared=self.shared)
+                       free=self.free, to_obstacles=self.to_obstacles, shared=self.shared,
+                       partner_size=self.partner_size[keep])
 
     def to_free(self, drop: npt.NDArray[np.bool_], comm: MPI.Comm) -> Pairing:
         """The pairing without the nodes ``drop`` selects, which join ``free``: no contact nodes, their penetration

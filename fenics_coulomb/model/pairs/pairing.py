@@ -183,6 +183,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         over = ro["paired"]
         per_pair.append(dict(nodes=nodes, g=g, R=stencils.frames, contact=contact, closest=stencils.closest,
                              blocks=stencils.master_blocks, weights=stencils.weights, D=stencils.area, body=body,
+                             partner_size=stencils.partner_size,
                              pointwise=stencils.pointwise, search=search,
                              master_depth=_master_overlap(imap, slave(), layer_thickness(comm, V, slave_facets,
                                                                                            X_dofs),
@@ -215,14 +216,14 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
         width = max(width, int(used))
     width = comm.allreduce(width, op=MPI.MAX)
     frames, master_blocks, weights = np.zeros((m, 3, 3)), np.full((m, width), -1, np.int64), np.zeros((m, width))
-    friction = np.zeros(m)
+    friction, partner_size = np.zeros(m), np.zeros(m)
     for i, p in enumerate(per_pair):
         sel = np.flatnonzero(winner == i)
         src = np.searchsorted(p["nodes"], blocks[sel])
         closest[sel], gap[sel], frames[sel] = p["closest"][src], p["g"][src], p["R"][src]
         k = min(p["blocks"].shape[1], width)
         master_blocks[sel, :k], weights[sel, :k] = p["blocks"][src, :k], p["weights"][src, :k]
-        area[sel] = p["D"][src]
+        area[sel], partner_size[sel] = p["D"][src], p["partner_size"][src]
         friction[sel] = float(pairs[i].friction)
 
     # Φ² = 0: no contact node is a vertex of a master facet used by any contact node
@@ -294,7 +295,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
     return Pairing(blocks=blocks, coordinates=positions, closest=closest, gap=gap, frames=frames,
                    master_blocks=master_blocks, weights=weights, area=area, pair_index=winner.astype(np.intp),
                    friction=friction, num_global=int(count.sum()) if pairs else 0,
-                   free=_free_nodes([p["free"] for p in per_pair], blocks, nv))
+                   free=_free_nodes([p["free"] for p in per_pair], blocks, nv), partner_size=partner_size)
 
 
 def _common_facets(comm: MPI.Comm, pairs: Sequence[ContactPair], labels: list[str],

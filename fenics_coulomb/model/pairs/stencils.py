@@ -81,6 +81,8 @@ class Stencils:
             check.
         others: The owned slave blocks that are not contact nodes of this pair (local, ascending).
         projected: :func:`~fenics_coulomb.model.pairs.projection.project` of ``others`` onto M.
+        partner_size: The diameter of the master facet beneath each node (its node-to-surface closest point's;
+            inf where none was computed): small sliding's unit of a slide, shape (n,).
     """
 
     gap: Array
@@ -93,3 +95,4 @@ class Stencils:
     pointwise: Array
     others: npt.NDArray[np.int32]
     projected: dict[str, Array]
+    partner_size: Array
