@@ -108,16 +108,17 @@ class SlidingSolve:
                            "its partner; the reference configuration's contact geometry no longer describes it: use "
                            "sliding = \"finite\"", ", ".join(f"{c:.6g}" for c in where), ratio)
 
-    def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Pairing | None = None) -> None:
-        """Evaluate the contact geometry in X + u (a converged solve's u: paired to its displacement error); hand
-        the solver the model's new Ã when it changed (collective)."""
+    def _configure(self, u: npt.NDArray[np.float64] | None, pairing: Pairing | None = None,
+                   resolution: float | None = None) -> None:
+        """Evaluate the contact geometry in X + u known to ``resolution`` (None: a converged solve's u, its
+        displacement error); hand the solver the model's new Ã when it changed (collective)."""
         if u is not None and pairing is not None:
             self._remember_pairing(u, pairing)
-        resolution = 0.0
-        if u is not None and pairing is None:
+        known = 0.0 if resolution is None else resolution
+        if u is not None and resolution is None:
             scale = self.model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
-            resolution = ERROR_PER_RTOL * self.settings.reduction * scale
-        if self.model.configure(u, pairing, resolution):
+            known = ERROR_PER_RTOL * self.settings.reduction * scale
+        if self.model.configure(u, pairing, known):
             self.solver.rebind()
             self.p = self.model.p
 
@@ -177,7 +178,8 @@ class SlidingSolve:
             u = model.physical(z)
             ratio = result.residual_history[0] / result.target if result.residual_history and result.target > 0 \
                 else 0.0
-            step = iteration.after(u, z, reduction, result.iterations, result.states != OPEN, ratio)
+            step = iteration.after(u, z, reduction, result.iterations, result.states != OPEN, ratio,
+                                   result.contact_force)
             if step.change is not None:
                 logger.debug("finite sliding: solved in %s, new %s: %s", step.change.old_signature[:8],
                              step.change.new_signature[:8], step.action)
@@ -201,7 +203,7 @@ class SlidingSolve:
                 raise SolverError(step.message + (f"; {both}" if both else ""), "geometry", result)
             if step.action == "update":
                 assert step.change is not None
-                self._configure(u, step.change.pairing)
+                self._configure(u, step.change.pairing, step.change.resolution)
                 self._place()
                 start = model.relative(u)
                 start[model.dirichlet_rows] = model.dirichlet_values

@@ -185,8 +185,7 @@ class ContactModel:
         self.num_clamped_global = num_dirichlet
         #: n of the paper: unknowns after removing the Dirichlet DOFs.
         self.n = self.num_dofs_global - num_dirichlet
-        #: p of the paper: number of contact nodes.
-        self.p = self.contact.num_global
+        self.p = self.contact.num_global  # p of the paper: the number of contact nodes
 
     def not_contact(self) -> npt.NDArray[np.int32]:
         """The local DOF blocks that are never contact nodes of an obstacle: clamped (three held components) or held
@@ -289,13 +288,14 @@ class ContactModel:
         Args:
             u: The physical displacement of the owned DOFs; None for the reference configuration.
             pairing: The pairing of X + u, when known.
-            resolution: The displacement error of ``u`` (a length; 0: exact) the pairing is made to.
+            resolution: The displacement error of ``u`` (a length; 0: exact): the pairing's and the ties' own.
 
         Returns:
             Whether Ã and the contact nodes were rebuilt (contact pairs): a solver built on the old ones must be
             rebuilt.
         """
         self.configuration = None if u is None else self.ghosted(u)
+        self.placement.resolution = 0.0 if u is None else resolution  # the obstacles' ties, at the next place
         return self.coupling.configure(self, u, pairing, resolution)
 
     def near_nullspace(self) -> PETSc.NullSpace:

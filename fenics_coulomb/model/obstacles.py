@@ -198,7 +198,8 @@ class Obstacle:
         value = np.asarray(displacement, dtype=np.float64).tolist()
         return dataclasses.replace(self, displacement=value)  # type: ignore[call-arg]
 
-    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+    def _gap_normal(self, x: Array, resolution: float = 0.0) -> tuple[Array, Array]:
+        """g, n at x (``resolution``: the points' own position error; only a faceted surface's ties use it)."""
         raise NotImplementedError
 
     def _tangent(self, n: Array) -> Array:
@@ -219,14 +220,14 @@ class Obstacle:
         """The obstacle at its scene position, neither translated nor rotated."""
         return dataclasses.replace(self, displacement=(0.0, 0.0, 0.0), rotation=None)  # type: ignore[call-arg]
 
-    def _placed_gap_normal(self, x: Array) -> tuple[Array, Array]:
+    def _placed_gap_normal(self, x: Array, resolution: float = 0.0) -> tuple[Array, Array]:
         """g, n at x for the placed obstacle: without a rotation the subclass's own formulas (bit for bit); with
         one, those of the obstacle at rest at y = Rᵀ(x − c), the normal rotated back: n = R n(y) (g is invariant
         under the rigid map)."""
         if getattr(self, "rotation", None) is None:
-            return self._gap_normal(x)
+            return self._gap_normal(x, resolution)
         R, c = self.placement()
-        g, n0 = self._at_rest()._gap_normal((x - c) @ R)
+        g, n0 = self._at_rest()._gap_normal((x - c) @ R, resolution)
         return g, n0 @ R.T
 
     def motion(self, previous: Obstacle, points: npt.ArrayLike) -> Array:
@@ -253,15 +254,18 @@ class Obstacle:
         """The frames R = (t₁, t₂, n) (columns) of each position, shape (m, 3, 3)."""
         return self.evaluate(x)[2]
 
-    def evaluate(self, x: npt.ArrayLike) -> tuple[Array, Array, Array]:
+    def evaluate(self, x: npt.ArrayLike, resolution: float = 0.0) -> tuple[Array, Array, Array]:
         """(g, n, R) of each position: shapes (m,), (m, 3), (m, 3, 3); R = (t₁, t₂, n) as columns. A rotated
-        obstacle's frames are those of the obstacle at rest, rotated with it."""
+        obstacle's frames are those of the obstacle at rest, rotated with it. ``resolution``: the positions' own
+        error (a length; 0: exact — a configuration X + u is known to its solve's accuracy): a triangulated
+        surface decides its ties and "on the surface" (the tied facets' mean normal, not the noise's direction
+        d/|d| at a vertex or an edge) within it."""
         if getattr(self, "rotation", None) is None:
-            g, n = self._gap_normal(_points(x))
+            g, n = self._gap_normal(_points(x), resolution)
             return g, n, frames_from_normals(n, self._tangent(n))
         rest = self._at_rest()
         R, c = self.placement()
-        g, n0 = rest._gap_normal((_points(x) - c) @ R)
+        g, n0 = rest._gap_normal((_points(x) - c) @ R, resolution)
         frames = np.einsum("ij,mjk->mik", R, frames_from_normals(n0, rest._tangent(n0)))
         return g, n0 @ R.T, frames
 
@@ -304,7 +308,7 @@ class Plane(Obstacle):
     keys: ClassVar[tuple[str, ...]] = ("point", "normal")
     affine: ClassVar[bool] = True
 
-    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+    def _gap_normal(self, x: Array, resolution: float = 0.0) -> tuple[Array, Array]:
         nu = np.asarray(self.normal)
         g = (x - np.asarray(self.placed)) @ nu
         return g, np.broadcast_to(nu, x.shape).copy()
@@ -327,7 +331,7 @@ class Sphere(Obstacle):
     def core(self, lo: Array, hi: Array, samples: int) -> Array:
         return np.asarray(self.placed, dtype=np.float64)[None, :]
 
-    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+    def _gap_normal(self, x: Array, resolution: float = 0.0) -> tuple[Array, Array]:
         c = np.asarray(self.placed)
         d = x - c
         dist = np.linalg.norm(d, axis=1)
@@ -353,7 +357,7 @@ class Cylinder(Obstacle):
     keys: ClassVar[tuple[str, ...]] = ("point", "axis", "radius")
     box_core: ClassVar[bool] = True
 
-    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+    def _gap_normal(self, x: Array, resolution: float = 0.0) -> tuple[Array, Array]:
         a = np.asarray(self.axis)
         d = x - np.asarray(self.placed)
         radial = d - (d @ a)[:, None] * a
@@ -420,13 +424,14 @@ def register_obstacle(cls: type[Obstacle], **checks: Callable[[Any, str], Any]) 
 
 
 # -- several obstacles ---------------------------------------------------------------------------------
-def closest_obstacle(obstacles: Sequence[Obstacle], x: npt.ArrayLike) -> tuple[npt.NDArray[np.intp], Array,
-                                                                               Array, Array]:
+def closest_obstacle(obstacles: Sequence[Obstacle], x: npt.ArrayLike, resolution: float = 0.0
+                     ) -> tuple[npt.NDArray[np.intp], Array, Array, Array]:
     """Assign each node to the obstacle with the smallest g (ties: the first in ``obstacles``).
 
     Args:
         obstacles: At least one obstacle (placed at their displacements).
         x: REFERENCE node positions, shape (m, 3).
+        resolution: The positions' own error (a length; 0: exact), see :meth:`Obstacle.evaluate`.
 
     Returns:
         (index, g, n, R): the obstacle index per node and that obstacle's g, n and frame R.
@@ -434,7 +439,7 @@ def closest_obstacle(obstacles: Sequence[Obstacle], x: npt.ArrayLike) -> tuple[n
     if not obstacles:
         raise ValueError("closest_obstacle needs at least one obstacle (DEFAULT_PLANE for the paper's)")
     x = _points(x)
-    results = [o.evaluate(x) for o in obstacles]
+    results = [o.evaluate(x, resolution) for o in obstacles]
     gaps = np.stack([r[0] for r in results])  # (k, m)
     index = np.argmin(gaps, axis=0)  # first minimum on ties
     nodes = np.arange(x.shape[0])

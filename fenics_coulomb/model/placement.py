@@ -75,7 +75,10 @@ class ObstaclePlacement:
         self._locator = BodyLocator(mesh) if any(o.core(np.zeros(3), np.ones(3), 2).size for o in obstacles) \
             else None
         self._scene_obstacles: list[Obstacle] | None = None
-        self._closest_cache: tuple | None = None  # (obstacles, points, closest_obstacle's result)
+        self._closest_cache: tuple | None = None  # (obstacles, points, closest_obstacle's result, resolution)
+        #: The configuration's own displacement error (a length; 0: the reference configuration, exact), to which
+        #: :meth:`place` decides a triangulated surface's ties (:meth:`ContactModel.configure` sets it).
+        self.resolution = 0.0
         self._motion_checked: tuple | None = None  # the placements check_motion passed last
         self._material_cache: tuple | None = None  # (obstacle, points, its closest points)
         self._boundary: tuple[npt.NDArray[np.int32], npt.NDArray[np.float64]] | None = None
@@ -121,19 +124,20 @@ class ObstaclePlacement:
         everyone = [(d, m) for d, m in self.comm.allgather((worst, message)) if m]
         check_all(self.comm, not everyone, max(everyone)[1] if everyone else "")
 
-    def closest(self, obstacles: Sequence[Obstacle], x: npt.NDArray[np.float64]
+    def closest(self, obstacles: Sequence[Obstacle], x: npt.NDArray[np.float64], resolution: float = 0.0
                 ) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.float64], npt.NDArray[np.float64],
                            npt.NDArray[np.float64]]:
-        """:func:`~fenics_coulomb.model.obstacles.closest_obstacle` of the points ``x``, remembered for the last
-        obstacles and points: the geometry check of finite sliding and the next placement ask for the same points
-        (copies returned)."""
+        """:func:`~fenics_coulomb.model.obstacles.closest_obstacle` of the points ``x`` known to ``resolution``,
+        remembered for the last obstacles, points and resolution: the geometry check of finite sliding and the next
+        placement ask for the same (copies returned)."""
         cached = self._closest_cache
         if cached is not None and len(cached[0]) == len(obstacles) and all(
-                a is b for a, b in zip(cached[0], obstacles)) and np.array_equal(cached[1], x):
+                a is b for a, b in zip(cached[0], obstacles)) and np.array_equal(cached[1], x) \
+                and cached[3] == resolution:
             result = cached[2]
         else:
-            result = closest_obstacle(obstacles, x)
-            self._closest_cache = (list(obstacles), np.array(x, copy=True), result)
+            result = closest_obstacle(obstacles, x, resolution)
+            self._closest_cache = (list(obstacles), np.array(x, copy=True), result, resolution)
         return tuple(np.array(r, copy=True) for r in result)  # type: ignore[return-value]
 
     def material_point(self, obstacle: Obstacle, x: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -266,7 +270,7 @@ class ObstaclePlacement:
         finite = configuration is not None
         X = cmap.coordinates[rigid]
         u = configuration.reshape(-1, 3)[cmap.blocks[rigid]] if configuration is not None else np.zeros((rigid.size, 3))
-        index, gap, _, frames = self.closest(obstacles, X + u if finite else X)
+        index, gap, _, frames = self.closest(obstacles, X + u if finite else X, self.resolution if finite else 0.0)
         # round-off below the surface (e.g. from mesh generators) counts as touching
         gap[(gap < 0.0) & (gap > -1e-12 * self.size)] = 0.0
         if finite:  # linearized about the configuration: g(X + u_c) + n·(u − u_c)

@@ -104,7 +104,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["ACCURACY_SHARE", "ACCURACY_FLOOR", "MAX_GEOMETRY_UPDATES", "ROUND_OFF_STAGNATION", "ROUND_OFF_CAP",
            "CYCLE_TOLERANCE", "LOOSE_FACTOR", "GeometryChange",
-           "GeometryIteration", "supports", "geometry_change"]
+           "GeometryIteration", "geometry_change"]
 
 Array = npt.NDArray[np.float64]
 
@@ -166,6 +166,8 @@ class GeometryChange:
     #: The contact nodes and supports of the geometry solved with and of the new one (equal on every rank).
     old_signature: str = ""
     new_signature: str = ""
+    #: The new geometry's own displacement error (a length): its pairing's and its obstacles' ties were made to it.
+    resolution: float = 0.0
 
     def describe(self) -> str:
         """One line for logs and errors."""
@@ -173,22 +175,6 @@ class GeometryChange:
         if self.changed:
             return f"{self.changed} contact node(s) changed partner, e.g. at {at}"
         return f"largest change of a gap or slip {self.discrepancy:.3g} > {self.tolerance:.3g} at {at}"
-
-
-def supports(master_blocks: npt.NDArray[np.int64], weights: Array, threshold: Array | float = 0.0
-             ) -> npt.NDArray[np.int64]:
-    """Each node's stencil support as a sorted row (−1 padding): the master nodes with |Φ_jl| > ``threshold``
-    (per node, or one value)."""
-    mb = np.where(np.abs(weights) > np.reshape(threshold, (-1, 1)), master_blocks, -1)
-    return -np.sort(-mb, axis=1) if mb.size else mb
-
-
-def _same_supports(a: npt.NDArray[np.int64], b: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
-    width = max(a.shape[1], b.shape[1], 1)
-    pa = np.full((a.shape[0], width), -1, np.int64)
-    pb = np.full((b.shape[0], width), -1, np.int64)
-    pa[:, :a.shape[1]], pb[:, :b.shape[1]] = a, b
-    return np.all(pa == pb, axis=1)
 
 
 def _tangential(n: Array, v: Array) -> Array:
@@ -208,6 +194,19 @@ def _signature(comm: MPI.Comm, nodes: npt.NDArray[np.int64], rows: npt.NDArray[n
     return hashlib.sha256(everyone.tobytes()).hexdigest()
 
 
+def _node_stiffness(model: ContactModel) -> Array:
+    """Each contact node's stiffness: the mean diagonal of the elastic energy's matrix over its components no
+    support holds."""
+    diagonal = model.coupling.energy_matrix(model).getDiagonal()
+    try:
+        values = diagonal.getArray(readonly=True)[model.contact.local_dofs]
+    finally:
+        diagonal.destroy()
+    held = model.contact.held if model.contact.held is not None else np.zeros(values.shape, dtype=bool)
+    free = np.where(held, 0.0, 1.0)
+    return np.sum(values * free, axis=1) / np.maximum(np.sum(free, axis=1), 1.0)
+
+
 def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
     everyone = np.concatenate(comm.allgather(np.asarray(x, dtype=np.float64).reshape(-1, 3)[:3]))
     order = np.lexsort(everyone.T[::-1]) if everyone.size else np.zeros(0, np.intp)
@@ -215,7 +214,8 @@ def _gather_where(comm: MPI.Comm, x: Array) -> list[tuple[float, float, float]]:
 
 
 def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | None, accuracy: float,
-                    active: npt.NDArray[np.bool_] | None = None, error: float = 0.0) -> GeometryChange:
+                    active: npt.NDArray[np.bool_] | None = None, error: float = 0.0,
+                    force: Array | None = None) -> GeometryChange:
     """Compare the contact geometry of X + u with the linearization the solve used (collective).
 
     Args:
@@ -228,7 +228,12 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
             An open node whose gap in the new geometry is ≥ −ε is satisfied by the solution whatever its
             partner: its changes do not count (see the module docstring, "Open nodes").
         error: The relative displacement error of ``u`` itself (its solve's, a loose one's too): the pairing of
-            X + u is made to error·‖u‖_∞ (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
+            X + u is made to error·‖u‖_∞ (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`), and so are a
+            triangulated obstacle's ties.
+        force: The solution's contact force per contact node (m, 3), None: none. An obstacle node's normal that
+            turned by Δn counts as the displacement |Δn|·|f|/k (k its stiffness, the diagonal of the elastic
+            energy's matrix): the force's direction, and with it the node's response, turns with the normal —
+            at a faceted obstacle's vertex the normal may turn where neither the gap nor the slip changes.
     """
     comm = model.comm
     cmap = model.contact
@@ -245,14 +250,19 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     index: npt.NDArray[np.signedinteger] = np.zeros(0, np.intp)
     if rigid.size:
         uc = U[cmap.blocks[rigid]]
-        index, g, n, _ = model.closest(model.obstacles, x_now[rigid])
+        index, g, n, _ = model.placement.closest(model.obstacles, x_now[rigid], error * scale)
         relevant = pressed[rigid] | (g < -tolerance)
         moved[rigid] = (index != cmap.obstacle_index[rigid]) & relevant
         n_old = cmap.frames[rigid][:, :, 2]
         linear = cmap.gap[rigid] + np.einsum("ij,ij->i", n_old, uc)
         v = uc - model.offset[rigid]
         dt = _tangential(n, v) - _tangential(n_old, v)
-        delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt)), 0.0)
+        turned = np.zeros(rigid.size)
+        if force is not None:  # the normal's turn, as the displacement of the force turned with it
+            turned = np.linalg.norm(n - n_old, axis=1) * np.linalg.norm(force[rigid], axis=1) / \
+                _node_stiffness(model)[rigid]
+        delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt) + turned ** 2),
+                                0.0)
     r0 = model.V.dofmap.index_map.local_range[0]
     pairs = model.coupling.stencil_change(model, u, z, previous, tolerance, pressed, error * scale)  # its own nodes
     moved[paired] = pairs.moved[paired]
@@ -279,8 +289,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         return _signature(comm, np.concatenate(nodes), np.column_stack([np.concatenate(kind), np.concatenate(wide)]))
 
     return GeometryChange(settled, changed, discrepancy, tolerance, where, pairs.pairing,
-                          signature(old_nodes, old_rows),
-                          signature(new_nodes, new_rows))
+                          signature(old_nodes, old_rows), signature(new_nodes, new_rows), error * scale)
 
 
 def _cycle_advice(model: ContactModel, amplitude: float, h: float) -> str:
@@ -364,10 +373,11 @@ class GeometryIteration:
         return off <= 1e-12 * scale
 
     def after(self, u: Array, z: Array, reduction: float, iterations: int,
-              active: npt.NDArray[np.bool_] | None = None, start: float = 0.0) -> Step:
+              active: npt.NDArray[np.bool_] | None = None, start: float = 0.0, force: Array | None = None) -> Step:
         """Decide after a solve to ``reduction`` with ``iterations`` Newton steps whose solution is ``u``
         (physical) / ``z`` (the model's unknown), both on the owned DOFs, pressing the contact nodes ``active``
-        (None: every node counts), its start's residual ``start`` times its target (collective)."""
+        (None: every node counts) with the contact forces ``force`` (per node, (m, 3); None: not compared), its
+        start's residual ``start`` times its target (collective)."""
         model, rtol = self.model, self.rtol
         if self._restore is not None:
             self.reduction, self._restore = self._restore, None
@@ -395,7 +405,7 @@ class GeometryIteration:
                                           f"{rtol:g}")
         self._measure(u, iterations, reduction <= rtol)
         change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
-                                 self.error_per_rtol * reduction)
+                                 self.error_per_rtol * reduction, force)
         forced = change.settled and not self._accurate(change, u)  # ε met, the accuracy asked not
         change.settled = change.settled and not forced
         self._solved.append((change.old_signature, u, reduction))

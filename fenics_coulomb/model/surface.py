@@ -118,10 +118,10 @@ class Surface(Obstacle):
         swallow)."""
         return surface_core(self.file, self.source, self.side) + np.asarray(self.displacement, dtype=np.float64)
 
-    def _gap_normal(self, x: Array) -> tuple[Array, Array]:
+    def _gap_normal(self, x: Array, resolution: float = 0.0) -> tuple[Array, Array]:
         index = surface_index(self.file, self.source, self.side)
         local = x - np.asarray(self.displacement)  # the surface moves by δ: the node moves by −δ relative to it
-        out = closest_on_surface(local, index)
+        out = closest_on_surface(local, index, resolution)
         n = out["normal"]
         d = local - out["closest"]
         # beside an open surface's outer edge (±d in no normal cone): the closest point as a point obstacle,
@@ -218,7 +218,7 @@ def _box_candidates(x: Array, bound: Array, index: SurfaceIndex) -> tuple[npt.ND
     return point[keep], facet[keep]
 
 
-def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, npt.NDArray[Any]]:
+def closest_on_surface(x: Array, index: SurfaceIndex, resolution: float = 0.0) -> dict[str, npt.NDArray[Any]]:
     """Closest points, weights, facets, normals and cone membership of the points x (m, 3) on a surface at rest:
     the two-body master projection with its tie and normal-cone rules
     (:mod:`fenics_coulomb.model.pairs.projection`), the same numbers as its search over every facet.
@@ -241,7 +241,7 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, npt.NDArray[A
     _, ii = index.tree.query(x, k=k0)
     ii = ii.reshape(m, k0)
     _, _, dist = closest_points(np.repeat(x, k0, axis=0), surface.X[ii.ravel()])
-    bound = dist.reshape(m, k0).min(axis=1) + TIE_TOL * hmax + 1e-12 * (hmax + np.abs(x).max())
+    bound = dist.reshape(m, k0).min(axis=1) + max(TIE_TOL * hmax, resolution) + 1e-12 * (hmax + np.abs(x).max())
     # the boxes' and the planes' distances (each at most the triangle's) are compared with a bound widened by its
     # own round-off
     bound = bound * (1.0 + 1e-12)
@@ -249,7 +249,7 @@ def closest_on_surface(x: Array, index: SurfaceIndex) -> dict[str, npt.NDArray[A
     plane = np.abs(np.einsum("ij,ij->i", index.normals[facet], x[node]) - index.offsets[facet])
     near = plane <= bound[node]
     node, facet = node[near], facet[near]
-    select_candidates(x, node, facet, surface, size, index.rank, out)
+    select_candidates(x, node, facet, surface, size, index.rank, out, resolution)
     return out
 
 

@@ -397,9 +397,10 @@ def candidate_facets(x: Array, surface: Surface, k0: int, slack: tuple[Any, ...]
 
 
 def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[np.intp], surface: Surface,
-                      size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array]) -> None:
+                      size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], resolution: float = 0.0) -> None:
     """The closest point of each point x_i among its candidate facets (the pairs (``node``, ``facet``), sorted by
-    node), with the tie and normal-cone rules (:func:`_select`), written into ``out``."""
+    node), with the tie and normal-cone rules (:func:`_select`), written into ``out``; ``resolution``: the points'
+    own position error (a length, 0: exact), below which ties and "on the surface" are decided as at round-off."""
     m = x.shape[0]
     q, w, dist = closest_points(x[node], surface.X[facet])
     # rectangular batches of nodes with similar candidate counts (padding: distance inf, never tied or chosen)
@@ -412,18 +413,20 @@ def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[n
         valid = slot < count[sel, None]
         src = np.where(valid, first[sel, None] + slot, first[sel, None])
         dk = np.where(valid, dist[src], np.inf)
-        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel)
+        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel, resolution)
 
 
 def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array, surface: Surface,
-            size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], nodes: npt.NDArray[np.intp]) -> None:
-    """Pick x_m, the lexicographic facet among the tied ones, n and the cone test for a batch of nodes."""
+            size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], nodes: npt.NDArray[np.intp],
+            resolution: float = 0.0) -> None:
+    """Pick x_m, the lexicographic facet among the tied ones, n and the cone test for a batch of nodes (ties and
+    "on the surface" within TIE_TOL·h, or within ``resolution`` where the points are known no better)."""
     if nodes.size == 0:
         return
     rows = np.arange(nodes.size)
     near = np.argmin(dist, axis=1)
     h = size[ii[rows, near]]
-    tol = TIE_TOL * h
+    tol = np.maximum(TIE_TOL * h, resolution)
     tied = (dist <= dist[rows, near][:, None] + tol[:, None]) & (norm(q - q[rows, near][:, None]) <= tol[:, None])
     chosen = np.argmin(np.where(tied, rank[ii], np.iinfo(np.intp).max), axis=1)
     facet = ii[rows, chosen]

@@ -11,15 +11,31 @@ import numpy.typing as npt
 
 from fenics_coulomb.model.coupling import StencilChange
 from fenics_coulomb.model.pairs.two_body import coupling_matrix
-from fenics_coulomb.model.sliding import _same_supports, _tangential, supports
+from fenics_coulomb.model.sliding import _tangential
 
 if TYPE_CHECKING:
     from fenics_coulomb.model.contact_model import ContactModel
     from fenics_coulomb.model.pairs.pair import Pairing
 
-__all__ = ["stencil_change"]
+__all__ = ["supports", "stencil_change"]
 
 Array = npt.NDArray[np.float64]
+
+
+def supports(master_blocks: npt.NDArray[np.int64], weights: Array, threshold: Array | float = 0.0
+             ) -> npt.NDArray[np.int64]:
+    """Each node's stencil support as a sorted row (−1 padding): the master nodes with |Φ_jl| > ``threshold``
+    (per node, or one value)."""
+    mb = np.where(np.abs(weights) > np.reshape(threshold, (-1, 1)), master_blocks, -1)
+    return -np.sort(-mb, axis=1) if mb.size else mb
+
+
+def _same_supports(a: npt.NDArray[np.int64], b: npt.NDArray[np.int64]) -> npt.NDArray[np.bool_]:
+    width = max(a.shape[1], b.shape[1], 1)
+    pa = np.full((a.shape[0], width), -1, np.int64)
+    pb = np.full((b.shape[0], width), -1, np.int64)
+    pa[:, :a.shape[1]], pb[:, :b.shape[1]] = a, b
+    return np.all(pa == pb, axis=1)
 
 
 def stencil_change(model: ContactModel, old: Pairing, pairing: Pairing, held: npt.NDArray[np.bool_],
