@@ -107,6 +107,9 @@ class Coupling:
     A_free: PETSc.Mat | None = None
     #: Whether the coupling's own geometry depends on the configuration (finite sliding re-pairs it).
     follows_configuration: bool = False
+    #: Per local DOF block, the width within which a node's closest points on several master facets count as tied
+    #: (None: the round-off rule): the nodes of a geometry 2-cycle (:meth:`tie`).
+    ties: Array | None = None
 
     # -- construction ------------------------------------------------------------------------------------
     def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
@@ -152,6 +155,12 @@ class Coupling:
                   resolution: float = 0.0) -> bool:
         """Rebuild the coupling's geometry in X + u (``pairing`` when known, else paired to ``resolution``);
         whether A and the contact nodes changed (collective)."""
+        return False
+
+    def tie(self, model: ContactModel, blocks: npt.NDArray[np.int32], width: Array) -> bool:
+        """Tie the closest points of the nodes ``blocks`` (local) within ``width`` from the next pairing on: a
+        node-to-surface node in a 2-cycle across a master edge takes the edge's tied facets' mean normal
+        (:mod:`fenics_coulomb.model.sliding`, "Nodes on a master edge"); whether any pair can (collective)."""
         return False
 
     def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,

@@ -116,6 +116,8 @@ MAX_GEOMETRY_UPDATES = 10
 #: A 2-cycle of the geometry is accepted when its solutions differ by at most this × the smallest cell diameter at
 #: the contact nodes ("Nodes on a master edge"); the smaller energy kept unless within this relative difference ...
 CYCLE_TOLERANCE, CYCLE_ENERGY_TIE = 1e-3, 1e-7
+#: A node-to-surface 2-cycle's nodes tie their closest points within this × its amplitude (once per solve).
+CYCLE_TIE = 4.0
 #: ... then the smaller Σ_i u_i · this (the same for every partition: energies differed by 5e-9 with the partition).
 CYCLE_DIRECTION = np.array([1.0, 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(3.0)])
 
@@ -168,6 +170,8 @@ class GeometryChange:
     new_signature: str = ""
     #: The new geometry's own displacement error (a length): its pairing's and its obstacles' ties were made to it.
     resolution: float = 0.0
+    #: The local DOF blocks of this rank's contact nodes of the coupling (pairs) that changed partner.
+    moved_blocks: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
 
     def describe(self) -> str:
         """One line for logs and errors."""
@@ -289,7 +293,8 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         return _signature(comm, np.concatenate(nodes), np.column_stack([np.concatenate(kind), np.concatenate(wide)]))
 
     return GeometryChange(settled, changed, discrepancy, tolerance, where, pairs.pairing,
-                          signature(old_nodes, old_rows), signature(new_nodes, new_rows), error * scale)
+                          signature(old_nodes, old_rows), signature(new_nodes, new_rows), error * scale,
+                          cmap.blocks[moved & paired].astype(np.int32))
 
 
 def _cycle_advice(model: ContactModel, amplitude: float, h: float) -> str:
@@ -351,6 +356,8 @@ class GeometryIteration:
         self._solved: list[tuple[str, Array, float]] = []  # (geometry, solution, reduction) of every solve
         self._last = False
         self._cycle: float | None = None  # the amplitude of the last 2-cycle too wide to accept
+        self._tied = False  # a 2-cycle's nodes tied (node-to-surface) in this solve
+        model.coupling.ties = None
         self._unchanged: float | None = None  # the last full-accuracy check's change with the same nodes
         self._pending: GeometryChange | None = None  # the last update's change, until a Newton step has followed it
         self._restore: float | None = None  # the reduction after a solve tightened to resolve an update
@@ -436,10 +443,19 @@ class GeometryIteration:
             and change.discrepancy > ACCURACY_FLOOR * self.extent and reduction <= rtol else None
         solved, cycle = self._solved, ""
         if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
-            if max(solved[-1][2], solved[-2][2]) > rtol:
+            amplitude = model.comm.allreduce(float(np.max(np.abs(u - solved[-2][1]), initial=0.0)), op=MPI.MAX)
+            loose = max(solved[-1][2], solved[-2][2]) > rtol
+            if loose:
                 self.reduction = rtol  # a cycle seen at loose accuracy: look again at rtol
-            else:
-                amplitude = model.comm.allreduce(float(np.max(np.abs(u - solved[-2][1]), initial=0.0)), op=MPI.MAX)
+            width = np.full(change.moved_blocks.size, CYCLE_TIE * amplitude)
+            if not self._tied and model.coupling.tie(model, change.moved_blocks, width):
+                self._tied = True  # once per solve: the cycle's nodes tied across their edge, solved again
+                change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
+                                         self.error_per_rtol * reduction, force)
+                self._pending, self._solved = change, []  # a tied geometry may share a cycle state's digest
+                step = Step("update", change, f"a 2-cycle ({amplitude:.3g}): its nodes' closest points tied within "
+                                              f"{CYCLE_TIE * amplitude:.3g}")
+            elif not loose:
                 h = model.comm.allreduce(float(np.min(model.node_size()[model.contact.blocks], initial=np.inf)),
                                          op=MPI.MIN)
                 if amplitude <= CYCLE_TOLERANCE * h:

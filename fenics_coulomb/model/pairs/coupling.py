@@ -280,7 +280,14 @@ class PairCoupling(Coupling):
         ug = model.ghosted(u)
         x = model.V.tabulate_dof_coordinates() + ug.reshape(-1, 3)
         return self._merge(model, pair_surfaces(model.V, self.pairs, self._excluded, coordinates=x,
-                                                resolution=resolution, held=model.held), ug)
+                                                resolution=resolution, held=model.held, ties=self.ties), ug)
+
+    def tie(self, model: ContactModel, blocks: npt.NDArray[np.int32], width: Array) -> bool:
+        if not any(q.method == "node-to-surface" for q in self.pairs):
+            return False
+        self.ties = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts)
+        self.ties[blocks] = width
+        return True
 
     def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None,
                   resolution: float = 0.0) -> bool:

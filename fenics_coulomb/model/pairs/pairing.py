@@ -79,7 +79,8 @@ def _diagonal(comm: MPI.Comm, points: Array) -> tuple[Array, Array]:
 
 def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                   excluded: npt.NDArray[np.int32], coordinates: Array | None = None,
-                  resolution: float = 0.0, held: npt.NDArray[np.bool_] | None = None) -> Pairing:
+                  resolution: float = 0.0, held: npt.NDArray[np.bool_] | None = None,
+                  ties: npt.NDArray[np.float64] | None = None) -> Pairing:
     """Pair the slave nodes of every contact pair with their master surfaces (see the module docstring).
 
     Collective.
@@ -96,6 +97,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             geometric decisions finer than it are not made (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
         held: The components a support holds, of every local DOF block (owned and ghost), shape (blocks, 3)
             (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`); None: none.
+        ties: Per local DOF block, the width of node-to-surface's ties (``PairInput.ties``); None: round-off.
 
     Returns:
         The owned contact nodes of all pairs.
@@ -175,7 +177,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             comm=comm, label=pair.label, x=X_dofs, owned_slave=owned_slave,
             global_slave=imap.local_to_global(owned_slave).astype(np.int64), nodes=nodes, master=master,
             size=facet_sizes(master), rank=facet_ranks(master), search=search, gather_slave=slave,
-            resolution=resolution, held=held))
+            resolution=resolution, held=held, ties=ties))
         g, contact, others, ro = stencils.gap, stencils.contact, stencils.others, stencils.projected
         # the other owned slave nodes over M (Dirichlet ones, beyond the search distance, mortar nodes not fully
         # covered): checked for penetration after a solve, with their node-to-surface projection

@@ -352,18 +352,21 @@ def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
     return best
 
 
-def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp]) -> dict[str, Array]:
+def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp],
+            ties: float | Array = 0.0) -> dict[str, Array]:
     """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface (the
     candidate facets of :func:`candidate_facets`: a facet nearer than the bound, or tied with the nearest, is among
-    them, its distance at least its centre's distance − its radius)."""
+    them, its distance at least its centre's distance − its radius); ``ties``: a width (per node, or one) within
+    which closest points tie, beyond the round-off rule's TIE_TOL·h."""
     m, nv = x.shape[0], surface.X.shape[1]
     out = empty_closest(m, nv)
     nf = surface.X.shape[0]
     if m == 0 or nf == 0:
         return out
     hmax = float(size.max())
-    node, facet = candidate_facets(x, surface, 4, (TIE_TOL * hmax, 1e-12 * (hmax + np.abs(x).max())))
-    select_candidates(x, node, facet, surface, size, rank, out)
+    widest = float(np.max(ties, initial=0.0))
+    node, facet = candidate_facets(x, surface, 4, (max(TIE_TOL * hmax, widest), 1e-12 * (hmax + np.abs(x).max())))
+    select_candidates(x, node, facet, surface, size, rank, out, ties)
     return out
 
 
@@ -397,10 +400,12 @@ def candidate_facets(x: Array, surface: Surface, k0: int, slack: tuple[Any, ...]
 
 
 def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[np.intp], surface: Surface,
-                      size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], resolution: float = 0.0) -> None:
+                      size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array],
+                      resolution: float | Array = 0.0) -> None:
     """The closest point of each point x_i among its candidate facets (the pairs (``node``, ``facet``), sorted by
     node), with the tie and normal-cone rules (:func:`_select`), written into ``out``; ``resolution``: the points'
-    own position error (a length, 0: exact), below which ties and "on the surface" are decided as at round-off."""
+    own position error (a length, 0: exact; one, or per point), below which ties and "on the surface" are decided
+    as at round-off."""
     m = x.shape[0]
     q, w, dist = closest_points(x[node], surface.X[facet])
     # rectangular batches of nodes with similar candidate counts (padding: distance inf, never tied or chosen)
@@ -418,7 +423,7 @@ def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[n
 
 def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array, surface: Surface,
             size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], nodes: npt.NDArray[np.intp],
-            resolution: float = 0.0) -> None:
+            resolution: float | Array = 0.0) -> None:
     """Pick x_m, the lexicographic facet among the tied ones, n and the cone test for a batch of nodes (ties and
     "on the surface" within TIE_TOL·h, or within ``resolution`` where the points are known no better)."""
     if nodes.size == 0:
@@ -426,9 +431,14 @@ def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array,
     rows = np.arange(nodes.size)
     near = np.argmin(dist, axis=1)
     h = size[ii[rows, near]]
-    tol = np.maximum(TIE_TOL * h, resolution)
-    tied = (dist <= dist[rows, near][:, None] + tol[:, None]) & (norm(q - q[rows, near][:, None]) <= tol[:, None])
-    chosen = np.argmin(np.where(tied, rank[ii], np.iinfo(np.intp).max), axis=1)
+    width = np.asarray(resolution, dtype=np.float64)
+    tol = np.maximum(TIE_TOL * h, width[nodes] if width.ndim else width)
+    apart = norm(q - q[rows, near][:, None])
+    tied = (dist <= dist[rows, near][:, None] + tol[:, None]) & (apart <= tol[:, None])
+    # x_m and the weights: the lexicographic facet among those tied at round-off (the same point: the choice only
+    # lists zero weights), so a wider tie (the normal's) does not make x_m depend on the numbering
+    exact = (dist <= dist[rows, near][:, None] + TIE_TOL * h[:, None]) & (apart <= TIE_TOL * h[:, None])
+    chosen = np.argmin(np.where(exact, rank[ii], np.iinfo(np.intp).max), axis=1)
     facet = ii[rows, chosen]
     xm, wm = q[rows, chosen], w[rows, chosen]
     kq = ii.shape[1]

@@ -48,6 +48,8 @@ class PairInput:
         held: The Cartesian components a support holds, of every local DOF block (owned and ghost), shape
             (blocks, 3); None: none (node-to-surface decides the normal cone of a held node in the directions it
             can move, :func:`~fenics_coulomb.model.pairs.node_to_surface.stencils`).
+        ties: Per local DOF block, the width within which node-to-surface ties a node's closest points (None:
+            the round-off rule, TIE_TOL·h): the nodes of a geometry 2-cycle across a master edge.
     """
 
     comm: MPI.Comm
@@ -63,6 +65,7 @@ class PairInput:
     gather_slave: Callable[[], Surface]
     resolution: float = 0.0
     held: npt.NDArray[np.bool_] | None = None
+    ties: Array | None = None
 
 
 @dataclass
