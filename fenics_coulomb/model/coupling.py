@@ -202,6 +202,18 @@ class Coupling:
         """The matrix K of the elastic energy ½ uᵀ K u of the physical displacement."""
         return model.A
 
+    def node_stiffness(self, model: ContactModel) -> Array:
+        """Each contact node's stiffness: the mean diagonal of :meth:`energy_matrix` over its components no support
+        holds (collective: none; the owned contact nodes)."""
+        diagonal = self.energy_matrix(model).getDiagonal()
+        try:
+            values = diagonal.getArray(readonly=True)[model.contact.local_dofs]
+        finally:
+            diagonal.destroy()
+        held = model.contact.held if model.contact.held is not None else np.zeros(values.shape, dtype=bool)
+        free = np.where(held, 0.0, 1.0)
+        return np.sum(values * free, axis=1) / np.maximum(np.sum(free, axis=1), 1.0)
+
     def partner_sizes(self, sizes: Array) -> Array:
         """Small sliding's unit of a slide per contact node, ``sizes`` (the obstacles') with the coupling's own
         nodes' partner facet diameters set."""

@@ -251,7 +251,7 @@ def test_closest_point_kernels(nv):
     """The facet kernels on random (non-planar) facets and points beside, above and below them: the distance
     equals scipy's minimum over the facet's parametrization (a collapsed square for triangles), the
     weights reproduce the point and sum to 1."""
-    from fenics_coulomb.model.pairs.projection import _closest_quad, _closest_triangle
+    from fenics_coulomb.model.pairs.facet_closest import _closest_quad, _closest_triangle
 
     rng = np.random.default_rng(7)
     k = 60

@@ -34,7 +34,7 @@ from fenics_coulomb.model.obstacle_checks import check_not_overlapping
 from fenics_coulomb.model.obstacles import Obstacle, closest_obstacle
 from fenics_coulomb.model.pairs.forces import balance_sum, pair_forces
 from fenics_coulomb.model.pairs.master_nodes import master_excess
-from fenics_coulomb.model.pairs.pair import ContactPair, Pairing
+from fenics_coulomb.model.pairs.pair import ContactPair, Pairing, merged_contact_map
 from fenics_coulomb.model.pairs.pairing import pair_surfaces
 from fenics_coulomb.model.pairs.sliding import stencil_change
 from fenics_coulomb.model.reproducible import TripleProduct, assemble_matrix, same_pattern
@@ -194,31 +194,8 @@ class PairCoupling(Coupling):
             model.load = model.A.createVecRight()
             model.load.setOptionsPrefix(f"{prefix}load_")
         model.assemble_load()
-        blocks, coordinates, gap, frames = pairing.blocks, pairing.coordinates, pairing.gap, pairing.frames
-        index: np.ndarray = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
-        paired = np.ones(blocks.size, dtype=bool)
-        held = pair_held
-        node_friction = pairing.friction
-        if obstacle_map is not None:
-            blocks = np.concatenate([blocks, obstacle_map.blocks])
-            coordinates = np.concatenate([coordinates, obstacle_map.coordinates])
-            gap = np.concatenate([gap, obstacle_map.gap])
-            frames = np.concatenate([frames, obstacle_map.frames])
-            index = np.concatenate([index, obstacle_map.obstacle_index])
-            held = np.concatenate([held, obstacle_map.held_components])
-            paired = np.concatenate([paired, np.zeros(obstacle_map.size, dtype=bool)])
-            node_friction = np.concatenate([node_friction, obstacle_friction])
-        order = np.argsort(blocks, kind="stable")
-        blocks = blocks[order].astype(np.int32)
-        offsets = np.arange(3, dtype=np.int32)
-        model.contact = ContactMap(
-            blocks=blocks, local_dofs=(3 * blocks[:, None] + offsets).astype(np.int32),
-            global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
-            coordinates=np.ascontiguousarray(coordinates[order]), gap=np.ascontiguousarray(gap[order]),
-            frames=np.ascontiguousarray(frames[order]), obstacle_index=index[order],
-            num_global=comm.allreduce(int(blocks.size), op=MPI.SUM), held=np.ascontiguousarray(held[order]))
-        self._paired = paired[order]
-        model.friction = np.ascontiguousarray(np.asarray(node_friction, dtype=np.float64)[order])
+        model.contact, self._paired, model.friction = merged_contact_map(pairing, pair_held, obstacle_map,
+                                                                         obstacle_friction, r0, comm)
         model.p = model.contact.num_global
         for mat in (self._free_coupling, self._given_coupling):
             if mat is not None:

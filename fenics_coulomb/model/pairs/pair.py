@@ -1,5 +1,6 @@
 """A contact pair (:class:`ContactPair`: the slave and master surfaces, friction, search distance, method) and
-the pairing of all pairs (:class:`Pairing`: per owned contact node its stencil, gap and frame).
+the pairing of all pairs (:class:`Pairing`: per owned contact node its stencil, gap and frame), and the contact map
+it makes with the obstacles' contact nodes (:func:`merged_contact_map`).
 
 Invalid fields are rejected when a pair is created (InputError, one line, the same on every rank).
 """
@@ -18,9 +19,10 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.errors import InputError
+from fenics_coulomb.model.contact_map import ContactMap
 from fenics_coulomb.model.pairs.registry import check_method
 
-__all__ = ["ContactPair", "Pairing"]
+__all__ = ["ContactPair", "Pairing", "merged_contact_map"]
 
 Array = npt.NDArray[np.float64]
 
@@ -184,3 +186,35 @@ class Pairing:
     def size(self) -> int:
         """Number of contact nodes owned by this rank."""
         return int(self.blocks.size)
+
+
+def merged_contact_map(pairing: Pairing, held: npt.NDArray[np.bool_], obstacles: ContactMap | None,
+                       obstacle_friction: Array, r0: int, comm: MPI.Comm
+                       ) -> tuple[ContactMap, npt.NDArray[np.bool_], Array]:
+    """The model's contact map of the pairs' slave nodes (``pairing``, their held components ``held``) and the
+    obstacles' contact nodes (``obstacles``, their friction), ascending by local DOF block (``r0``: the rank's first
+    global block); which of its nodes are the pairing's (in the pairing's order), and every node's friction
+    (collective)."""
+    blocks, coordinates, gap, frames = pairing.blocks, pairing.coordinates, pairing.gap, pairing.frames
+    index: np.ndarray = -1 - pairing.pair_index  # pairs: −1 − pair index; obstacles: their index
+    paired = np.ones(blocks.size, dtype=bool)
+    node_friction = pairing.friction
+    if obstacles is not None:
+        blocks = np.concatenate([blocks, obstacles.blocks])
+        coordinates = np.concatenate([coordinates, obstacles.coordinates])
+        gap = np.concatenate([gap, obstacles.gap])
+        frames = np.concatenate([frames, obstacles.frames])
+        index = np.concatenate([index, obstacles.obstacle_index])
+        held = np.concatenate([held, obstacles.held_components])
+        paired = np.concatenate([paired, np.zeros(obstacles.size, dtype=bool)])
+        node_friction = np.concatenate([node_friction, obstacle_friction])
+    order = np.argsort(blocks, kind="stable")
+    blocks = blocks[order].astype(np.int32)
+    offsets = np.arange(3, dtype=np.int32)
+    cmap = ContactMap(
+        blocks=blocks, local_dofs=(3 * blocks[:, None] + offsets).astype(np.int32),
+        global_dofs=3 * (blocks.astype(np.int64)[:, None] + r0) + offsets.astype(np.int64),
+        coordinates=np.ascontiguousarray(coordinates[order]), gap=np.ascontiguousarray(gap[order]),
+        frames=np.ascontiguousarray(frames[order]), obstacle_index=index[order],
+        num_global=comm.allreduce(int(blocks.size), op=MPI.SUM), held=np.ascontiguousarray(held[order]))
+    return cmap, paired[order], np.ascontiguousarray(np.asarray(node_friction, dtype=np.float64)[order])

@@ -28,7 +28,9 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   Σ_j φ_j x_j = x_m exactly up to round-off and Σ_j φ_j = 1. On a shared edge or vertex every facet of T
   gives the same non-zero φ_j (conforming P1/Q1 shape functions restrict to the edge's linear ones, and to
   1 at a vertex): the rule only fixes which zero-weight vertices are listed, so the stencil does not depend
-  on the global numbering (which depends on the partition).
+  on the global numbering (which depends on the partition). Where a point is known only to a width w (a
+  configuration's own error, a finite-sliding 2-cycle's nodes: ``ties``), T takes max(1e-10 h, w) for both
+  bounds — its normals and "on the surface" below — while x_m and φ stay those of the 1e-10 h ties.
 * n_f(x) = the outward unit normal of facet f at x: of the plane (triangle) or of the bilinear surface,
   ±(x_ξ × x_η)/|x_ξ × x_η| at (ξ, η) — the sign fixed per facet so that it points out of the MASTER body
   (away from the centroid of the facet's cell, evaluated at the facet centre; a bilinear facet that is not
@@ -80,15 +82,16 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
+from fenics_coulomb.model.pairs.facet_closest import TIE_TOL, closest_points, dot, norm, quad_map
+
 __all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals", "layer_thickness",
            "local_facets", "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes",
            "facet_ranks", "empty_closest", "closest_points", "candidate_facets"]
 
 Array = npt.NDArray[np.float64]
 
-#: Relative tolerances (× the facet size h): coincident closest points, |x_s − x_m| ≈ 0, "on the boundary"
-#: (in reference coordinates); the normal cone.
-TIE_TOL = 1e-10
+#: Relative tolerance (× the facet size h) of the normal cone; TIE_TOL (coincident closest points, |x_s − x_m| ≈ 0,
+#: "on the boundary" in reference coordinates) is the facet kernels' (:mod:`.facet_closest`).
 CONE_TOL = 1e-8
 #: An edge or vertex node whose ±d lies in the normal cone only within CONE_TOL·h, but off it by more than this
 #: angle (radians), takes the cone's mean direction as its normal (module docstring).
@@ -96,113 +99,11 @@ CONE_ANGLE = 1e-3
 
 
 # -- facet geometry ---------------------------------------------------------------------------------------
-def norm(x: Array) -> Array:
-    return np.linalg.norm(x, axis=-1)
-
-
-def dot(a: Array, b: Array) -> Array:
-    return np.einsum("...i,...i->...", a, b)
-
-
-def _segment(p: Array, a: Array, b: Array) -> tuple[Array, Array]:
-    """Closest points of the segments [a, b] to p and their parameters t ∈ [0, 1]."""
-    ab = b - a
-    t = np.clip(dot(p - a, ab) / np.maximum(dot(ab, ab), np.finfo(float).tiny), 0.0, 1.0)
-    return a + t[:, None] * ab, t
-
-
 def empty_closest(m: int, nv: int) -> dict[str, npt.NDArray[Any]]:
     """The closest-point record of ``m`` points on a surface of ``nv``-vertex facets, before the search: closest
     point, facet weights, facet, normal (zeros) and whether a facet was found (False)."""
     return {"closest": np.zeros((m, 3)), "weights": np.zeros((m, nv)), "facet": np.zeros(m, np.intp),
             "normal": np.zeros((m, 3)), "paired": np.zeros(m, dtype=bool)}
-
-
-def _closest_triangle(p: Array, X: Array) -> tuple[Array, Array, Array]:
-    """Closest points of triangles X (k, 3, 3) to p (k, 3): (points, barycentric weights (k, 3), distance)."""
-    A, B, C = X[:, 0], X[:, 1], X[:, 2]
-    e1, e2, r = B - A, C - A, p - A
-    a11, a12, a22 = dot(e1, e1), dot(e1, e2), dot(e2, e2)
-    b1, b2 = dot(e1, r), dot(e2, r)
-    det = a11 * a22 - a12 * a12
-    l1 = (a22 * b1 - a12 * b2) / det
-    l2 = (a11 * b2 - a12 * b1) / det
-    inside = (l1 >= 0) & (l2 >= 0) & (l1 + l2 <= 1)
-    w = np.stack([1 - l1 - l2, l1, l2], axis=1)
-    candidates = [(A + l1[:, None] * e1 + l2[:, None] * e2, w, inside)]
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        q, t = _segment(p, X[:, i], X[:, j])
-        we = np.zeros((p.shape[0], 3))
-        we[:, i], we[:, j] = 1 - t, t
-        candidates.append((q, we, np.ones_like(inside)))
-    return _pick(p, candidates)
-
-
-def _quad_map(X: Array, xi: Array, eta: Array) -> tuple[Array, Array, Array]:
-    """x(ξ, η), x_ξ, x_η of bilinear quadrilaterals X (k, 4, 3)."""
-    a, b = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]
-    c = X[:, 0] - X[:, 1] - X[:, 2] + X[:, 3]
-    x = X[:, 0] + xi[:, None] * a + eta[:, None] * b + (xi * eta)[:, None] * c
-    return x, a + eta[:, None] * c, b + xi[:, None] * c
-
-
-def _quad_weights(xi: Array, eta: Array) -> Array:
-    return np.stack([(1 - xi) * (1 - eta), xi * (1 - eta), (1 - xi) * eta, xi * eta], axis=1)
-
-
-def _closest_quad(p: Array, X: Array) -> tuple[Array, Array, Array]:
-    """Closest points of bilinear quadrilaterals X (k, 4, 3) to p (k, 3): (points, weights (k, 4), distance)."""
-    k = p.shape[0]
-    xi, eta = np.full(k, 0.5), np.full(k, 0.5)
-    scale = np.maximum(norm(X[:, 3] - X[:, 0]), norm(X[:, 2] - X[:, 1]))
-    active = np.arange(k)
-    for _ in range(50):  # Newton on the stationarity of ½|x − p|², vectorized over the pairs still moving
-        Xa, pa, xa, ea = X[active], p[active], xi[active], eta[active]
-        x, xx, xe = _quad_map(Xa, xa, ea)
-        r = x - pa
-        g1, g2 = dot(xx, r), dot(xe, r)
-        h11, h22, h12 = dot(xx, xx), dot(xe, xe), dot(xx, xe)
-        full = h12 + dot(r, Xa[:, 0] - Xa[:, 1] - Xa[:, 2] + Xa[:, 3])
-        det_full = h11 * h22 - full * full
-        h12 = np.where(det_full > 1e-12 * h11 * h22, full, h12)  # Gauss–Newton where not positive definite
-        det = np.maximum(h11 * h22 - h12 * h12, np.finfo(float).tiny)
-        dxi = -(h22 * g1 - h12 * g2) / det
-        deta = -(h11 * g2 - h12 * g1) / det
-        xa, ea = np.clip(xa + dxi, -0.5, 1.5), np.clip(ea + deta, -0.5, 1.5)
-        xi[active], eta[active] = xa, ea
-        # done: converged, or pushed to the clipping box (far outside the patch: the edges hold the minimum)
-        moving = (np.maximum(np.abs(dxi), np.abs(deta)) > 1e-14) & (np.abs(xa - 0.5) < 1) & (np.abs(ea - 0.5) < 1)
-        active = active[moving]
-        if active.size == 0:
-            break
-    x, xx, xe = _quad_map(X, xi, eta)
-    r = x - p
-    # the stationarity residual, relative to the patch: a converged interior point
-    stationary = (np.abs(dot(xx, r)) + np.abs(dot(xe, r))) <= 1e-12 * scale * (scale + norm(r))
-    inside = stationary & (xi >= -TIE_TOL) & (xi <= 1 + TIE_TOL) & (eta >= -TIE_TOL) & (eta <= 1 + TIE_TOL)
-    xi_c, eta_c = np.clip(xi, 0.0, 1.0), np.clip(eta, 0.0, 1.0)
-    candidates = [(_quad_map(X, xi_c, eta_c)[0], _quad_weights(xi_c, eta_c), inside)]
-    ones, zeros = np.ones(k), np.zeros(k)
-    a: Array
-    b: Array
-    for i, j, fixed in ((0, 1, "eta0"), (2, 3, "eta1"), (0, 2, "xi0"), (1, 3, "xi1")):
-        q, t = _segment(p, X[:, i], X[:, j])
-        if fixed.startswith("eta"):
-            a, b = t, (zeros if fixed == "eta0" else ones)
-        else:
-            a, b = (zeros if fixed == "xi0" else ones), t
-        candidates.append((q, _quad_weights(a, b), np.ones(k, dtype=bool)))
-    return _pick(p, candidates)
-
-
-def _pick(p: Array, candidates: list) -> tuple[Array, Array, Array]:
-    """The nearest valid candidate (the first on exact ties)."""
-    dist = np.stack([np.where(ok, norm(q - p), np.inf) for q, _, ok in candidates])
-    best = np.argmin(dist, axis=0)
-    rows = np.arange(p.shape[0])
-    q = np.stack([c[0] for c in candidates])[best, rows]
-    w = np.stack([c[1] for c in candidates])[best, rows]
-    return q, w, dist[best, rows]
 
 
 def _reference(w: Array) -> tuple[Array, Array]:
@@ -226,7 +127,7 @@ def outward_normals(X: Array, w: Array, sign: Array) -> Array:
         N: Array = np.asarray(np.cross(X[:, 1] - X[:, 0], X[:, 2] - X[:, 0]), dtype=np.float64)
     else:
         xi, eta = _reference(w)
-        _, xx, xe = _quad_map(X, xi, eta)
+        _, xx, xe = quad_map(X, xi, eta)
         N = np.asarray(np.cross(xx, xe), dtype=np.float64)
     return sign[:, None] * N / norm(N)[:, None]
 
@@ -308,10 +209,6 @@ def gather_surface(comm: MPI.Comm, surface: Surface, nv: int) -> Surface:
 
 
 # -- closest points ---------------------------------------------------------------------------------------
-def closest_points(p: Array, X: Array) -> tuple[Array, Array, Array]:
-    return _closest_triangle(p, X) if X.shape[1] == 3 else _closest_quad(p, X)
-
-
 def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
     """dist(d, cone{N[:, i] : mask[:, i]}) for each row: d (k, 3), N (k, q, 3), mask (k, q).
 
