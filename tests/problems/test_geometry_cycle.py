@@ -13,10 +13,8 @@ import re
 
 from mpi4py import MPI
 
-import basix.ufl
 import dolfinx
 import dolfinx.fem
-import dolfinx.mesh
 import numpy as np
 import pytest
 import ufl
@@ -25,8 +23,6 @@ from fenics_coulomb import ContactProblem
 from fenics_coulomb.errors import SolverError
 from fenics_coulomb.model.pairs import ContactPair
 from fenics_coulomb.model.sliding import MAX_GEOMETRY_UPDATES
-from fenics_coulomb.scenes.partition import create_partitioner
-from dolfinx.mesh import GhostMode
 
 from meshes.two_blocks import TAGS, two_blocks
 
@@ -95,76 +91,24 @@ def test_mortar_settles_over_the_same_corner():
         assert 0 < result.geometry_updates < MAX_GEOMETRY_UPDATES
 
 
-def _slid_blocks(comm: MPI.Comm, x0: float) -> tuple[ContactProblem, dolfinx.fem.Constant, np.ndarray]:
-    """The issue's slide-off blocks on create_box tetrahedra (lower 24 × 12 × 4, upper 13 × 7 × 3 at x1 ∈ [x0,
-    x0 + 1]), node-to-surface, rtol 1e-10: the problem, the upper top's prescribed value and the upper body's DOF
-    blocks."""
-    boxes = [([0.0, 0.0, 0.0], [2.0, 1.0, 0.5], (24, 12, 4)), ([x0, 0.25, 0.502], [x0 + 1.0, 0.75, 1.002], (13, 7, 3))]
-    xs, cs, offset = [], [], 0
-    for p0, p1, n in boxes:
-        box = dolfinx.mesh.create_box(MPI.COMM_SELF, [p0, p1], list(n), dolfinx.mesh.CellType.tetrahedron)
-        xs.append(box.geometry.x.copy())
-        cs.append(box.geometry.dofmap.astype(np.int64) + offset)
-        offset += box.geometry.x.shape[0]
-    lower_cells = cs[0].shape[0]
-    x, cells = (np.vstack(xs), np.vstack(cs)) if comm.rank == 0 else (np.zeros((0, 3)), np.zeros((0, 4), np.int64))
-    domain = ufl.Mesh(basix.ufl.element("Lagrange", "tetrahedron", 1, shape=(3,)))
-    msh = dolfinx.mesh.create_mesh(comm, cells, x, domain, partitioner=create_partitioner(comm, x, GhostMode.none))
-    num = msh.topology.index_map(3).size_local + msh.topology.index_map(3).num_ghosts
-    upper = msh.topology.original_cell_index[:num] >= lower_cells
-    msh.topology.create_connectivity(2, 3)
-    facets = dolfinx.mesh.exterior_facet_indices(msh.topology)
-    f2c = msh.topology.connectivity(2, 3)
-    on_upper = upper[f2c.array[f2c.offsets[facets]]]
-    z = dolfinx.mesh.compute_midpoints(msh, 2, facets)[:, 2]
-    values = np.zeros(facets.size, np.int32)
-    for tag, (body, height) in {MASTER: (False, 0.5), LOWER_BOTTOM: (False, 0.0), SLAVE: (True, 0.502),
-                                UPPER_TOP: (True, 1.002)}.items():
-        values[(on_upper == body) & (np.abs(z - height) < 1e-9)] = tag
-    keep = values > 0
-    ft = dolfinx.mesh.meshtags(msh, 2, facets[keep], values[keep])
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
-    E = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
-    nu = dolfinx.fem.Function(E.function_space)
-    E.x.array[:] = np.where(upper, 200.0, 70.0)
-    nu.x.array[:] = np.where(upper, 0.25, 0.3)
-    mu, lmbda = E / (2 * (1 + nu)), E * nu / ((1 + nu) * (1 - 2 * nu))
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    eps = ufl.sym(ufl.grad(u))
-    a = ufl.inner(2 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(3), ufl.sym(ufl.grad(v))) * ufl.dx
-    top = dolfinx.fem.Constant(msh, np.array([0.0, 0.0, -0.01]))
-    bcs = [dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)), V),
-           dolfinx.fem.dirichletbc(top, dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V)]
-    pair = ContactPair(ft, slave=SLAVE, master=MASTER, method="node-to-surface")
-    problem = ContactProblem(a, None, bcs, contact_pairs=[pair], settings={"rtol": 1e-10},
-                             petsc_options_prefix=f"cycle_slid_{x0:g}_", sliding="finite")
-    return problem, top, np.unique(V.dofmap.list[np.flatnonzero(upper[:msh.topology.index_map(3).size_local])])
-
-
 def test_a_slide_in_one_solve_equals_the_static_press_through_a_tied_cycle():
-    """The acceptance replay's case: the block slid 0.8 in one static solve ended in one state of a 2-cycle at a
-    slave node beside the lower block's edge, the static press of the translated mesh in the other — 3.3e-4 of the
-    normal force and 3.8e-3 of |u| apart (and 1 rank ≠ 2 ranks by as much); tied, they agree to the solve's
-    accuracy. The issue's bound is 1e-6."""
+    """The acceptance replay's case (benchmarks/slide_matrix.py, tetrahedra 24 × 12 × 4 / 13 × 7 × 3,
+    node-to-surface): the block slid 0.8 in one static solve ended in one state of a 2-cycle at a slave node beside
+    the lower block's edge, the static press of the translated mesh in the other — 3.3e-4 of the normal force and
+    3.8e-3 of |u| apart (and 1 rank ≠ 2 ranks by as much); tied, they agree to the solve's accuracy. The issue's
+    bound is 1e-6."""
+    from benchmarks.slide_matrix import SLIDE, Blocks
+
     comm = MPI.COMM_WORLD
-    states, forces = [], []
-    for x0, slide in ((0.5, 0.8), (1.3, 0.0)):
-        problem, top, upper = _slid_blocks(comm, x0)
-        with problem:
-            top.value[:] = [slide, 0.0, -0.01]
-            uh, result = problem.solve()
-            assert result.converged
-            forces.append(np.array(problem.report(result).pair_forces[0]["force_on_slave_body"]))
-            V = problem.V
-            owned = V.dofmap.index_map.size_local
-            X = V.tabulate_dof_coordinates()[:owned].copy()
-            u = uh.x.array.reshape(-1, 3)[:owned].copy()
-            mine = upper[upper < owned]
-            X[mine, 0] += slide  # the slid block's reference positions and its elastic part
-            u[mine, 0] -= slide
-            data = np.concatenate(comm.allgather(np.hstack([X, u])))
-            states.append(data[np.lexsort(np.round(data[:, :3], 9).T[::-1])])
+    runs, states = [], []
+    for x0, slide in ((0.5, SLIDE), (0.5 + SLIDE, 0.0)):
+        blocks = Blocks(comm, "tetrahedron", (24, 12, 4), (13, 7, 3), x0, "node-to-surface", f"cycle_{x0:g}_")
+        with blocks.problem:
+            runs.append(blocks.solve(slide))
+            states.append(blocks.state(slide))
+    assert all(r["converged"] for r in runs)
+    assert {(round(x + SLIDE, 9), y, z) for x, y, z in runs[0]["nodes"]} == runs[1]["nodes"]
     assert np.allclose(states[0][:, :3], states[1][:, :3], atol=1e-9)
     scale = np.abs(states[1][:, 3:]).max()
     assert np.abs(states[0][:, 3:] - states[1][:, 3:]).max() <= 1e-6 * scale
-    assert np.abs(forces[0] - forces[1]).max() <= 1e-6 * np.linalg.norm(forces[1])
+    assert np.abs(runs[0]["force"] - runs[1]["force"]).max() <= 1e-6 * np.linalg.norm(runs[1]["force"])
