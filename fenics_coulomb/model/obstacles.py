@@ -260,6 +260,9 @@ class Obstacle:
         error (a length; 0: exact — a configuration X + u is known to its solve's accuracy): a triangulated
         surface decides its ties and "on the surface" (the tied facets' mean normal, not the noise's direction
         d/|d| at a vertex or an edge) within it."""
+        if isinstance(resolution, bool) or not isinstance(resolution, (int, float, np.floating, np.integer)) \
+                or not 0.0 <= float(resolution) < np.inf:
+            raise InputError(f"{self.label}: resolution = {_show(resolution)}: must be a finite length >= 0")
         if getattr(self, "rotation", None) is None:
             g, n = self._gap_normal(_points(x), resolution)
             return g, n, frames_from_normals(n, self._tangent(n))

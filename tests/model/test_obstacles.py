@@ -463,3 +463,14 @@ def test_inside_closed_is_the_ball_away_from_its_facets(tmp_path):
     r = np.linalg.norm(x - [1.0, 0.5, 1.5], axis=1)
     clear = np.abs(r - 0.5) > 0.01  # the level-3 facets lie within 0.005 of the sphere
     assert np.array_equal(inside_closed(X, x[clear]), r[clear] < 0.5)
+
+
+@pytest.mark.parametrize("resolution", [-1e-9, float("nan"), float("inf"), "1e-9", None, True])
+def test_a_bad_resolution_names_the_value(resolution):
+    """Obstacle.evaluate's ``resolution`` (a configuration's own error, within which a triangulated surface ties
+    its facets): a finite length >= 0, else a one-line InputError naming the obstacle and the value."""
+    from fenics_coulomb import Sphere
+
+    with pytest.raises(InputError, match=r"^sphere 'ball': resolution = .*: must be a finite length >= 0$"):
+        Sphere(center=(0.0, 0.0, 1.0), radius=0.5, name="ball").evaluate([[0.0, 0.0, 0.4]], resolution)
+
