@@ -70,14 +70,14 @@ Krylov iterations instead of 29 / 206.
 a master edge with a kink: the normal jumps from one facet's to the other's, and with it the contact force; a node
 beside such an edge is projected onto facet A, its solution moves it over facet B, whose solution moves it back.
 The exact fixed point lies on the edge, where neither facet's rule applies. Such a 2-cycle (the new geometry is
-the one solved with two updates before; a digest of the contact nodes and supports, the same on every rank) ties,
-once per solve, the closest points of its nodes within :data:`CYCLE_TIE` × its amplitude (``Coupling.tie``):
-tied facets give the node their mean normal, the node's point and weights stay those of the round-off tie rule
-(no numbering enters), and the iteration goes on (measured: a slave node beside the lower block's edge after a
-slide, its cycle 4e-5 wide, the slide in one solve and the static press of the translated mesh 3.3e-4 of the
-normal force apart and 1 rank ≠ 2 ranks; tied, 1e-10 and 5e-10; a slave over a soft master's corner, 7 nodes over
-the master's Kuhn diagonal swapping sides by 1e-4: tied, it settles on the symmetry plane;
-tests/problems/test_geometry_cycle.py). A cycle that remains, or one no pair can tie (mortar's), ends the
+the one solved with two updates before; a digest of the contact nodes and supports, the same on every rank) between
+two full-accuracy solves (a loose one's may be its error) ties, once per solve, the closest points of its nodes
+within :data:`CYCLE_TIE` × its amplitude (``Coupling.tie``): tied facets give the node their mean normal, the
+node's point and weights stay the round-off tie rule's (no numbering enters), and the iteration goes on
+(measured: a slave node beside the lower block's edge after a slide, its cycle 4e-5 wide, the slide in one solve
+and the static press 3.3e-4 of the normal force apart, 1 rank ≠ 2 ranks; tied, 1e-10 and 5e-10; a slave over a
+soft master's corner, 7 nodes over its Kuhn diagonal swapping sides by 1e-4: tied, it settles on the symmetry
+plane; tests/problems/test_geometry_cycle.py). A cycle that remains, or one no pair can tie (mortar's), ends the
 iteration when its two solutions differ by at most :data:`CYCLE_TOLERANCE`·h (h the smallest cell diameter at the
 contact nodes): of its two solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved
 once more if it was the earlier one; within :data:`CYCLE_ENERGY_TIE` the smaller Σ_i u_i·:data:`CYCLE_DIRECTION`)
@@ -170,7 +170,7 @@ class GeometryChange:
     new_signature: str = ""
     #: The new geometry's own displacement error (a length): its pairing's and its obstacles' ties were made to it.
     resolution: float = 0.0
-    #: The local DOF blocks of this rank's contact nodes of the coupling (pairs) that changed partner.
+    #: This rank's contact nodes of the coupling (pairs, local DOF blocks) that changed partner.
     moved_blocks: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
 
     def describe(self) -> str:
@@ -434,9 +434,9 @@ class GeometryIteration:
             loose = max(solved[-1][2], solved[-2][2]) > rtol
             if loose:
                 self.reduction = rtol  # a cycle seen at loose accuracy: look again at rtol
-            width = np.full(change.moved_blocks.size, CYCLE_TIE * amplitude)
-            if not self._tied and model.coupling.tie(model, change.moved_blocks, width):
-                self._tied = True  # once per solve: the cycle's nodes tied across their edge, solved again
+            width = np.full(change.moved_blocks.size, CYCLE_TIE * amplitude)  # a loose solve's cycle may be its error
+            if not loose and not self._tied and model.coupling.tie(model, change.moved_blocks, width):
+                self._tied = True  # once per solve, solved again
                 change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
                                          self.error_per_rtol * reduction, force)
                 self._pending, self._solved = change, []  # a tied geometry may share a cycle state's digest
