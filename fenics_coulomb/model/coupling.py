@@ -110,6 +110,7 @@ class Coupling:
     #: Per local DOF block, the width within which a node's closest points on several master facets count as tied
     #: (None: the round-off rule): the nodes of a geometry 2-cycle (:meth:`tie`).
     ties: Array | None = None
+    _energy_diagonal: Array | None = None
 
     # -- construction ------------------------------------------------------------------------------------
     def boundary(self, model: ContactModel, contact: Boundary | None, obstacles: Sequence[Obstacle]
@@ -204,12 +205,14 @@ class Coupling:
 
     def node_stiffness(self, model: ContactModel) -> Array:
         """Each contact node's stiffness: the mean diagonal of :meth:`energy_matrix` over its components no support
-        holds (collective: none; the owned contact nodes)."""
-        diagonal = self.energy_matrix(model).getDiagonal()
-        try:
-            values = diagonal.getArray(readonly=True)[model.contact.local_dofs]
-        finally:
-            diagonal.destroy()
+        holds (the owned contact nodes; no collective call after the first)."""
+        if self._energy_diagonal is None:  # the energy's matrix is assembled once: its diagonal too
+            diagonal = self.energy_matrix(model).getDiagonal()
+            try:
+                self._energy_diagonal = diagonal.getArray(readonly=True).copy()
+            finally:
+                diagonal.destroy()
+        values = self._energy_diagonal[model.contact.local_dofs]
         held = model.contact.held if model.contact.held is not None else np.zeros(values.shape, dtype=bool)
         free = np.where(held, 0.0, 1.0)
         return np.sum(values * free, axis=1) / np.maximum(np.sum(free, axis=1), 1.0)

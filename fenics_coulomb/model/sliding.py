@@ -239,6 +239,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
     moved = np.zeros(cmap.size, dtype=bool)
     x_now = cmap.coordinates + U[cmap.blocks]
     index: npt.NDArray[np.signedinteger] = np.zeros(0, np.intp)
+    stiffness = model.coupling.node_stiffness(model) if force is not None and model.obstacles else None  # all ranks
     if rigid.size:
         uc = U[cmap.blocks[rigid]]
         index, g, n, _ = model.placement.closest(model.obstacles, x_now[rigid], error * scale)
@@ -249,9 +250,8 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         v = uc - model.offset[rigid]
         dt = _tangential(n, v) - _tangential(n_old, v)
         turned = np.zeros(rigid.size)
-        if force is not None:  # the normal's turn, as the displacement of the force turned with it
-            turned = np.linalg.norm(n - n_old, axis=1) * np.linalg.norm(force[rigid], axis=1) / \
-                model.coupling.node_stiffness(model)[rigid]
+        if stiffness is not None and force is not None:  # the normal's turn, as the displacement of its force
+            turned = np.linalg.norm(n - n_old, axis=1) * np.linalg.norm(force[rigid], axis=1) / stiffness[rigid]
         delta[rigid] = np.where(relevant, np.sqrt((g - linear) ** 2 + np.einsum("ij,ij->i", dt, dt) + turned ** 2),
                                 0.0)
     r0 = model.V.dofmap.index_map.local_range[0]
