@@ -79,7 +79,7 @@ class Blocks:
     """One case: the problem, the upper top's prescribed value, the upper body's DOF blocks."""
 
     def __init__(self, comm: MPI.Comm, cell: str, n_lower: tuple, n_upper: tuple, x0: float, method: str,
-                 prefix: str) -> None:
+                 prefix: str, friction: float = 0.0, rtol: float = 1e-10) -> None:
         msh, cell_tags, ft = blocks_mesh(comm, cell, n_lower, n_upper, x0)
         V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
@@ -91,8 +91,8 @@ class Blocks:
         bcs = [dolfinx.fem.dirichletbc(np.zeros(3), dolfinx.fem.locate_dofs_topological(V, 2, ft.find(LOWER_BOTTOM)),
                                        V),
                dolfinx.fem.dirichletbc(self.top, dolfinx.fem.locate_dofs_topological(V, 2, ft.find(UPPER_TOP)), V)]
-        pair = ContactPair(ft, slave=UPPER_BOTTOM, master=LOWER_TOP, method=method)
-        self.problem = ContactProblem(a, None, bcs, contact_pairs=[pair], settings={"rtol": 1e-10},
+        pair = ContactPair(ft, slave=UPPER_BOTTOM, master=LOWER_TOP, method=method, friction=friction)
+        self.problem = ContactProblem(a, None, bcs, contact_pairs=[pair], settings={"rtol": rtol},
                                       petsc_options_prefix=prefix, sliding="finite")
         self.V, self.comm = V, comm
         self.upper = np.unique(V.dofmap.list[cell_tags.find(2)])

@@ -67,6 +67,7 @@ class StencilChange:
         moved: Per contact node of the model: it lost its partner or changed its stencil support, and counts.
         delta: Per contact node of the model: Δ_j of a node that kept its partner (0 elsewhere).
         gained_at: The current positions of the new candidates that penetrate, shape (k, 3).
+        gained_blocks: Their local DOF blocks.
         old_nodes, new_nodes: The global DOF blocks of the nodes before and after (the digest of the geometry).
         old_rows, new_rows: Their stencil supports (the digest of the geometry).
         pairing: The pairing of X + u (None for one body).
@@ -75,6 +76,7 @@ class StencilChange:
     moved: npt.NDArray[np.bool_]
     delta: Array
     gained_at: Array
+    gained_blocks: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
     old_nodes: list[npt.NDArray[np.int64]] = field(default_factory=list)
     new_nodes: list[npt.NDArray[np.int64]] = field(default_factory=list)
     old_rows: list[npt.NDArray[np.int64]] = field(default_factory=list)
@@ -107,9 +109,9 @@ class Coupling:
     A_free: PETSc.Mat | None = None
     #: Whether the coupling's own geometry depends on the configuration (finite sliding re-pairs it).
     follows_configuration: bool = False
-    #: Per local DOF block, the width within which a node's closest points on several master facets count as tied
-    #: (None: the round-off rule): the nodes of a geometry 2-cycle (:meth:`tie`).
-    ties: Array | None = None
+    #: The nodes of a geometry 2-cycle (:meth:`tie`) as (sorted GLOBAL DOF blocks, widths), the same on every rank:
+    #: the width within which their geometric decisions are made (None: round-off).
+    ties: tuple[npt.NDArray[np.int64], Array] | None = None
     _energy_diagonal: Array | None = None
 
     # -- construction ------------------------------------------------------------------------------------
@@ -159,10 +161,17 @@ class Coupling:
         return False
 
     def tie(self, model: ContactModel, blocks: npt.NDArray[np.int32], width: Array) -> bool:
-        """Tie the closest points of the nodes ``blocks`` (local) within ``width`` from the next pairing on: a
-        node-to-surface node in a 2-cycle across a master edge takes the edge's tied facets' mean normal
-        (:mod:`fenics_coulomb.model.sliding`, "Nodes on a master edge"); whether any pair can (collective)."""
+        """Decide the geometry of the nodes ``blocks`` (local, owned) within ``width`` from the next pairing on: a
+        node-to-surface node in a 2-cycle across a master edge takes the edge's tied facets' mean normal, and is
+        paired within ``width`` of its closest point; a dual-mortar facet at such a node counts as covered up to a
+        border strip ``width`` wide (:mod:`fenics_coulomb.model.sliding`, "Nodes on a master edge"); whether any
+        pair can (collective)."""
         return False
+
+    def cycle_cure(self) -> str:
+        """The clause a geometry cycle's failure adds: what settles it under this coupling ("" when nothing
+        specific)."""
+        return ""
 
     def stencil_change(self, model: ContactModel, u: Array, z: Array, previous: Array | None, tolerance: float,
                        pressed: npt.NDArray[np.bool_], resolution: float = 0.0) -> StencilChange:

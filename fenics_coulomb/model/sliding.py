@@ -66,23 +66,9 @@ sliding ends 9 rtol |u|∞ away; now 0.56 rtol |u|∞. demos/scenes/slide_off.to
 1.4e-6 in u (24 rtol |u|∞) and 0.18 % in the pressure before, 1.2e-8 and 2e-5 now, for 38 Newton steps / 287
 Krylov iterations instead of 29 / 206.
 
-**Nodes on a master edge.** The node-to-surface rules are discontinuous where a slave node's closest point crosses
-a master edge with a kink: the normal jumps from one facet's to the other's, and with it the contact force; a node
-beside such an edge is projected onto facet A, its solution moves it over facet B, whose solution moves it back.
-The exact fixed point lies on the edge, where neither facet's rule applies. Such a 2-cycle (the new geometry is
-the one solved with two updates before; a digest of the contact nodes and supports, the same on every rank) between
-two full-accuracy solves (a loose one's may be its error) ties, once per solve, the closest points of its nodes
-within :data:`CYCLE_TIE` × its amplitude (``Coupling.tie``): tied facets give the node their mean normal, the
-node's point and weights stay the round-off tie rule's (no numbering enters), and the iteration goes on
-(measured: a slave node beside the lower block's edge after a slide, its cycle 4e-5 wide, the slide in one solve
-and the static press 3.3e-4 of the normal force apart, 1 rank ≠ 2 ranks; tied, 1e-10 and 5e-10; a slave over a
-soft master's corner, 7 nodes over its Kuhn diagonal swapping sides by 1e-4: tied, it settles on the symmetry
-plane; tests/problems/test_geometry_cycle.py). A cycle that remains, or one no pair can tie (mortar's), ends the
-iteration when its two solutions differ by at most :data:`CYCLE_TOLERANCE`·h (h the smallest cell diameter at the
-contact nodes): of its two solutions the one with the smaller elastic energy ½uᵀKu is kept (its geometry solved
-once more if it was the earlier one; within :data:`CYCLE_ENERGY_TIE` the smaller Σ_i u_i·:data:`CYCLE_DIRECTION`)
-and a warning names the nodes and the amplitude; a wider one fails (exit 3) as soon as it comes back without its
-amplitude halved, naming the nodes, the amplitude and, under node-to-surface, the cure.
+**Nodes on a master edge.** Where the definitions have no fixed point (a slave node at a master edge: 2- and
+3-cycles of the geometry), the cycle's nodes decide their geometry within its amplitude, once per solve, or the
+cycle is accepted or fails: :mod:`fenics_coulomb.model.geometry_cycles`.
 """
 
 from __future__ import annotations
@@ -98,12 +84,15 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
+from fenics_coulomb.model.geometry_cycles import (CYCLE_DIRECTION, CYCLE_ENERGY_TIE, CYCLE_TIE, CYCLE_TOLERANCE,
+                                                  cycle_message, find_cycle)
+
 if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
     from fenics_coulomb.model.pairs import Pairing
 
 __all__ = ["ACCURACY_SHARE", "ACCURACY_FLOOR", "MAX_GEOMETRY_UPDATES", "ROUND_OFF_STAGNATION", "ROUND_OFF_CAP",
-           "CYCLE_TOLERANCE", "LOOSE_FACTOR", "GeometryChange",
+           "LOOSE_FACTOR", "GeometryChange",
            "GeometryIteration", "geometry_change"]
 
 Array = npt.NDArray[np.float64]
@@ -112,14 +101,6 @@ logger = logging.getLogger(__name__)
 
 #: The most geometry updates of one solve (finite sliding).
 MAX_GEOMETRY_UPDATES = 10
-
-#: A 2-cycle of the geometry is accepted when its solutions differ by at most this × the smallest cell diameter at
-#: the contact nodes ("Nodes on a master edge"); the smaller energy kept unless within this relative difference ...
-CYCLE_TOLERANCE, CYCLE_ENERGY_TIE = 1e-3, 1e-7
-#: A node-to-surface 2-cycle's nodes tie their closest points within this × its amplitude (once per solve).
-CYCLE_TIE = 4.0
-#: ... then the smaller Σ_i u_i · this (the same for every partition: energies differed by 5e-9 with the partition).
-CYCLE_DIRECTION = np.array([1.0, 1.0 / np.sqrt(2.0), 1.0 / np.sqrt(3.0)])
 
 #: The geometry's round-off: a check at full accuracy whose nodes and supports are unchanged, like the previous
 #: such check's, and whose largest change did not shrink below this × the previous one (the iteration contracts by
@@ -170,7 +151,7 @@ class GeometryChange:
     new_signature: str = ""
     #: The new geometry's own displacement error (a length): its pairing's and its obstacles' ties were made to it.
     resolution: float = 0.0
-    #: This rank's contact nodes of the coupling (pairs, local DOF blocks) that changed partner.
+    #: This rank's nodes of the coupling (pairs, local DOF blocks) that changed partner, lost it or gained one.
     moved_blocks: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
 
     def describe(self) -> str:
@@ -281,17 +262,7 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
 
     return GeometryChange(settled, changed, discrepancy, tolerance, where, pairs.pairing,
                           signature(old_nodes, old_rows), signature(new_nodes, new_rows), error * scale,
-                          cmap.blocks[moved & paired].astype(np.int32))
-
-
-def _cycle_advice(model: ContactModel, amplitude: float, h: float) -> str:
-    """The failure's clause for a 2-cycle wider than the accepted one ("Nodes on a master edge")."""
-    methods = {q.method for q in getattr(model.coupling, "pairs", [])}
-    advice = (": node-to-surface's constraint normal jumps where a slave node's closest point crosses a master edge "
-              "with a kink (a slave node over a crease of the deformed master); method = 'mortar' (averaged slave "
-              "normals) or a finer master there" if "node-to-surface" in methods else "")
-    return (f"; back and forth between two geometries whose solutions differ by {amplitude:.3g} ({amplitude / h:.2g} "
-            f"of the smallest cell at the contact nodes, {CYCLE_TOLERANCE:g} accepted){advice}")
+                          np.union1d(cmap.blocks[moved & paired], pairs.gained_blocks).astype(np.int32))
 
 
 @dataclass
@@ -341,9 +312,10 @@ class GeometryIteration:
         #: Geometry updates so far.
         self.updates = 0
         self._solved: list[tuple[str, Array, float]] = []  # (geometry, solution, reduction) of every solve
+        self._moved: list[npt.NDArray[np.int32]] = []  # the nodes that changed partner after each of them
         self._last = False
         self._cycle: float | None = None  # the amplitude of the last 2-cycle too wide to accept
-        self._tied = False  # a 2-cycle's nodes tied (node-to-surface) in this solve
+        self._tied = False  # a cycle's nodes tied in this solve
         model.coupling.ties = None
         self._unchanged: float | None = None  # the last full-accuracy check's change with the same nodes
         self._pending: GeometryChange | None = None  # the last update's change, until a Newton step has followed it
@@ -403,6 +375,7 @@ class GeometryIteration:
         forced = change.settled and not self._accurate(change, u)  # ε met, the accuracy asked not
         change.settled = change.settled and not forced
         self._solved.append((change.old_signature, u, reduction))
+        self._moved.append(change.moved_blocks)
         if change.settled:
             if reduction <= rtol:
                 return Step("settled", change)
@@ -428,45 +401,45 @@ class GeometryIteration:
         # increment) moves u in another pattern than the iteration's last ones
         self._update = (change.discrepancy, u.copy()) if self.accuracy is not None and not change.changed \
             and change.discrepancy > ACCURACY_FLOOR * self.extent and reduction <= rtol else None
-        solved, cycle = self._solved, ""
-        if change.changed and len(solved) >= 2 and change.new_signature == solved[-2][0]:  # a 2-cycle
-            amplitude = model.comm.allreduce(float(np.max(np.abs(u - solved[-2][1]), initial=0.0)), op=MPI.MAX)
-            loose = max(solved[-1][2], solved[-2][2]) > rtol
-            if loose:
+        solved, message = self._solved, ""
+        cycle = find_cycle(model.comm, solved, self._moved, change.new_signature, u, rtol, self.error_per_rtol) \
+            if change.changed else None
+        if cycle is not None:
+            if not cycle.accurate:
                 self.reduction = rtol  # a cycle seen at loose accuracy: look again at rtol
-            width = np.full(change.moved_blocks.size, CYCLE_TIE * amplitude)  # a loose solve's cycle may be its error
-            if not loose and not self._tied and model.coupling.tie(model, change.moved_blocks, width):
+            width = np.full(cycle.blocks.size, CYCLE_TIE * cycle.amplitude)
+            if cycle.tieable and not self._tied and model.coupling.tie(model, cycle.blocks, width):
                 self._tied = True  # once per solve, solved again
                 change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
                                          self.error_per_rtol * reduction, force)
-                self._pending, self._solved = change, []  # a tied geometry may share a cycle state's digest
-                step = Step("update", change, f"a 2-cycle ({amplitude:.3g}): its nodes' closest points tied within "
-                                              f"{CYCLE_TIE * amplitude:.3g}")
-            elif not loose:
+                self._pending, self._solved, self._moved = change, [], []  # a tied geometry may share a state's digest
+                step = Step("update", change, f"a {cycle.length}-cycle ({cycle.amplitude:.3g}): its nodes' geometry "
+                                              f"decided within {CYCLE_TIE * cycle.amplitude:.3g}")
+            elif cycle.accurate and cycle.length == 2:
                 h = model.comm.allreduce(float(np.min(model.node_size()[model.contact.blocks], initial=np.inf)),
                                          op=MPI.MIN)
-                if amplitude <= CYCLE_TOLERANCE * h:
+                if cycle.amplitude <= CYCLE_TOLERANCE * h:
                     if model.comm.rank == 0:
                         logger.warning("finite sliding: %s, back and forth between two geometries whose solutions "
                                        "differ by %.3g (%.2g of the smallest cell at the contact nodes): the one of "
-                                       "the smaller elastic energy is kept", change.describe(), amplitude,
-                                       amplitude / h)
-                    now, other = model.elastic_energy(u), model.elastic_energy(solved[-2][1])
+                                       "the smaller elastic energy is kept", change.describe(), cycle.amplitude,
+                                       cycle.amplitude / h)
+                    now, other = model.elastic_energy(u), model.elastic_energy(cycle.other)
                     if abs(now - other) <= CYCLE_ENERGY_TIE * max(abs(now), abs(other)):
                         now, other = (float(model.comm.allreduce(w.reshape(-1, 3).sum(axis=0), op=MPI.SUM)
-                                            @ CYCLE_DIRECTION) for w in (u, solved[-2][1]))
+                                            @ CYCLE_DIRECTION) for w in (u, cycle.other))
                     if now <= other:
                         return Step("settled", change)
                     self._last = True  # one more solve, in the other geometry of the cycle
                 else:
-                    cycle = _cycle_advice(model, amplitude, h)
-                    previous, self._cycle = self._cycle, amplitude
-                    if previous is not None and amplitude > 0.5 * previous:  # the same cycle again, not shrinking
+                    message = cycle_message(cycle.amplitude, h, model.coupling.cycle_cure())
+                    previous, self._cycle = self._cycle, cycle.amplitude
+                    if previous is not None and cycle.amplitude > 0.5 * previous:  # the same cycle, not shrinking
                         return Step("fail", change, f"finite sliding: the contact geometry did not settle after "
-                                                    f"{self.updates} updates ({change.describe()}){cycle}")
+                                                    f"{self.updates} updates ({change.describe()}){message}")
         if self.updates == MAX_GEOMETRY_UPDATES:
             return Step("fail", change, f"finite sliding: the contact geometry did not settle after "
-                                        f"{self.updates} updates ({change.describe()}){cycle}")
+                                        f"{self.updates} updates ({change.describe()}){message}")
         if not change.changed:
             scale = model.comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
             wanted = LOOSE_FACTOR * change.discrepancy / (self.error_per_rtol * scale) if scale > 0 else rtol

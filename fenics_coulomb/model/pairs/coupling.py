@@ -260,11 +260,19 @@ class PairCoupling(Coupling):
                                                 resolution=resolution, held=model.held, ties=self.ties), ug)
 
     def tie(self, model: ContactModel, blocks: npt.NDArray[np.int32], width: Array) -> bool:
-        if not any(q.method == "node-to-surface" for q in self.pairs):
-            return False
-        self.ties = np.zeros(model.V.dofmap.index_map.size_local + model.V.dofmap.index_map.num_ghosts)
-        self.ties[blocks] = width
+        imap = model.V.dofmap.index_map
+        nodes = np.concatenate(model.comm.allgather(imap.local_to_global(np.asarray(blocks, np.int32))))
+        widths = np.concatenate(model.comm.allgather(np.asarray(width, np.float64)))
+        order = np.argsort(nodes, kind="stable")
+        self.ties = (nodes[order].astype(np.int64), widths[order])
         return True
+
+    def cycle_cure(self) -> str:
+        if not any(q.method == "node-to-surface" for q in self.pairs):
+            return ""
+        return (": node-to-surface's constraint normal jumps where a slave node's closest point crosses a master edge "
+                "with a kink (a slave node over a crease of the deformed master); method = 'mortar' (averaged slave "
+                "normals) or a finer master there")
 
     def configure(self, model: ContactModel, u: npt.ArrayLike | None, pairing: Pairing | None,
                   resolution: float = 0.0) -> bool:

@@ -38,7 +38,8 @@ def stencils(pair: PairInput) -> Stencils:
     near = norm(x[nodes] - projected["closest"][at_nodes]) <= 2 * search + 4 * node_size(slave, gn)
     try:  # a rank's facets may be bad where another's are not: every rank raises, before the next collective
         mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
-                              gn[near], (verts, projected["closest"]), pair.resolution)
+                              gn[near], (verts, projected["closest"]), pair.resolution,
+                              None if pair.ties is None else pair.tie_width(slave.blocks).max(axis=1))
         failure = ""
     except InputError as err:
         failure = f"{pair.label}: {err}"

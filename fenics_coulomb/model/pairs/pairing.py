@@ -80,7 +80,7 @@ def _diagonal(comm: MPI.Comm, points: Array) -> tuple[Array, Array]:
 def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
                   excluded: npt.NDArray[np.int32], coordinates: Array | None = None,
                   resolution: float = 0.0, held: npt.NDArray[np.bool_] | None = None,
-                  ties: npt.NDArray[np.float64] | None = None) -> Pairing:
+                  ties: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]] | None = None) -> Pairing:
     """Pair the slave nodes of every contact pair with their master surfaces (see the module docstring).
 
     Collective.
@@ -97,7 +97,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             geometric decisions finer than it are not made (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
         held: The components a support holds, of every local DOF block (owned and ghost), shape (blocks, 3)
             (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`); None: none.
-        ties: Per local DOF block, the width of node-to-surface's ties (``PairInput.ties``); None: round-off.
+        ties: A geometry 2-cycle's nodes (``PairInput.ties``); None: round-off.
 
     Returns:
         The owned contact nodes of all pairs.

@@ -86,7 +86,7 @@ from fenics_coulomb.model.pairs.facet_closest import TIE_TOL, closest_points, do
 
 __all__ = ["TIE_TOL", "CONE_TOL", "CONE_ANGLE", "Surface", "norm", "dot", "where", "outward_normals", "layer_thickness",
            "local_facets", "facet_data", "gather_surface", "project", "select_candidates", "node_size", "facet_sizes",
-           "facet_ranks", "empty_closest", "closest_points", "candidate_facets"]
+           "facet_ranks", "empty_closest", "closest_points", "candidate_facets", "tie_width"]
 
 Array = npt.NDArray[np.float64]
 
@@ -389,6 +389,17 @@ def node_size(surface: Surface, nodes: npt.NDArray[np.int64]) -> Array:
     np.maximum.at(largest, inverse.ravel(), np.repeat(diameter, nv))
     pos = np.clip(np.searchsorted(vertices, nodes), 0, max(vertices.size - 1, 0))
     return np.where(vertices[pos] == nodes, largest[pos], 0.0) if vertices.size else np.zeros(nodes.size)
+
+
+def tie_width(ties: tuple[npt.NDArray[np.int64], Array] | None, blocks: npt.ArrayLike) -> Array:
+    """The width of each of the GLOBAL DOF blocks ``blocks`` in ``ties`` = (sorted global blocks, widths), the nodes
+    of a geometry 2-cycle (0 for a node not in it, and for every node when ``ties`` is None)."""
+    blocks = np.asarray(blocks, dtype=np.int64)
+    if ties is None or ties[0].size == 0:
+        return np.zeros(blocks.shape)
+    tied, width = ties
+    pos = np.clip(np.searchsorted(tied, blocks), 0, tied.size - 1)
+    return np.where(tied[pos] == blocks, width[pos], 0.0)
 
 
 def where(x: Array) -> str:

@@ -363,7 +363,7 @@ def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Arra
 
 def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tuple[Array, npt.NDArray[np.int64], Array],
                  nodes: npt.NDArray[np.int64], vertex_closest: tuple[npt.NDArray[np.int64], Array],
-                 resolution: float = 0.0) -> MortarNodes:
+                 resolution: float = 0.0, ties: Array | None = None) -> MortarNodes:
     """The mortar data of the slave nodes ``nodes`` (global blocks) of one pair (see the module docstring).
 
     Args:
@@ -377,6 +377,8 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         resolution: The configuration's own displacement error (a length; 0 for the reference configuration): a
             facet's uncovered border strip up to 2 × resolution wide is credited as covered (see "Coverage at
             aligned borders").
+        ties: Per facet of the whole slave surface, the width of a geometry 2-cycle at its nodes (None: none): the
+            facet is credited with an uncovered border strip up to that wide (see "Coverage at aligned borders").
 
     Raises:
         InputError: A projected quadrilateral that is not convex (the facet named by its centre).
@@ -515,9 +517,11 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     if parts["tilt"]:
         np.maximum.at(master_tilt, np.concatenate(parts["e"]), np.concatenate(parts["tilt"]))
     separation = np.abs(_dot(X - closest, nc[:, None])).max(axis=1)
-    width = np.minimum(np.maximum(separation * np.minimum(master_tilt + tilt, 1.0), 2.0 * resolution),
+    strip = np.minimum(np.maximum(separation * np.minimum(master_tilt + tilt, 1.0), 2.0 * resolution),
                        ALIGNED_TOL * s_radius)
-    slack = width * polygon_perimeter(s_poly)
+    if ties is not None:  # a geometry cycle's nodes: their facets' coverage decided to the cycle's amplitude
+        strip = np.maximum(strip, ties[E])
+    slack = strip * polygon_perimeter(s_poly)
     fraction = np.where(fraction < 1.0, np.minimum(fraction + slack / np.maximum(s_area, np.finfo(float).tiny), 1.0),
                         fraction)
     coverage = np.full(m, np.inf)

@@ -90,5 +90,6 @@ def stencil_change(model: ContactModel, old: Pairing, pairing: Pairing, held: np
     dt = _tangential(pairing.frames[i_new][:, :, 2], s_new[i_new]) - _tangential(n_old[i_old], s_old[i_old])
     change = np.sqrt((pairing.gap[i_new] - linear[i_old]) ** 2 + np.einsum("ij,ij->i", dt, dt))
     delta[sel[i_old]] = np.where(relevant, change, 0.0)
-    return StencilChange(moved, delta, gained_at, old_nodes=[old.blocks + r0], new_nodes=[pairing.blocks + r0],
-                         old_rows=[old_support], new_rows=[new_support], pairing=pairing)
+    return StencilChange(moved, delta, gained_at, pairing.blocks[gained].astype(np.int32),
+                         old_nodes=[old.blocks + r0], new_nodes=[pairing.blocks + r0], old_rows=[old_support],
+                         new_rows=[new_support], pairing=pairing)

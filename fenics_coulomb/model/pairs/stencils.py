@@ -18,7 +18,7 @@ from mpi4py import MPI
 import numpy as np
 import numpy.typing as npt
 
-from fenics_coulomb.model.pairs.projection import Surface
+from fenics_coulomb.model.pairs.projection import Surface, tie_width
 
 __all__ = ["PairInput", "Stencils"]
 
@@ -48,8 +48,8 @@ class PairInput:
         held: The Cartesian components a support holds, of every local DOF block (owned and ghost), shape
             (blocks, 3); None: none (node-to-surface decides the normal cone of a held node in the directions it
             can move, :func:`~fenics_coulomb.model.pairs.node_to_surface.stencils`).
-        ties: Per local DOF block, the width within which node-to-surface ties a node's closest points (None:
-            the round-off rule, TIE_TOL·h): the nodes of a geometry 2-cycle across a master edge.
+        ties: The nodes of a geometry 2-cycle as (sorted global DOF blocks, widths), the width within which their
+            geometric decisions are made (None: round-off; :meth:`tie_width`).
     """
 
     comm: MPI.Comm
@@ -65,7 +65,11 @@ class PairInput:
     gather_slave: Callable[[], Surface]
     resolution: float = 0.0
     held: npt.NDArray[np.bool_] | None = None
-    ties: Array | None = None
+    ties: tuple[npt.NDArray[np.int64], Array] | None = None
+
+    def tie_width(self, blocks: npt.NDArray[np.int64]) -> Array:
+        """The tie width of each of the GLOBAL DOF blocks ``blocks`` (0 for a node not tied)."""
+        return tie_width(self.ties, blocks)
 
 
 @dataclass
