@@ -164,8 +164,8 @@ class Coupling:
         """Decide the geometry of the nodes ``blocks`` (local, owned) within ``width`` from the next pairing on: a
         node-to-surface node in a 2-cycle across a master edge takes the edge's tied facets' mean normal, and is
         paired within ``width`` of its closest point; a dual-mortar facet at such a node counts as covered up to a
-        border strip ``width`` wide (:mod:`fenics_coulomb.model.sliding`, "Nodes on a master edge"); whether any
-        pair can (collective)."""
+        border strip ``width`` wide (:mod:`fenics_coulomb.model.geometry_cycles`), added to the nodes tied before in
+        the solve; whether any pair can and any node was not tied yet (collective)."""
         return False
 
     def cycle_cure(self) -> str:

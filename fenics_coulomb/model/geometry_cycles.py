@@ -16,7 +16,9 @@ rank — decides the geometry of its nodes, once per solve, within :data:`CYCLE_
 (``Coupling.tie``): the nodes that changed partner, lost it or gained one anywhere around the cycle. Node-to-surface
 ties their closest points within that width (the tied facets' mean normal; a node within it of its closest point
 is paired, as one on the surface); the node's point and weights stay the round-off tie rule's, so no numbering
-enters. Dual mortar credits the facets at those nodes with an uncovered border strip that wide (their D_j, M_jl,
+enters; and every node of the pair that the cone test leaves unpaired within the widest tie of its closest point
+is paired as one on the surface (a reach: the other nodes of a flush edge, which would cycle next, one or two at a
+time). Dual mortar credits the facets at those nodes with an uncovered border strip that wide (their D_j, M_jl,
 g̃_j stay those of the covered part). The iteration goes on. A cycle whose solves were not all at full accuracy is
 tied only when its amplitude exceeds :data:`LOOSE_CYCLE_MARGIN` × those solves' displacement error bound: a loose
 solve's cycle may be its error.
@@ -49,7 +51,7 @@ import numpy as np
 import numpy.typing as npt
 
 __all__ = ["CYCLE_TOLERANCE", "CYCLE_ENERGY_TIE", "CYCLE_TIE", "CYCLE_DIRECTION", "LOOSE_CYCLE_MARGIN", "Cycle",
-           "find_cycle", "cycle_message"]
+           "find_cycle", "cycle_message", "node_states"]
 
 Array = npt.NDArray[np.float64]
 
@@ -75,6 +77,7 @@ class Cycle:
         accurate: Every solve of the cycle reached the full accuracy.
         tieable: Accurate, or its amplitude beyond :data:`LOOSE_CYCLE_MARGIN` × its loose solves' error bound.
         other: The solution of the geometry solved before the latest (a 2-cycle's other state).
+        whole: The whole geometry cycles (its digest); else only some nodes do, the others settling meanwhile.
     """
 
     length: int
@@ -83,33 +86,64 @@ class Cycle:
     accurate: bool
     tieable: bool
     other: Array
+    whole: bool = True
+
+
+def node_states(size: int, r0: int, nodes: Sequence[npt.NDArray[np.int64]],
+                rows: Sequence[npt.NDArray[np.int64]]) -> npt.NDArray[np.uint64]:
+    """A digest of each owned node's partner in one geometry (0: not a contact node): ``nodes`` per kind (obstacle
+    nodes, then each coupling's), GLOBAL blocks from ``r0`` on, and ``rows`` their obstacle index or sorted support's
+    global master blocks (−1 padded). Nodes of different kinds with the same row differ."""
+    state = np.zeros(size, np.uint64)
+    width = max((r.shape[1] for r in rows), default=1)
+    with np.errstate(over="ignore"):
+        for kind, (n, r) in enumerate(zip(nodes, rows, strict=True)):
+            digest = np.full(n.size, np.uint64(kind + 1) * np.uint64(0x9E3779B97F4A7C15), np.uint64)
+            for column in np.pad(r, ((0, 0), (0, width - r.shape[1])), constant_values=-1).T:
+                digest = digest * np.uint64(1099511628211) + column.astype(np.int64).view(np.uint64)
+            state[np.asarray(n, np.int64) - r0] = digest | np.uint64(1)
+    return state
 
 
 def find_cycle(comm: MPI.Comm, solved: Sequence[tuple[str, Array, float]], moved: Sequence[npt.NDArray[np.int32]],
-               signature: str, u: Array, rtol: float, error_per_rtol: float) -> Cycle | None:
-    """The cycle that the next geometry (digest ``signature``) closes, if any (collective).
+               states: Sequence[npt.NDArray[np.uint64]], signature: str, new_states: npt.NDArray[np.uint64],
+               u: Array, rtol: float, error_per_rtol: float) -> Cycle | None:
+    """The cycle that the next geometry (digest ``signature``, node states ``new_states``) closes, if any: the whole
+    geometry back to one solved two or three updates before, or nodes back to their partner of two updates before
+    that had another in between (collective).
 
     Args:
         comm: The mesh's communicator.
         solved: (digest, solution, reduction) of every geometry solved so far, the latest last (its solution ``u``).
         moved: The nodes that changed partner after each of them.
+        states: Their :func:`node_states`.
         signature: The digest of the geometry the latest solution asks for.
+        new_states: Its :func:`node_states`.
         u: The latest solution (physical, owned DOFs).
         rtol: The full accuracy's reduction.
         error_per_rtol: The displacement error per unit of reduction (relative to ‖u‖_∞).
     """
     back = [i for i in (len(solved) - 2, len(solved) - 3) if i >= 0 and solved[i][0] == signature]
-    if not back:
+    whole = bool(back)
+    if whole:
+        first = back[0]
+        blocks = np.unique(np.concatenate(list(moved[first:]))).astype(np.int32)
+    elif len(solved) >= 2:  # nodes back and forth while the rest of the geometry settles
+        first = len(solved) - 2
+        blocks = np.flatnonzero((new_states == states[-2]) & (new_states != states[-1])).astype(np.int32)
+        if comm.allreduce(int(blocks.size), op=MPI.SUM) == 0:
+            return None
+    else:
         return None
-    first = back[0]
-    amplitude = comm.allreduce(max(float(np.max(np.abs(u - w), initial=0.0)) for _, w, _ in solved[first:-1]),
-                               op=MPI.MAX)
+    # the whole solution's change for a whole cycle; the cycling nodes' own motion where the rest still settles
+    rows = slice(None) if whole else blocks
+    amplitude = comm.allreduce(max(float(np.max(np.abs(u.reshape(-1, 3)[rows] - w.reshape(-1, 3)[rows]), initial=0.0))
+                                   for _, w, _ in solved[first:-1]), op=MPI.MAX)
     loosest = max(r for _, _, r in solved[first:])
     scale = comm.allreduce(float(np.max(np.abs(u), initial=0.0)), op=MPI.MAX)
     accurate = loosest <= rtol
     tieable = accurate or amplitude > LOOSE_CYCLE_MARGIN * error_per_rtol * loosest * scale
-    blocks = np.unique(np.concatenate(list(moved[first:]))).astype(np.int32)
-    return Cycle(len(solved) - first, amplitude, blocks, accurate, tieable, solved[-2][1])
+    return Cycle(len(solved) - first, amplitude, blocks, accurate, tieable, solved[-2][1], whole)
 
 
 def cycle_message(amplitude: float, h: float, cure: str) -> str:

@@ -85,7 +85,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fenics_coulomb.model.geometry_cycles import (CYCLE_DIRECTION, CYCLE_ENERGY_TIE, CYCLE_TIE, CYCLE_TOLERANCE,
-                                                  cycle_message, find_cycle)
+                                                  cycle_message, find_cycle, node_states)
 
 if TYPE_CHECKING:  # pragma: no cover
     from fenics_coulomb.model.contact_model import ContactModel
@@ -153,6 +153,9 @@ class GeometryChange:
     resolution: float = 0.0
     #: This rank's nodes of the coupling (pairs, local DOF blocks) that changed partner, lost it or gained one.
     moved_blocks: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
+    #: Per owned node, a digest of its partner in either geometry (0: none; :func:`.geometry_cycles.node_states`).
+    old_states: npt.NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, np.uint64))
+    new_states: npt.NDArray[np.uint64] = field(default_factory=lambda: np.zeros(0, np.uint64))
 
     def describe(self) -> str:
         """One line for logs and errors."""
@@ -260,9 +263,11 @@ def geometry_change(model: ContactModel, u: Array, z: Array, previous: Array | N
         kind = [np.full((n.size, 1), k, np.int64) for k, n in enumerate(nodes)]
         return _signature(comm, np.concatenate(nodes), np.column_stack([np.concatenate(kind), np.concatenate(wide)]))
 
+    owned = model.V.dofmap.index_map.size_local
     return GeometryChange(settled, changed, discrepancy, tolerance, where, pairs.pairing,
                           signature(old_nodes, old_rows), signature(new_nodes, new_rows), error * scale,
-                          np.union1d(cmap.blocks[moved & paired], pairs.gained_blocks).astype(np.int32))
+                          np.union1d(cmap.blocks[moved & paired], pairs.gained_blocks).astype(np.int32),
+                          node_states(owned, r0, old_nodes, old_rows), node_states(owned, r0, new_nodes, new_rows))
 
 
 @dataclass
@@ -313,9 +318,9 @@ class GeometryIteration:
         self.updates = 0
         self._solved: list[tuple[str, Array, float]] = []  # (geometry, solution, reduction) of every solve
         self._moved: list[npt.NDArray[np.int32]] = []  # the nodes that changed partner after each of them
+        self._states: list[npt.NDArray[np.uint64]] = []  # their nodes' partners (node_states)
         self._last = False
         self._cycle: float | None = None  # the amplitude of the last 2-cycle too wide to accept
-        self._tied = False  # a cycle's nodes tied in this solve
         model.coupling.ties = None
         self._unchanged: float | None = None  # the last full-accuracy check's change with the same nodes
         self._pending: GeometryChange | None = None  # the last update's change, until a Newton step has followed it
@@ -376,6 +381,7 @@ class GeometryIteration:
         change.settled = change.settled and not forced
         self._solved.append((change.old_signature, u, reduction))
         self._moved.append(change.moved_blocks)
+        self._states.append(change.old_states)
         if change.settled:
             if reduction <= rtol:
                 return Step("settled", change)
@@ -402,20 +408,20 @@ class GeometryIteration:
         self._update = (change.discrepancy, u.copy()) if self.accuracy is not None and not change.changed \
             and change.discrepancy > ACCURACY_FLOOR * self.extent and reduction <= rtol else None
         solved, message = self._solved, ""
-        cycle = find_cycle(model.comm, solved, self._moved, change.new_signature, u, rtol, self.error_per_rtol) \
-            if change.changed else None
+        cycle = find_cycle(model.comm, solved, self._moved, self._states, change.new_signature, change.new_states, u,
+                           rtol, self.error_per_rtol) if change.changed else None
         if cycle is not None:
             if not cycle.accurate:
                 self.reduction = rtol  # a cycle seen at loose accuracy: look again at rtol
             width = np.full(cycle.blocks.size, CYCLE_TIE * cycle.amplitude)
-            if cycle.tieable and not self._tied and model.coupling.tie(model, cycle.blocks, width):
-                self._tied = True  # once per solve, solved again
+            if cycle.tieable and model.coupling.tie(model, cycle.blocks, width):  # nodes not tied before: again
                 change = geometry_change(model, u, z, self.previous, self.error_per_rtol * rtol, active,
                                          self.error_per_rtol * reduction, force)
-                self._pending, self._solved, self._moved = change, [], []  # a tied geometry may share a state's digest
+                # a tied geometry may share a cycle state's digest
+                self._pending, self._solved, self._moved, self._states = change, [], [], []
                 step = Step("update", change, f"a {cycle.length}-cycle ({cycle.amplitude:.3g}): its nodes' geometry "
                                               f"decided within {CYCLE_TIE * cycle.amplitude:.3g}")
-            elif cycle.accurate and cycle.length == 2:
+            elif cycle.accurate and cycle.length == 2 and cycle.whole:
                 h = model.comm.allreduce(float(np.min(model.node_size()[model.contact.blocks], initial=np.inf)),
                                          op=MPI.MIN)
                 if cycle.amplitude <= CYCLE_TOLERANCE * h:

@@ -261,10 +261,17 @@ class PairCoupling(Coupling):
 
     def tie(self, model: ContactModel, blocks: npt.NDArray[np.int32], width: Array) -> bool:
         imap = model.V.dofmap.index_map
-        nodes = np.concatenate(model.comm.allgather(imap.local_to_global(np.asarray(blocks, np.int32))))
+        local = imap.local_to_global(np.asarray(blocks, np.int32)).astype(np.int64)
+        nodes = np.concatenate(model.comm.allgather(local))
         widths = np.concatenate(model.comm.allgather(np.asarray(width, np.float64)))
-        order = np.argsort(nodes, kind="stable")
-        self.ties = (nodes[order].astype(np.int64), widths[order])
+        if self.ties is not None:
+            if np.all(np.isin(nodes, self.ties[0])):  # no node it has not tied yet: the tie did not settle them
+                return False
+            nodes, widths = np.concatenate([self.ties[0], nodes]), np.concatenate([self.ties[1], widths])
+        unique, inverse = np.unique(nodes, return_inverse=True)
+        widest = np.zeros(unique.size)
+        np.maximum.at(widest, inverse, widths)
+        self.ties = (unique, widest)
         return True
 
     def cycle_cure(self) -> str:

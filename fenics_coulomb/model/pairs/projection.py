@@ -250,11 +250,13 @@ def _cone_distance(d: Array, N: Array, mask: npt.NDArray[np.bool_]) -> Array:
 
 
 def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp],
-            ties: float | Array = 0.0) -> dict[str, Array]:
+            ties: float | Array = 0.0, reach: float = 0.0) -> dict[str, Array]:
     """Closest points, weights, normals and cone membership of the nodes x (m, 3) on the gathered surface (the
     candidate facets of :func:`candidate_facets`: a facet nearer than the bound, or tied with the nearest, is among
     them, its distance at least its centre's distance − its radius); ``ties``: a width (per node, or one) within
-    which closest points tie, beyond the round-off rule's TIE_TOL·h."""
+    which closest points tie, beyond the round-off rule's TIE_TOL·h; ``reach``: a node the cone test leaves
+    unpaired within this of its closest point is paired, with the tied facets' mean normal (a geometry cycle's
+    width: a node flush with M's outer edge)."""
     m, nv = x.shape[0], surface.X.shape[1]
     out = empty_closest(m, nv)
     nf = surface.X.shape[0]
@@ -263,7 +265,7 @@ def project(x: Array, surface: Surface, size: Array, rank: npt.NDArray[np.intp],
     hmax = float(size.max())
     widest = float(np.max(ties, initial=0.0))
     node, facet = candidate_facets(x, surface, 4, (max(TIE_TOL * hmax, widest), 1e-12 * (hmax + np.abs(x).max())))
-    select_candidates(x, node, facet, surface, size, rank, out, ties)
+    select_candidates(x, node, facet, surface, size, rank, out, ties, reach)
     return out
 
 
@@ -298,7 +300,7 @@ def candidate_facets(x: Array, surface: Surface, k0: int, slack: tuple[Any, ...]
 
 def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[np.intp], surface: Surface,
                       size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array],
-                      resolution: float | Array = 0.0) -> None:
+                      resolution: float | Array = 0.0, reach: float = 0.0) -> None:
     """The closest point of each point x_i among its candidate facets (the pairs (``node``, ``facet``), sorted by
     node), with the tie and normal-cone rules (:func:`_select`), written into ``out``; ``resolution``: the points'
     own position error (a length, 0: exact; one, or per point), below which ties and "on the surface" are decided
@@ -315,14 +317,15 @@ def select_candidates(x: Array, node: npt.NDArray[np.intp], facet: npt.NDArray[n
         valid = slot < count[sel, None]
         src = np.where(valid, first[sel, None] + slot, first[sel, None])
         dk = np.where(valid, dist[src], np.inf)
-        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel, resolution)
+        _select(x[sel], facet[src], q[src], w[src], dk, surface, size, rank, out, sel, resolution, reach)
 
 
 def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array, surface: Surface,
             size: Array, rank: npt.NDArray[np.intp], out: dict[str, Array], nodes: npt.NDArray[np.intp],
-            resolution: float | Array = 0.0) -> None:
+            resolution: float | Array = 0.0, reach: float = 0.0) -> None:
     """Pick x_m, the lexicographic facet among the tied ones, n and the cone test for a batch of nodes (ties and
-    "on the surface" within TIE_TOL·h, or within ``resolution`` where the points are known no better)."""
+    "on the surface" within TIE_TOL·h, or within ``resolution`` where the points are known no better; a node left
+    unpaired within ``reach`` of x_m paired as one on the surface)."""
     if nodes.size == 0:
         return
     rows = np.arange(nodes.size)
@@ -369,8 +372,8 @@ def _select(x: Array, ii: npt.NDArray[np.intp], q: Array, w: Array, dist: Array,
         if vague.size:
             s = np.einsum("kq,kqi->ki", tied[vague].astype(float), normals[vague])
             n[vague] = s / norm(s)[:, None]
-    # x_s on the surface: the normalized sum of the tied facets' normals
-    sel = np.flatnonzero(tiny)
+    # x_s on the surface (or within a geometry cycle's reach of it, unpaired): the tied facets' normals' sum
+    sel = np.flatnonzero(tiny | (~paired & (dn <= reach)))
     if sel.size:
         s = np.einsum("kq,kqi->ki", tied[sel].astype(float), normals[sel])
         n[sel] = s / norm(s)[:, None]
