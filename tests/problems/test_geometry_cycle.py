@@ -167,8 +167,7 @@ def test_nodes_back_and_forth_while_the_rest_settles_are_tied_node_by_node():
     theirs, so the whole geometry never repeated; the tied cycle came back unshrunk and the solve failed after 7
     updates (exit 3). A node back at its partner of two updates before, with another in between, is now a cycle of
     its own, and its nodes are added to the tied ones; the edge's other nodes, unpaired within the tie's width of
-    their closest points, are paired (its reach). The mirror scene (x1 = 0) settles on the mirror image, to the
-    solve's accuracy at rtol 1e-8 (6.7e-7 of the force apart)."""
+    their closest points, are paired (its reach). The mirror scene (x1 = 0) settles on the mirror image."""
     from benchmarks.slide_matrix import Blocks
 
     runs = []
@@ -180,4 +179,4 @@ def test_nodes_back_and_forth_while_the_rest_settles_are_tied_node_by_node():
     assert all(r["converged"] and r["updates"] < MAX_GEOMETRY_UPDATES for r in runs)
     assert len(runs[0]["nodes"]) == len(runs[1]["nodes"]) == 40
     mirror = runs[1]["force"] * np.array([-1.0, 1.0, 1.0])
-    assert np.abs(runs[0]["force"] - mirror).max() <= 1e-5 * np.linalg.norm(runs[0]["force"])
+    assert np.abs(runs[0]["force"] - mirror).max() <= 1e-6 * np.linalg.norm(runs[0]["force"])
