@@ -94,7 +94,7 @@ class Blocks:
         pair = ContactPair(ft, slave=UPPER_BOTTOM, master=LOWER_TOP, method=method, friction=friction)
         self.problem = ContactProblem(a, None, bcs, contact_pairs=[pair], settings={"rtol": rtol},
                                       petsc_options_prefix=prefix, sliding="finite")
-        self.V, self.comm = V, comm
+        self.V, self.comm, self.a, self.bcs, self.facet_tags = V, comm, a, bcs, ft
         self.upper = np.unique(V.dofmap.list[cell_tags.find(2)])
 
     def solve(self, shift: float) -> dict:
