@@ -43,10 +43,12 @@ PRESS, SLIDE, SUBSTEPS = 0.01, 0.8, 4
 MESHES = [((10, 5, 3), (7, 4, 3)), ((16, 8, 3), (9, 5, 3)), ((24, 12, 4), (13, 7, 3))]
 
 
-def blocks_mesh(comm: MPI.Comm, cell: str, n_lower: tuple, n_upper: tuple, x0: float):
-    """The two create_box blocks as one mesh (the upper at x1 ∈ [x0, x0 + 1]): mesh, cell tags (1 lower, 2 upper),
-    facet tags."""
-    boxes = [([0.0, 0.0, 0.0], [2.0, 1.0, 0.5], n_lower), ([x0, 0.25, 0.502], [x0 + 1.0, 0.75, 1.002], n_upper)]
+def blocks_mesh(comm: MPI.Comm, cell: str, n_lower: tuple, n_upper: tuple, x0: float,
+                upper_y: tuple[float, float] = (0.25, 0.75)):
+    """The two create_box blocks as one mesh (the upper at x1 ∈ [x0, x0 + 1], x2 ∈ ``upper_y``): mesh, cell tags (1
+    lower, 2 upper), facet tags."""
+    boxes = [([0.0, 0.0, 0.0], [2.0, 1.0, 0.5], n_lower),
+             ([x0, upper_y[0], 0.502], [x0 + 1.0, upper_y[1], 1.002], n_upper)]
     xs, cs, offset = [], [], 0
     for p0, p1, n in boxes:
         box = dolfinx.mesh.create_box(MPI.COMM_SELF, [p0, p1], list(n), dolfinx.mesh.CellType[cell])
@@ -79,8 +81,9 @@ class Blocks:
     """One case: the problem, the upper top's prescribed value, the upper body's DOF blocks."""
 
     def __init__(self, comm: MPI.Comm, cell: str, n_lower: tuple, n_upper: tuple, x0: float, method: str,
-                 prefix: str, friction: float = 0.0, rtol: float = 1e-10) -> None:
-        msh, cell_tags, ft = blocks_mesh(comm, cell, n_lower, n_upper, x0)
+                 prefix: str, friction: float = 0.0, rtol: float = 1e-10,
+                 upper_y: tuple[float, float] = (0.25, 0.75)) -> None:
+        msh, cell_tags, ft = blocks_mesh(comm, cell, n_lower, n_upper, x0, upper_y)
         V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
         u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
         dx = ufl.Measure("dx", domain=msh, subdomain_data=cell_tags)

@@ -21,10 +21,10 @@ ties their closest points within that width (the tied facets' mean normal; a nod
 is paired, as one on the surface); the node's point and weights stay the round-off tie rule's, so no numbering
 enters; and every node of the pair that the cone test leaves unpaired within the widest tie of its closest point
 is paired as one on the surface (a reach: the other nodes of a flush edge, which would cycle next, one or two at a
-time). Dual mortar credits the facets at those nodes with an uncovered border strip that wide (their D_j, M_jl,
-g̃_j stay those of the covered part). The iteration goes on. A cycle whose solves were not all at full accuracy is
-tied only when its amplitude exceeds :data:`LOOSE_CYCLE_MARGIN` × those solves' displacement error bound: a loose
-solve's cycle may be its error.
+time). Dual mortar credits every slave facet with an uncovered border strip as wide as the widest tie (their
+D_j, M_jl, g̃_j stay those of the covered part): the reach again, for a flush border's whole rows of facets. The
+iteration goes on. A cycle whose solves were not all at full accuracy is tied only when its amplitude exceeds
+:data:`LOOSE_CYCLE_MARGIN` × those solves' displacement error bound: a loose solve's cycle may be its error.
 
 Measured: a slave node beside the lower block's edge after a slide, its cycle 4e-5 wide: the slide in one solve and
 the static press 3.3e-4 of the normal force apart, 1 rank ≠ 2 ranks; tied, 1e-10 and 5e-10. A slave over a soft

@@ -39,7 +39,9 @@ def stencils(pair: PairInput) -> Stencils:
     try:  # a rank's facets may be bad where another's are not: every rank raises, before the next collective
         mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
                               gn[near], (verts, projected["closest"]), pair.resolution,
-                              None if pair.ties is None else pair.tie_width(slave.blocks).max(axis=1))
+                              # a geometry cycle tied: every facet's coverage decided within the widest tie (the
+                              # reach: a flush border's whole rows of facets, which would cycle row by row)
+                              None if pair.ties is None else np.full(slave.X.shape[0], pair.ties[1].max(initial=0.0)))
         failure = ""
     except InputError as err:
         failure = f"{pair.label}: {err}"
