@@ -15,8 +15,9 @@ the same nodes whose data changed) updates before, a digest of the contact nodes
 rank; or single nodes are back at their partner of two updates before, with another in between, while the rest
 of the geometry still settles (:func:`node_states`) — decides the geometry of its nodes within :data:`CYCLE_TIE`
 × its amplitude (``Coupling.tie``): the nodes that changed partner, lost it or gained one anywhere around the
-cycle (for single nodes: those nodes, the amplitude their own motion). The ties add up over a solve; a cycle whose
-nodes are all tied already is not tied again but accepted or failed (below). Node-to-surface
+cycle (for single nodes: those nodes, the amplitude their own motion). The ties add up over a solve, and a load
+path's step keeps its previous step's (a static solve starts untied); a cycle whose nodes are all tied already is
+not tied again but accepted or failed (below). Node-to-surface
 ties their closest points within that width (the tied facets' mean normal; a node within it of its closest point
 is paired, as one on the surface); the node's point and weights stay the round-off tie rule's, so no numbering
 enters; and every node of the pair that the cone test leaves unpaired within the widest tie of its closest point

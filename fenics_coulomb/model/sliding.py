@@ -321,7 +321,8 @@ class GeometryIteration:
         self._states: list[npt.NDArray[np.uint64]] = []  # their nodes' partners (node_states)
         self._last = False
         self._cycle: float | None = None  # the amplitude of the last 2-cycle too wide to accept
-        model.coupling.ties = None
+        if previous is None:  # a path step keeps its previous step's ties: the same edges, the same ambiguity
+            model.coupling.ties = None
         self._unchanged: float | None = None  # the last full-accuracy check's change with the same nodes
         self._pending: GeometryChange | None = None  # the last update's change, until a Newton step has followed it
         self._restore: float | None = None  # the reduction after a solve tightened to resolve an update

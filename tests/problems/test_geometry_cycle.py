@@ -202,3 +202,21 @@ def test_mortar_flush_sides_keep_the_slave_on_the_master():
     assert len(runs[0]["nodes"]) == len(runs[1]["nodes"]) == 40
     mirror = runs[1]["force"] * np.array([-1.0, 1.0, 1.0])
     assert np.abs(runs[0]["force"] - mirror).max() <= 1e-6 * np.linalg.norm(runs[0]["force"])
+
+
+def test_a_load_path_keeps_its_ties_from_step_to_step():
+    """Hexahedra, mortar, the upper block as wide as the lower one, F = 0.8 (a hostile replay): pressed (its flush
+    sides cycle and are tied), then slid 0.05. The slide's solve started untied, and the coverage front crossed the
+    block one column of side facets per update, 4 nodes at a time, until the 10 updates ran out (exit 3): no cycle
+    to tie. A path step keeps its previous step's ties (the same edges, the same ambiguity): the slide settles with
+    every node still resting on the master, and the friction force stays within the cone (|Q| ≤ F·P)."""
+    from benchmarks.slide_matrix import Blocks
+
+    blocks = Blocks(MPI.COMM_WORLD, "hexahedron", (10, 5, 3), (7, 4, 3), 0.5, "mortar", "carry_", friction=0.8,
+                    rtol=1e-8, upper_y=(0.0, 1.0))
+    with blocks.problem:
+        runs = [blocks.solve(0.0), blocks.solve(0.05)]
+    assert all(r["converged"] and r["updates"] < MAX_GEOMETRY_UPDATES for r in runs)
+    assert len(runs[1]["nodes"]) == 40
+    force = runs[1]["force"]
+    assert np.hypot(force[0], force[1]) <= 0.8 * force[2] * (1 + 1e-8)
