@@ -30,6 +30,26 @@ from meshes.two_blocks import TAGS, two_blocks
 MASTER, SLAVE, LOWER_BOTTOM, UPPER_TOP = (TAGS[k] for k in ("lower_top", "upper_bottom", "lower_bottom", "upper_top"))
 
 
+def _mirror_pair(ends: tuple[float, float], method: str, friction: float, rtol: float,
+                 upper_y: tuple[float, float] = (0.25, 0.75)) -> list[dict]:
+    """The coarse hexahedral blocks of benchmarks/slide_matrix.py with the upper block at x1 ∈ [x0, x0 + 1] for
+    both mirror-image ``ends`` (about x1 = 1), pressed: both runs, each converged within the update limit with
+    every one of its 40 slave nodes in contact, and the second's force the mirror image of the first's (1e-6)."""
+    from benchmarks.slide_matrix import Blocks
+
+    runs = []
+    for x0 in ends:
+        blocks = Blocks(MPI.COMM_WORLD, "hexahedron", (10, 5, 3), (7, 4, 3), x0, method,
+                        f"mirror_{method[:4]}_{x0:g}_", friction=friction, rtol=rtol, upper_y=upper_y)
+        with blocks.problem:
+            runs.append(blocks.solve(0.0))
+    assert all(r["converged"] and r["updates"] < MAX_GEOMETRY_UPDATES for r in runs)
+    assert len(runs[0]["nodes"]) == len(runs[1]["nodes"]) == 40
+    mirror = runs[1]["force"] * np.array([-1.0, 1.0, 1.0])
+    assert np.abs(runs[0]["force"] - mirror).max() <= 1e-6 * np.linalg.norm(runs[0]["force"])
+    return runs
+
+
 def _corner(method: str) -> ContactProblem:
     """The upper block [0.504, 1.504]² × [0.001, 0.501] (stiff) over the corner of the soft lower block
     [0, 1]² × [−1, 0] (its top bulges at the upper block's edges), the upper top pressed 0.03."""
@@ -144,21 +164,10 @@ def test_a_slave_flush_with_the_master_edge_under_friction_settles_mirror_symmet
     3.3e-3 wide, a 3-cycle through the coverage of the edge facets (exit 3 with 10 updates, both). Now the cycle's
     nodes, gained ones too, decide their geometry within its width — node-to-surface's closest point, mortar's
     coverage — and each scene settles on the mirror image of the other."""
-    from benchmarks.slide_matrix import Blocks
-
-    comm = MPI.COMM_WORLD
-    runs = []
-    for x0 in (1.0, 0.0):
-        blocks = Blocks(comm, "hexahedron", (10, 5, 3), (7, 4, 3), x0, method, f"flush_{x0:g}_", friction=0.3)
-        with blocks.problem:
-            runs.append(blocks.solve(0.0))
-    assert all(r["converged"] for r in runs)
+    runs = _mirror_pair((1.0, 0.0), method, 0.3, 1e-10)
     assert runs[0]["nodes"] == {(round(2.0 - x, 9), y, z) for x, y, z in runs[1]["nodes"]}
-    assert len(runs[0]["nodes"]) == 40  # every slave node: the edge rests on the master's edge
-    mirror = runs[1]["force"] * np.array([-1.0, 1.0, 1.0])
-    P = np.linalg.norm(runs[0]["force"])
-    assert np.abs(runs[0]["force"] - mirror).max() <= 1e-6 * P
-    assert abs(runs[0]["force"][0]) > 0.05 * P  # friction carries the blocks' mismatch of expansion
+    # friction carries the blocks' mismatch of expansion
+    assert abs(runs[0]["force"][0]) > 0.05 * np.linalg.norm(runs[0]["force"])
 
 
 def test_nodes_back_and_forth_while_the_rest_settles_are_tied_node_by_node():
@@ -168,18 +177,7 @@ def test_nodes_back_and_forth_while_the_rest_settles_are_tied_node_by_node():
     updates (exit 3). A node back at its partner of two updates before, with another in between, is now a cycle of
     its own, and its nodes are added to the tied ones; the edge's other nodes, unpaired within the tie's width of
     their closest points, are paired (its reach). The mirror scene (x1 = 0) settles on the mirror image."""
-    from benchmarks.slide_matrix import Blocks
-
-    runs = []
-    for x0 in (1.0, 0.0):
-        blocks = Blocks(MPI.COMM_WORLD, "hexahedron", (10, 5, 3), (7, 4, 3), x0, "node-to-surface",
-                        f"node_cycle_{x0:g}_", friction=0.8, rtol=1e-8)
-        with blocks.problem:
-            runs.append(blocks.solve(0.0))
-    assert all(r["converged"] and r["updates"] < MAX_GEOMETRY_UPDATES for r in runs)
-    assert len(runs[0]["nodes"]) == len(runs[1]["nodes"]) == 40
-    mirror = runs[1]["force"] * np.array([-1.0, 1.0, 1.0])
-    assert np.abs(runs[0]["force"] - mirror).max() <= 1e-6 * np.linalg.norm(runs[0]["force"])
+    _mirror_pair((1.0, 0.0), "node-to-surface", 0.8, 1e-8)
 
 
 def test_mortar_flush_sides_keep_the_slave_on_the_master():
@@ -190,18 +188,7 @@ def test_mortar_flush_sides_keep_the_slave_on_the_master():
     cycle is tied, every slave facet is credited with the widest tie's border strip (mortar's reach, as
     node-to-surface's pairs the nodes left unpaired within it): all 40 nodes keep resting on the master, and the
     mirror scene (0.001 short of the other end) settles on the mirror image."""
-    from benchmarks.slide_matrix import Blocks
-
-    runs = []
-    for x0 in (0.999, 0.001):
-        blocks = Blocks(MPI.COMM_WORLD, "hexahedron", (10, 5, 3), (7, 4, 3), x0, "mortar", f"sides_{x0:g}_",
-                        friction=0.3, rtol=1e-8, upper_y=(0.0, 1.0))
-        with blocks.problem:
-            runs.append(blocks.solve(0.0))
-    assert all(r["converged"] and r["updates"] < MAX_GEOMETRY_UPDATES for r in runs)
-    assert len(runs[0]["nodes"]) == len(runs[1]["nodes"]) == 40
-    mirror = runs[1]["force"] * np.array([-1.0, 1.0, 1.0])
-    assert np.abs(runs[0]["force"] - mirror).max() <= 1e-6 * np.linalg.norm(runs[0]["force"])
+    _mirror_pair((0.999, 0.001), "mortar", 0.3, 1e-8, upper_y=(0.0, 1.0))
 
 
 def test_a_load_path_keeps_its_ties_from_step_to_step():
