@@ -109,7 +109,7 @@ class Coupling:
     A_free: PETSc.Mat | None = None
     #: Whether the coupling's own geometry depends on the configuration (finite sliding re-pairs it).
     follows_configuration: bool = False
-    #: The nodes of a geometry 2-cycle (:meth:`tie`) as (sorted GLOBAL DOF blocks, widths), the same on every rank:
+    #: The nodes of geometry cycles (:meth:`tie`) as (sorted GLOBAL DOF blocks, widths), the same on every rank:
     #: the width within which their geometric decisions are made (None: round-off).
     ties: tuple[npt.NDArray[np.int64], Array] | None = None
     _energy_diagonal: Array | None = None
@@ -162,10 +162,10 @@ class Coupling:
 
     def tie(self, model: ContactModel, blocks: npt.NDArray[np.int32], width: Array) -> bool:
         """Decide the geometry of the nodes ``blocks`` (local, owned) within ``width`` from the next pairing on: a
-        node-to-surface node in a 2-cycle across a master edge takes the edge's tied facets' mean normal, and is
-        paired within ``width`` of its closest point; a dual-mortar facet at such a node counts as covered up to a
-        border strip ``width`` wide (:mod:`fenics_coulomb.model.geometry_cycles`), added to the nodes tied before in
-        the solve; whether any pair can and any node was not tied yet (collective)."""
+        node-to-surface node in a cycle across a master edge takes the edge's tied facets' mean normal, and any node
+        left unpaired within the widest tie of its closest point is paired; every dual-mortar facet counts as
+        covered up to a border strip that wide (:mod:`fenics_coulomb.model.geometry_cycles`). Added to the nodes tied
+        before; whether any pair can and any node was not tied yet (collective)."""
         return False
 
     def cycle_cure(self) -> str:

@@ -38,10 +38,7 @@ def stencils(pair: PairInput) -> Stencils:
     near = norm(x[nodes] - projected["closest"][at_nodes]) <= 2 * search + 4 * node_size(slave, gn)
     try:  # a rank's facets may be bad where another's are not: every rank raises, before the next collective
         mortar = mortar_nodes((slave.X, slave.blocks, slave.sign), (master.X, master.blocks, master.sign),
-                              gn[near], (verts, projected["closest"]), pair.resolution,
-                              # a geometry cycle tied: every facet's coverage decided within the widest tie (the
-                              # reach: a flush border's whole rows of facets, which would cycle row by row)
-                              None if pair.ties is None else np.full(slave.X.shape[0], pair.ties[1].max(initial=0.0)))
+                              gn[near], (verts, projected["closest"]), pair.resolution, pair.reach)
         failure = ""
     except InputError as err:
         failure = f"{pair.label}: {err}"

@@ -46,8 +46,7 @@ def stencils(pair: PairInput) -> Stencils:
     x, nodes, master = pair.x, pair.nodes, pair.master
     nv = master.X.shape[1]
     tied = 0.0 if pair.ties is None else pair.tie_width(pair.global_slave[np.searchsorted(pair.owned_slave, nodes)])
-    reach = 0.0 if pair.ties is None else float(pair.ties[1].max(initial=0.0))  # a flush edge's next nodes too
-    res = project(x[nodes], master, pair.size, pair.rank, tied, reach)
+    res = project(x[nodes], master, pair.size, pair.rank, tied, pair.reach)
     paired = _held_cone(x[nodes], res, pair.held[nodes], pair.size) if pair.held is not None else \
         np.asarray(res["paired"], dtype=bool)
     frames = frames_from_normals(res["normal"]) if nodes.size else np.zeros((0, 3, 3))

@@ -97,7 +97,7 @@ def pair_surfaces(V: dolfinx.fem.FunctionSpace, pairs: Sequence[ContactPair],
             geometric decisions finer than it are not made (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`).
         held: The components a support holds, of every local DOF block (owned and ghost), shape (blocks, 3)
             (:class:`~fenics_coulomb.model.pairs.stencils.PairInput`); None: none.
-        ties: A geometry 2-cycle's nodes (``PairInput.ties``); None: round-off.
+        ties: Geometry cycles' nodes (``PairInput.ties``); None: round-off.
 
     Returns:
         The owned contact nodes of all pairs.

@@ -29,7 +29,7 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
   gives the same non-zero φ_j (conforming P1/Q1 shape functions restrict to the edge's linear ones, and to
   1 at a vertex): the rule only fixes which zero-weight vertices are listed, so the stencil does not depend
   on the global numbering (which depends on the partition). Where a point is known only to a width w (a
-  configuration's own error, a finite-sliding 2-cycle's nodes: ``ties``), T takes max(1e-10 h, w) for both
+  configuration's own error, a finite-sliding cycle's nodes: ``ties``), T takes max(1e-10 h, w) for both
   bounds — its normals and "on the surface" below — while x_m and φ stay those of the 1e-10 h ties.
 * n_f(x) = the outward unit normal of facet f at x: of the plane (triangle) or of the bilinear surface,
   ±(x_ξ × x_η)/|x_ξ × x_η| at (ξ, η) — the sign fixed per facet so that it points out of the MASTER body
@@ -42,7 +42,9 @@ each vertex x_s of S (owned by this rank, with no Dirichlet component):
 * Normal cone C = cone{n_f(x_m) : f ∈ T} (the outward normals at x_m of the facets containing it; a single
   ray inside a facet or on M's outer boundary, so a node beside M's outer edge is free). The node is a
   contact node of the pair if dist(d, C) <= 1e-8 h or dist(−d, C) <= 1e-8 h (or |d| <= 1e-10 h) and
-  |g| <= ``search_distance`` (default 0.1 × the diagonal of the master surface's bounding box).
+  |g| <= ``search_distance`` (default 0.1 × the diagonal of the master surface's bounding box). Once a finite
+  sliding cycle is tied (``reach``, the widest tie: :mod:`fenics_coulomb.model.geometry_cycles`), a node the cone
+  test leaves unpaired within ``reach`` of x_m is paired as a node on the surface.
 * Vague directions: a node (all but) on an edge or vertex whose ±d passes the cone test only within its absolute
   tolerance (dist(±d, C) <= 1e-8 h) but lies off C by more than CONE_ANGLE = 1e-3 rad (dist > CONE_ANGLE·|d|) takes
   the normalized sum of the tied facets' normals (as |d| <= 1e-10 h does): with |d| of the order of 1e-8 h any
@@ -396,7 +398,7 @@ def node_size(surface: Surface, nodes: npt.NDArray[np.int64]) -> Array:
 
 def tie_width(ties: tuple[npt.NDArray[np.int64], Array] | None, blocks: npt.ArrayLike) -> Array:
     """The width of each of the GLOBAL DOF blocks ``blocks`` in ``ties`` = (sorted global blocks, widths), the nodes
-    of a geometry 2-cycle (0 for a node not in it, and for every node when ``ties`` is None)."""
+    of a geometry cycle (0 for a node not in it, and for every node when ``ties`` is None)."""
     blocks = np.asarray(blocks, dtype=np.int64)
     if ties is None or ties[0].size == 0:
         return np.zeros(blocks.shape)

@@ -111,6 +111,8 @@ quadrilaterals (N = (1−ξ)(1−η), ξ(1−η), (1−ξ)η, ξη; basix vertex
   solve (reduction 3.2e-4) left u₂ errors that uncovered strips 4e-8 – 3e-7 wide (2.9e-6 – 1.7e-5 of the facets)
   along the borders y = 0 and y = 1 where both bodies end; the geometry iteration dropped 12 nodes, then 48, and
   settled on 108 contact nodes with 35 free nodes penetrating by 3 % of the push, where LU keeps all 156.
+  Once a finite sliding cycle is tied, the strip is at least its widest tie (``reach``, uncapped:
+  :mod:`fenics_coulomb.model.geometry_cycles`).
 
 Candidate master facets of a slave facet e: those facing it (n_m · n_c < 0 at the facets' centres, so the
 far side of a curved or thin master is never counted twice) whose centre lies within 2 r_e + r_m of p_e, the
@@ -363,7 +365,7 @@ def _candidates(s_centre: Array, s_radius: Array, anchors: Array, s_normal: Arra
 
 def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tuple[Array, npt.NDArray[np.int64], Array],
                  nodes: npt.NDArray[np.int64], vertex_closest: tuple[npt.NDArray[np.int64], Array],
-                 resolution: float = 0.0, ties: Array | None = None) -> MortarNodes:
+                 resolution: float = 0.0, reach: float = 0.0) -> MortarNodes:
     """The mortar data of the slave nodes ``nodes`` (global blocks) of one pair (see the module docstring).
 
     Args:
@@ -377,8 +379,8 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
         resolution: The configuration's own displacement error (a length; 0 for the reference configuration): a
             facet's uncovered border strip up to 2 × resolution wide is credited as covered (see "Coverage at
             aligned borders").
-        ties: Per facet of the whole slave surface, the width of a geometry 2-cycle at its nodes (None: none): the
-            facet is credited with an uncovered border strip up to that wide (see "Coverage at aligned borders").
+        reach: The widest tie of a geometry cycle (0: none): a facet's uncovered border strip up to that wide is
+            credited as covered (see "Coverage at aligned borders"; :mod:`fenics_coulomb.model.geometry_cycles`).
 
     Raises:
         InputError: A projected quadrilateral that is not convex (the facet named by its centre).
@@ -519,8 +521,7 @@ def mortar_nodes(slave: tuple[Array, npt.NDArray[np.int64], Array], master: tupl
     separation = np.abs(_dot(X - closest, nc[:, None])).max(axis=1)
     strip = np.minimum(np.maximum(separation * np.minimum(master_tilt + tilt, 1.0), 2.0 * resolution),
                        ALIGNED_TOL * s_radius)
-    if ties is not None:  # a geometry cycle's nodes: their facets' coverage decided to the cycle's amplitude
-        strip = np.maximum(strip, ties[E])
+    strip = np.maximum(strip, reach)  # a geometry cycle tied: coverage decided to its width
     slack = strip * polygon_perimeter(s_poly)
     fraction = np.where(fraction < 1.0, np.minimum(fraction + slack / np.maximum(s_area, np.finfo(float).tiny), 1.0),
                         fraction)

@@ -48,7 +48,7 @@ class PairInput:
         held: The Cartesian components a support holds, of every local DOF block (owned and ghost), shape
             (blocks, 3); None: none (node-to-surface decides the normal cone of a held node in the directions it
             can move, :func:`~fenics_coulomb.model.pairs.node_to_surface.stencils`).
-        ties: The nodes of a geometry 2-cycle as (sorted global DOF blocks, widths), the width within which their
+        ties: The nodes of geometry cycles as (sorted global DOF blocks, widths), the width within which their
             geometric decisions are made (None: round-off; :meth:`tie_width`).
     """
 
@@ -66,6 +66,12 @@ class PairInput:
     resolution: float = 0.0
     held: npt.NDArray[np.bool_] | None = None
     ties: tuple[npt.NDArray[np.int64], Array] | None = None
+
+    @property
+    def reach(self) -> float:
+        """The widest tie (0: none): every node's or facet's decision left open within it is made as on the surface
+        (node-to-surface's pairing, mortar's coverage; the flush border's other nodes, which would cycle next)."""
+        return 0.0 if self.ties is None else float(self.ties[1].max(initial=0.0))
 
     def tie_width(self, blocks: npt.NDArray[np.int64]) -> Array:
         """The tie width of each of the GLOBAL DOF blocks ``blocks`` (0 for a node not tied)."""
