@@ -55,7 +55,8 @@ def main() -> None:
     comm = MPI.COMM_WORLD
     logging.disable(logging.WARNING)  # the edge's master-penetration warnings, one per solve
     t0 = time.perf_counter()
-    lines = ["| cell | method | x0 | F | rtol | slide | updates | contact nodes | normal force | tangential x1 |",
+    lines = ["| cell | method | x0 | F | rtol | slide | updates | contact nodes | normal force [GPa·L²] "
+             "| tangential x1 [GPa·L²] |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     results = {}
     for cell in CELLS:
@@ -82,7 +83,8 @@ def main() -> None:
     wall = time.perf_counter() - t0
     if comm.rank == 0:
         text = ["# Flush and near-flush ends under friction (benchmarks/flush_sweep.py)", "",
-                f"{len(results)} solves on {comm.size} rank(s), {failed} failed, {wall:.0f} s wall.", "",
+                f"{len(results)} solves on {comm.size} rank(s), {failed} failed, {wall:.0f} s wall. The pair force on "
+                "the slave body (E in GPa, lengths in L).", "",
                 "Hexahedral flush ends x0 = 1 against x0 = 0 (mirror images): the largest component difference of "
                 "the mirrored pair forces over the force's norm.", "",
                 "| method | F | rtol | mirror difference |", "|---|---|---|---|", *mirror, "", *lines, ""]
