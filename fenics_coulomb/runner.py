@@ -28,7 +28,7 @@ from fenics_coulomb.errors import InputError, SolverError, check_all
 from fenics_coulomb.errors import EXIT_DIVERGED
 from fenics_coulomb.io.results import FAILED_SUFFIX, ResultDirectory
 from fenics_coulomb.io.start import check_start_file, start_function
-from fenics_coulomb.io.writer import PathResultSet, write_result_set
+from fenics_coulomb.io.writer import PathResultSet, add_figures, write_result_set
 from fenics_coulomb.model.dof_values import set_owned_values
 from fenics_coulomb.scenes.builder import build_problem
 from fenics_coulomb.scenes.cuboid import expected_sizes
@@ -144,7 +144,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
         out.failed = status != 0
         with out.writing() as tmp:
             data = write_result_set(
-                tmp, problem, result, label=scene.label, plots=not args.no_plots, reactions=built.dirichlet_groups,
+                tmp, problem, result, reactions=built.dirichlet_groups,
                 extra={"scene": scene.as_dict(), "settings": vars(problem.settings), "body": built.body.description,
                        "nested": {"levels": nested_levels(scene.body.lev, nested) if coarse else [],
                                   "newton_iterations": [r.iterations for r in coarse.results] if coarse else [],
@@ -152,6 +152,11 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
                                   else []}},
                 timings={"model": t_model, "nested": t_nested, "mesh": built.mesh_time,
                          "assembly": problem.model_time}, started=t_write, wall_start=t0)
+        if not args.no_plots:  # once the set is in place: an interrupt meanwhile leaves it without them
+            from fenics_coulomb.io.figures import write_figures
+
+            add_figures(out, data, lambda directory: write_figures(directory, problem.model, result, scene.label),
+                        wall=True)
     counts = data["state_counts"]
     if comm.rank == 0:
         print(
@@ -337,10 +342,17 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
                 out.failed = bool(failure)
                 path = path_entry(len(records) - bool(failure and not failure.startswith(INPUT_STOP)))
                 assert last is not None  # at least one solve ran
+                steps = [r.as_dict() for r in records]
                 data = results.finish(
-                    [r.as_dict() for r in records], last, label=scene.label, plots=not args.no_plots,
+                    steps, last,
                     extra={**about, "converged": not failure, "reason": failure or "converged", "path": path},
                     timings={"model": t_model, "mesh": built.mesh_time, "assembly": problem.model_time}, wall_start=t0)
+            if not args.no_plots:  # once the set is in place: an interrupt meanwhile leaves it without them
+                from fenics_coulomb.io.figures import write_figures, write_path_figure
+
+                add_figures(out, data, lambda directory: [
+                    *write_figures(directory, problem.model, last, scene.label),
+                    *write_path_figure(directory, steps, scene.label, comm)], wall=True)
     finally:
         problem_logger.setLevel(level)
     status = 0

@@ -176,6 +176,53 @@ class ResultDirectory:
         if error:
             raise OutputError(error)
 
+    def add(self, write: Callable[[Path], list[str]], note: Callable[[str], str]) -> list[str]:
+        """Add files to the set committed last (collective; after :meth:`writing`): ``write`` writes them into a
+        temporary sibling ``.NAME.partial-HOST-PID-RAND`` (every rank calls it: it may communicate) and returns
+        their names, the same on every rank; rank 0 then moves each into the committed set, replacing a file of
+        that name (``summary.json``: the manifest that lists them, moved last). For what is slow and never costs
+        the results, e.g. the figures: the committed set is whole before they are started, and an interrupt
+        meanwhile ends the run at once — under mpirun the ranks have 250 ms between its SIGTERM and its SIGKILL,
+        a set being :meth:`updating` a few milliseconds — with the set as committed, without the files, and its
+        line ending in ``"; " + note(the committed set's place, quoted for a shell)``. An error in ``write`` is
+        raised after the temporary directory is removed; returns the names added."""
+        tmp = ""
+        if self.comm.rank == 0:
+            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
+            try:
+                os.mkdir(tmp)
+            except OSError as err:
+                tmp = f"\0{err.strerror or err}"
+        tmp = self.comm.bcast(tmp, root=0)
+        if tmp.startswith("\0"):
+            raise OutputError(f"{self.name} {self.given!r}: files cannot be added to the results ({tmp[1:]})")
+        staging = Path(tmp)
+        # rank 0's line names the set (every rank's would: the same line twice in mpirun's terminal)
+        _ADDING[staging] = f"; {note(shlex.quote(str(self.committed)))}" if self.comm.rank == 0 else ""
+        errors: list[str] = []  # of rank-0-only files (rank0_file): raised on every rank together
+        try:
+            _DEFERRED.append(errors)
+            try:
+                names = write(staging)
+            finally:
+                _DEFERRED.remove(errors)
+            if self.comm.rank == 0 and not errors:
+                name = ""
+                try:
+                    for name in sorted(names, key=lambda n: n == self.MANIFEST):  # the manifest last
+                        os.replace(staging / name, self.committed / name)
+                except OSError as err:
+                    errors.append(f"{name}: {err.strerror or err}")
+            failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
+            if failed:
+                raise OutputError(f"files could not be added to the results in {self.committed} ({failed[0]}); the "
+                                  "results are there without them")
+            return names
+        finally:
+            _ADDING.pop(staging, None)
+            if self.comm.rank == 0:
+                shutil.rmtree(staging, ignore_errors=True)
+
     def keep_on_interrupt(self, tmp: Path, note: Callable[[str], str], complete: Callable[[Path], None]) -> None:
         """Mark the temporary set ``tmp`` as complete so far but for the files ``complete`` writes (on this rank
         alone, into the directory it is given): its files describe finished work (a load path's completed solves,
@@ -270,10 +317,14 @@ def _run_deferred() -> None:
 def abandon_results() -> str:
     """Remove the temporary directories of every result set this process is writing (for a run that ends now,
     e.g. on a signal, without unwinding: the earlier result sets stay untouched); one marked complete so far
-    (:meth:`ResultDirectory.keep_on_interrupt`) is kept as ``NAME.interrupted`` instead. Returns "" or "; " + what
+    (:meth:`ResultDirectory.keep_on_interrupt`) is kept as ``NAME.interrupted`` instead; files being added to a
+    committed set (:meth:`ResultDirectory.add`) are dropped, the set stays as committed. Returns "" or "; " + what
     became of the work (the end of the interrupt's line)."""
     _SETTLING.append(True)
     kept = _COMMITTED.pop() if _COMMITTED else ""
+    for staging, note in list(_ADDING.items()):  # files being added to a committed set (ResultDirectory.add)
+        shutil.rmtree(staging, ignore_errors=True)
+        kept = note
     for path in list(_WRITING):
         kept = _settle(path, _KEEPABLE.pop(path, None)) or kept
         _WRITING.discard(path)
@@ -430,6 +481,9 @@ _PENDING: list[Callable[[], None]] = []
 _PENDING_SINCE: list[float] = [0.0]
 #: An interrupt is being handled (:func:`abandon_results`): a second signal leaves it to end the run.
 _SETTLING: list[bool] = []
+#: The temporary directories of files being added to a committed set, with the end of an interrupt's line
+#: (:meth:`ResultDirectory.add`).
+_ADDING: dict[Path, str] = {}
 #: What a waiting interrupt reports when the set it waited for was committed (:meth:`ResultDirectory.writing`).
 _COMMITTED: list[str] = []
 

@@ -13,7 +13,8 @@ Files: ``solution.xdmf`` + ``solution.h5`` (the displacement and every contact f
 ``convergence.csv`` (one row per Newton iteration), ``summary.json`` (the result's summary, the total contact
 force, the applied load, the reactions of the named supports, per-pair forces, software versions) and, with
 ``plots=True``, the PNG figures. The directory is written whole or not at all (:class:`.results.ResultDirectory`);
-a result that did not converge goes to ``PATH.not-converged`` when PATH holds a converged set.
+a result that did not converge goes to ``PATH.not-converged`` when PATH holds a converged set. The figures are drawn
+after it is in place (:func:`add_figures`): an interrupt while they are drawn (seconds) leaves it without them.
 
 A load path's set (:class:`PathResultSet`) grows by one grid of ``solution.xdmf`` and of ``obstacles.xdmf`` per
 solve (an interrupted path keeps its completed solves as ``OUT.interrupted``, with the files below, :meth:`progress`)
@@ -49,23 +50,21 @@ from fenics_coulomb.scd.records import SolveResult
 if TYPE_CHECKING:
     from fenics_coulomb.problem import ContactProblem
 
-__all__ = ["PathResultSet", "write_result_set", "write_results"]
+__all__ = ["PathResultSet", "add_figures", "write_result_set", "write_results"]
 
 
-def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *, label: str = "",
-                     plots: bool = False, reactions: Mapping[str, Any] | None = None,
+def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *,
+                     reactions: Mapping[str, Any] | None = None,
                      extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
                      started: float | None = None, wall_start: float | None = None,
                      units: Units | None = None) -> dict[str, Any]:
     """Write the result set of ``result`` into the (temporary) ``directory`` (collective); return summary.json's
-    data.
+    data. The figures follow once the set is committed (:func:`add_figures`).
 
     Args:
         directory: Where the files go (a :class:`~fenics_coulomb.io.results.ResultDirectory`'s temporary set).
         problem: The solved problem.
         result: Its result.
-        label: The figures' title.
-        plots: Write the PNG figures too.
         reactions: Named supports whose reactions summary.json reports: name → DirichletBC or local node blocks.
         extra: More summary.json entries.
         timings: More phases for ``timings_s`` (this rank's seconds; the maximum over the ranks is written).
@@ -85,10 +84,6 @@ def write_result_set(directory: Path, problem: ContactProblem, result: SolveResu
         ObstacleSeries(directory / "obstacles.xdmf", model.obstacles, body_box(model.V.mesh.geometry.x, comm),
                        comm, (units or Units()).length).write(0.0, model.obstacles)
         files += ["obstacles.xdmf", "obstacles.h5"]
-    if plots:
-        from fenics_coulomb.io.figures import write_figures
-
-        files += write_figures(directory, model, result, label, units)
     data = summary(model, result, dict(extra or {}), units)
     report = make_report(model, result, model.obstacles, reactions or {})
     data["reactions"] = {name: [float(c) for c in v] for name, v in report.reactions.items()}
@@ -203,14 +198,14 @@ class PathResultSet:
 
         return write
 
-    def finish(self, steps: list[dict[str, Any]], result: SolveResult, *, label: str = "", plots: bool = False,
+    def finish(self, steps: list[dict[str, Any]], result: SolveResult, *,
                extra: Mapping[str, Any] | None = None, timings: Mapping[str, float] | None = None,
                wall_start: float | None = None) -> dict[str, Any]:
         """Write convergence.csv (of the last solve ``result``), path.csv (``steps``: one record per solve,
-        :meth:`~fenics_coulomb.scenes.path.StepRecord.as_dict`), view.py, the figures (``plots``) and summary.json
-        (the last solve's summary, ``steps``, the last step's reactions and contact force, the iteration totals
-        and ``extra``; ``wall_time_s`` since ``wall_start``, a ``time.perf_counter()``); return summary.json's
-        data."""
+        :meth:`~fenics_coulomb.scenes.path.StepRecord.as_dict`), view.py and summary.json (the last solve's
+        summary, ``steps``, the last step's reactions and contact force, the iteration totals and ``extra``;
+        ``wall_time_s`` since ``wall_start``, a ``time.perf_counter()``); return summary.json's data. The figures
+        follow once the set is committed (:func:`add_figures`)."""
         started = time.perf_counter()
         model = self.problem.model
         comm = model.comm
@@ -221,11 +216,6 @@ class PathResultSet:
                           largest_force_normal(model, result.contact_force), comm, contact_bodies(model))
         files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
         files += ["obstacles.xdmf", "obstacles.h5"] if self.surfaces is not None else []
-        if plots:
-            from fenics_coulomb.io.figures import write_figures, write_path_figure
-
-            files += write_figures(directory, model, result, label)
-            files += write_path_figure(directory, steps, label, comm)
         data = summary(model, result, dict(extra or {}))
         data["steps"] = steps
         slid = [s["small_sliding"] for s in steps if s.get("small_sliding")]
@@ -303,6 +293,35 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
     out = ResultDirectory(comm or problem.model.comm, path, "write_results: path")
     out.failed = not result.converged
     with out.writing() as tmp:
-        data = write_result_set(tmp, problem, result, label=label, plots=plots, reactions=reactions, extra=extra,
-                                units=labels)
+        data = write_result_set(tmp, problem, result, reactions=reactions, extra=extra, units=labels)
+    if plots:
+        from fenics_coulomb.io.figures import write_figures
+
+        add_figures(out, data, lambda directory: write_figures(directory, problem.model, result, label, labels))
     return data
+
+
+def add_figures(out: ResultDirectory, data: dict[str, Any], draw: Callable[[Path], list[str]], *,
+                wall: bool = False) -> None:
+    """Draw the figures of the result set committed last in ``out`` into it (collective;
+    :meth:`~fenics_coulomb.io.results.ResultDirectory.add`): ``draw`` writes them into a directory and returns their
+    names (a figure that fails is a logged warning, :func:`~fenics_coulomb.io.figures.write_figures`). summary.json
+    (``data``, updated in place) then lists them, with ``timings_s["figures"]`` the seconds they took (the maximum
+    over the ranks), added to ``wall_time_s`` when that is the ``wall`` time of a whole command. An interrupt
+    meanwhile ends the run with the set in place without them."""
+    started = time.perf_counter()
+    comm = out.comm
+
+    def write(directory: Path) -> list[str]:
+        names = draw(directory)
+        seconds = comm.allreduce(time.perf_counter() - started, op=MPI.MAX)
+        data["timings_s"]["figures"] = seconds
+        if wall:
+            data["wall_time_s"] += seconds
+        data["files"] = [*(f for f in data["files"] if f != ResultDirectory.MANIFEST), *names,
+                         ResultDirectory.MANIFEST]
+        write_summary(directory / ResultDirectory.MANIFEST, data, comm)
+        return [*names, ResultDirectory.MANIFEST]
+
+    out.add(write, lambda place: f"the run had finished: its results are in {place}, without the figures it was "
+                                 "drawing")

@@ -16,6 +16,7 @@ Ctrl-C in mpirun's terminal the line still appears there (the ranks write it to 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shutil
 import signal
@@ -175,7 +176,6 @@ def test_an_interrupted_path_keeps_its_completed_solves(tmp_path, earlier_set):
     the interrupt's line with the options that resume the path, which then runs to its end. SIGTERM to every rank
     at the same moment: tests/cli/test_fuzz.py's case signal-path-after-a-solve-SIGTERM."""
     target, signum = ONE_RANK
-    import json
     import xml.etree.ElementTree as ET
 
     import h5py
@@ -255,6 +255,49 @@ def test_ctrl_c_in_mpiruns_terminal_shows_where_the_solves_are_kept(tmp_path):
     assert (kept / "summary.json").exists() and not out.exists()
     lines = [x for x in shown.splitlines() if "fenics-coulomb: interrupted by SIGTERM" in x]  # after the echoed ^C
     naming = [x for x in lines if f"completed solve(s) of the path are kept in {kept} (resume: --start {kept}" in x]
+    assert len(naming) == 1 and len(lines) <= 2, shown[-3000:]
+    deadline = time.monotonic() + 5.0
+    while (left := session_processes(session)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not left, left
+
+
+#: A run whose figures take a minute to draw, announced ("drawing the figures"): the moment to interrupt it.
+SLOW_FIGURES = """
+import sys, time
+import fenics_coulomb.io.figures as figures
+from fenics_coulomb.cli import run_command
+draw = figures.write_figures
+def slow(*args, **kwargs):
+    print("drawing the figures", flush=True)
+    time.sleep(60)
+    return draw(*args, **kwargs)
+figures.write_figures = slow
+sys.exit(run_command(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("launch, run", [
+    pytest.param(["mpirun", "-n", "2"], ["--lev", "3", "--steps", "3"], id="mpirun-load-path"),
+    pytest.param([], ["--lev", "3"], id="one-rank-static"),
+])
+def test_ctrl_c_while_the_figures_are_drawn_keeps_the_results(tmp_path, launch, run):
+    """Ctrl-C while the figures are drawn (they take seconds: 1.3 s of a 4 s slide_off path on 2 ranks). They were
+    drawn inside the result set's write, during which an interrupt waited; mpirun gives its ranks 250 ms between
+    SIGTERM and SIGKILL (PRRTE's odls), so they were killed: exit 1, no line, the set left in a hidden
+    ``.OUT.partial-*``. The figures are now drawn once the set is in place: the results stay, without them, and the
+    line says where."""
+    out = tmp_path / "out"
+    args = [*launch, sys.executable, "-c", SLOW_FIGURES, *run, "--pc", "none", "--out", str(out)]
+    shown, status, session = _on_a_terminal(args, marker="drawing the figures")
+    assert status != 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] and not [f for f in summary["files"] if f.endswith(".png")]
+    assert not list(out.glob("*.png"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # nothing beside it: no partial set, no .interrupted
+    lines = [x for x in shown.splitlines() if "fenics-coulomb: interrupted by" in x]
+    naming = [x for x in lines if x.endswith(f"the run had finished: its results are in {out}, without the figures it "
+                                             "was drawing")]
     assert len(naming) == 1 and len(lines) <= 2, shown[-3000:]
     deadline = time.monotonic() + 5.0
     while (left := session_processes(session)) and time.monotonic() < deadline:

@@ -4,7 +4,8 @@
 #  1. paths: run from a directory outside the repository, --out/--scene under /tmp, --out=~/..., a relative
 #     ../ path and `python` (not python3) under mpirun: the results exist on the host afterwards;
 #  2. interrupts: SIGINT to the process group (Ctrl-C) and SIGTERM to container/run end a 2-rank run within a
-#     few seconds with a non-zero status, and no process of the run (bwrap, mpirun, python3, Xvfb) is left.
+#     few seconds with a non-zero status, and no process of the run (bwrap, mpirun, python3, Xvfb) is left;
+#  3. the same signals keep an interrupted load path's completed solves (OUT.interrupted) and say so.
 set -euo pipefail
 run=$(cd "$(dirname "$0")/../.." && pwd)/container/run
 work=$(mktemp -d /tmp/fenics-coulomb-host-XXXXXX)
@@ -52,5 +53,40 @@ for sig in INT TERM; do
     [ -z "$left" ] || fail "SIG$sig: processes left behind:
 $left"
     echo "SIG$sig: status $status after $ms ms, no process left"
+done
+# -- 3. an interrupted load path keeps its completed solves through container/run ------------------------
+# bwrap used to die of Ctrl-C at once, and its end SIGKILLs the sandbox (its PID namespace): mpirun never passed
+# the signal on, the ranks never kept their solves (a hidden .OUT.partial-* left, exit 130 from bwrap, no line).
+# SIGTERM to container/run used to do the same. Now the command inside gets the signal as without the sandbox.
+# Ctrl-C is typed into a terminal of the run's own (script(1), whose input is a FIFO), as a user does, with SIGINT
+# at its default: a background job of this script has it ignored, and so would every process of the run — bwrap
+# too, which then did not die of it, and the check proved nothing.
+for sig in INT TERM; do
+    out="$work/path-$sig"
+    log="$work/path-log-$sig"
+    command=("$run" mpirun -n 2 python3 -m fenics_coulomb --lev 4 --steps 200 --pc none --out "$out" --no-plots)
+    if [ "$sig" = INT ]; then
+        mkfifo "$work/keys"
+        setsid env --default-signal=INT script -qefc "$(printf '%q ' "${command[@]}")" /dev/null < "$work/keys" > "$log" 2>&1 &
+        pid=$!
+        exec 5> "$work/keys"
+    else
+        setsid "${command[@]}" > >(cat > "$log") 2>&1 &  # a pipe, as `| tee log`: the interrupt's line reaches it
+        pid=$!
+    fi
+    for _ in $(seq 900); do grep -q '^solve 3/200' "$log" && break; sleep 0.1; done
+    grep -q '^solve 3/200' "$log" || fail "path SIG$sig: the path did not reach its third solve: $(tail -5 "$log")"
+    if [ "$sig" = INT ]; then printf '\003' >&5; else kill -TERM "$pid"; fi
+    status=0
+    wait "$pid" || status=$?
+    [ "$sig" = INT ] && exec 5>&- && rm -f "$work/keys"
+    [ "$status" -ne 0 ] || fail "path SIG$sig: container/run exited 0"
+    for _ in $(seq 50); do grep -q 'are kept in' "$log" && break; sleep 0.1; done  # the pipe's reader may lag
+    [ -s "$out.interrupted/summary.json" ] || fail "path SIG$sig: no $out.interrupted/summary.json: $(tail -5 "$log")"
+    grep -q "completed solve(s) of the path are kept in $out.interrupted" "$log" ||
+        fail "path SIG$sig: no line naming $out.interrupted: $(tail -5 "$log")"
+    leftover=$(find "$work" -maxdepth 1 -name ".path-$sig*")
+    [ -z "$leftover" ] || fail "path SIG$sig: left behind: $leftover"
+    echo "path SIG$sig: status $status, the completed solves kept in $out.interrupted"
 done
 echo "container/run host checks: ok"

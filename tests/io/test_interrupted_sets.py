@@ -209,3 +209,83 @@ def test_a_rank_whose_write_fails_under_a_claim_waits_for_it(tmp_path, monkeypat
         raise OSError(2, "No such file or directory")  # this rank's next write into the set
     assert time.monotonic() - start >= 0.3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out.interrupted"]
+
+
+def _committed(tmp_path) -> ResultDirectory:
+    """A committed set: summary.json listing solution.h5."""
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with out.writing() as tmp:
+        _write(tmp, "solution.h5", "data")
+        _write(tmp, "summary.json", json.dumps({"files": ["solution.h5", "summary.json"]}))
+    return out
+
+
+def test_files_added_to_a_committed_set_replace_theirs_manifest_last(tmp_path):
+    """ResultDirectory.add (the figures, drawn after the commit): the files are written beside the set and moved in,
+    summary.json (the manifest that lists them) last; nothing is left beside it."""
+    out = _committed(tmp_path)
+    moved: list[str] = []
+    import os
+
+    replace = os.replace
+
+    def recording(src, dst):
+        moved.append(os.path.basename(dst))
+        replace(src, dst)
+
+    def write(directory):
+        _write(directory, "summary.json", json.dumps({"files": ["solution.h5", "a.png", "summary.json"]}))
+        _write(directory, "a.png", "png")
+        return ["summary.json", "a.png"]
+
+    import unittest.mock
+
+    with unittest.mock.patch.object(results.os, "replace", recording):
+        assert out.add(write, _note) == ["summary.json", "a.png"]
+    assert moved == ["a.png", "summary.json"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["a.png", "solution.h5", "summary.json"]
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["files"][1] == "a.png"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_an_interrupt_while_files_are_added_leaves_the_committed_set(tmp_path):
+    """An interrupt while the figures are drawn ends the run at once (under mpirun the ranks have 250 ms between
+    SIGTERM and SIGKILL; the figures take seconds): the set stays as committed, the files being added are dropped,
+    and the line says where the results are."""
+    out = _committed(tmp_path)
+    ended: list[str] = []
+
+    def write(directory):
+        _write(directory, "a.png", "half a figure")
+        end = _ending(ended)
+        assert not defer_interrupt(end)  # nothing is being updated: the handler ends the run now
+        end()
+
+    with pytest.raises(Ended):
+        out.add(write, lambda where: f"the run had finished: its results are in {where}")
+    assert ended == [f"; the run had finished: its results are in {tmp_path / 'out'}"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["solution.h5", "summary.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # the files being added are gone
+    assert not results._ADDING
+
+
+def test_a_file_that_cannot_be_added_is_an_output_error_with_the_set_kept(tmp_path):
+    """A rank-0 file that fails while files are added (a full disk) fails on every rank together: OutputError,
+    the committed set untouched, nothing left beside it."""
+    from fenics_coulomb.errors import OutputError
+    from fenics_coulomb.io.results import rank0_file
+
+    out = _committed(tmp_path)
+
+    @rank0_file
+    def full(path, *args):
+        raise OSError(28, "No space left on device")
+
+    def write(directory):
+        full(directory / "summary.json")
+        return ["summary.json"]
+
+    with pytest.raises(OutputError, match="No space left on device.*there without them"):
+        out.add(write, _note)
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["files"] == ["solution.h5", "summary.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]

@@ -320,8 +320,11 @@ def test_the_deformed_figure_looks_at_the_contact_side(mpi_tmp_path, monkeypatch
     above, _ = contact_view((0.0, 0.0, -1.0))  # the sphere's normal points down into the block
     assert below[2] < -0.7 and above[2] > 0.7
     seen = []
-    monkeypatch.setattr(figures, "render_deformed",
-                        lambda parts, contact, path, title="", normal=None, slaves=(): seen.append(normal))
+    def render(parts, contact, path, title="", normal=None, slaves=()):  # the figure, as an empty file
+        seen.append(normal)
+        Path(path).write_bytes(b"")
+
+    monkeypatch.setattr(figures, "render_deformed", render)
     scene = ROOT / "demos" / "scenes" / "sphere_indentation.toml"
     assert main(["--scene", str(scene), "--lev", "1", "--out", str(mpi_tmp_path / "s"), "--quiet"]) == 0
     if MPI.COMM_WORLD.rank == 0:
