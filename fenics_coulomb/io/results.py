@@ -113,18 +113,9 @@ class ResultDirectory:
         propagates. Rank-0-only files that fail (:func:`rank0_file`) fail the set on every rank together:
         :class:`~fenics_coulomb.errors.OutputError`, one line, with the earlier result set kept.
         """
-        tmp = ""
         if self.comm.rank == 0:
             self.clean_stale()
-            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
-            try:
-                os.mkdir(tmp)
-            except OSError as err:
-                tmp = f"\0{err.strerror or err}"
-        tmp = self.comm.bcast(tmp, root=0)
-        if tmp.startswith("\0"):
-            raise OutputError(f"{self.name} {self.given!r}: the results cannot be written ({tmp[1:]})")
-        tmp_path = Path(tmp)
+        tmp_path = self._temporary("the results cannot be written")
         errors: list[str] = []
         _DEFERRED.append(errors)
         _WRITING.add(tmp_path)
@@ -186,17 +177,7 @@ class ResultDirectory:
         a set being :meth:`updating` a few milliseconds — with the set as committed, without the files, and its
         line ending in ``"; " + note(the committed set's place, quoted for a shell)``. An error in ``write`` is
         raised after the temporary directory is removed; returns the names added."""
-        tmp = ""
-        if self.comm.rank == 0:
-            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
-            try:
-                os.mkdir(tmp)
-            except OSError as err:
-                tmp = f"\0{err.strerror or err}"
-        tmp = self.comm.bcast(tmp, root=0)
-        if tmp.startswith("\0"):
-            raise OutputError(f"{self.name} {self.given!r}: files cannot be added to the results ({tmp[1:]})")
-        staging = Path(tmp)
+        staging = self._temporary("files cannot be added to the results")
         # rank 0's line names the set (every rank's would: the same line twice in mpirun's terminal)
         _ADDING[staging] = f"; {note(shlex.quote(str(self.committed)))}" if self.comm.rank == 0 else ""
         errors: list[str] = []  # of rank-0-only files (rank0_file): raised on every rank together
@@ -222,6 +203,22 @@ class ResultDirectory:
             _ADDING.pop(staging, None)
             if self.comm.rank == 0:
                 shutil.rmtree(staging, ignore_errors=True)
+
+    def _temporary(self, failure: str) -> Path:
+        """A new temporary sibling ``.NAME.partial-HOST-PID-RANDOM`` made by rank 0, after its host and process
+        (collective; :meth:`clean_stale` removes it once that process is gone); OutputError "``failure`` (reason)"
+        on every rank if it cannot be made."""
+        tmp = ""
+        if self.comm.rank == 0:
+            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
+            try:
+                os.mkdir(tmp)
+            except OSError as err:
+                tmp = f"\0{err.strerror or err}"
+        tmp = self.comm.bcast(tmp, root=0)
+        if tmp.startswith("\0"):
+            raise OutputError(f"{self.name} {self.given!r}: {failure} ({tmp[1:]})")
+        return Path(tmp)
 
     def keep_on_interrupt(self, tmp: Path, note: Callable[[str], str], complete: Callable[[Path], None]) -> None:
         """Mark the temporary set ``tmp`` as complete so far but for the files ``complete`` writes (on this rank
