@@ -62,21 +62,29 @@ def surface_elements_off_volume(gmsh: object, surfaces: list[int] | None = None)
     known = _volume_faces(gmsh)
     if surfaces is None:
         surfaces = [t for _, t in gmsh.model.getEntities(2)]  # type: ignore[attr-defined]
-    off: dict[int, tuple[int, int]] = {}
-    for entity in surfaces:
+    # every entity's rows tested at once per corner count: each np.isin sorts the volume's faces again (8 calls of
+    # 0.025 s each on a 1.4 MB mesh of 2 bodies)
+    rows: dict[int, list[np.ndarray]] = {3: [], 4: []}
+    owner: dict[int, list[np.ndarray]] = {3: [], 4: []}
+    for k, entity in enumerate(surfaces):
         types, _, nodes = mesh.getElements(2, entity)
-        total = bad = 0
         for etype, enodes in zip(types, nodes, strict=True):
             corners = _SURFACE_CORNERS.get(int(etype))
             if corners is None:
                 continue
             width = mesh.getElementProperties(etype)[3]
-            rows = _rows(np.asarray(enodes).reshape(-1, width)[:, :corners], corners)
-            total += len(rows)
-            bad += int(np.count_nonzero(~np.isin(rows, known[corners])))
-        if bad:
-            off[int(entity)] = (bad, total)
-    return off
+            rows[corners].append(_rows(np.asarray(enodes).reshape(-1, width)[:, :corners], corners))
+            owner[corners].append(np.full(len(rows[corners][-1]), k, dtype=np.int64))
+    total = np.zeros(len(surfaces), dtype=np.int64)
+    bad = np.zeros(len(surfaces), dtype=np.int64)
+    for corners in (3, 4):
+        if not rows[corners]:
+            continue
+        entities = np.concatenate(owner[corners])
+        total += np.bincount(entities, minlength=len(surfaces))
+        outside = ~np.isin(np.concatenate(rows[corners]), known[corners])
+        bad += np.bincount(entities[outside], minlength=len(surfaces))
+    return {int(entity): (int(bad[k]), int(total[k])) for k, entity in enumerate(surfaces) if bad[k]}
 
 
 def unmatched_surface_elements(gmsh: object) -> str:
