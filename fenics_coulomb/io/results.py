@@ -115,6 +115,7 @@ class ResultDirectory:
         """
         if self.comm.rank == 0:
             self.clean_stale()
+        _FINISHED.clear()
         tmp_path = self._temporary("the results cannot be written")
         errors: list[str] = []
         _DEFERRED.append(errors)
@@ -124,6 +125,7 @@ class ResultDirectory:
         except BaseException as err:
             keep = _KEEPABLE.get(tmp_path) if isinstance(err, KeyboardInterrupt | Interrupted) else None
             kept = _settle(tmp_path, keep)
+            _release(tmp_path)
             if kept:
                 err.kept = kept  # type: ignore[attr-defined]  # the end of the interrupt's line (cli)
             _UPDATING.discard(tmp_path)
@@ -137,7 +139,11 @@ class ResultDirectory:
         try:
             self._commit_set(tmp_path, errors)
             committed = True
+            if self.comm.rank == 0:  # what an interrupt from now on says (rank 0's line alone names it)
+                _FINISHED[:] = [f"; the run had {'ended' if self.failed else 'finished'}: its results are in "
+                                f"{shlex.quote(str(self.committed))}"]
         finally:  # an interrupt that waited for the set (a load path's last write) ends the run now
+            _release(tmp_path)
             if tmp_path in _UPDATING and _PENDING:
                 _COMMITTED.append(f"; the path had finished: its results are in {self.committed}" if committed else
                                   "; the path had finished, but its results could not be written (the earlier "
@@ -189,11 +195,16 @@ class ResultDirectory:
                 _DEFERRED.remove(errors)
             if self.comm.rank == 0 and not errors:
                 name = ""
+                _UPDATING.add(staging)  # the moves (milliseconds): an interrupt waits for the manifest to match
                 try:
                     for name in sorted(names, key=lambda n: n == self.MANIFEST):  # the manifest last
                         os.replace(staging / name, self.committed / name)
                 except OSError as err:
                     errors.append(f"{name}: {err.strerror or err}")
+                finally:
+                    _ADDING.pop(staging, None)  # moved (or not): the set as it now is
+                    _UPDATING.discard(staging)
+                    _run_deferred()
             failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
             if failed:
                 raise OutputError(f"files could not be added to the results in {self.committed} ({failed[0]}); the "
@@ -203,6 +214,7 @@ class ResultDirectory:
             _ADDING.pop(staging, None)
             if self.comm.rank == 0:
                 shutil.rmtree(staging, ignore_errors=True)
+            _release(staging)
 
     def _temporary(self, failure: str) -> Path:
         """A new temporary sibling ``.NAME.partial-HOST-PID-RANDOM`` made by rank 0, after its host and process
@@ -215,6 +227,8 @@ class ResultDirectory:
                 os.mkdir(tmp)
             except OSError as err:
                 tmp = f"\0{err.strerror or err}"
+        if self.comm.rank == 0 and not tmp.startswith("\0"):
+            _hold(Path(tmp))
         tmp = self.comm.bcast(tmp, root=0)
         if tmp.startswith("\0"):
             raise OutputError(f"{self.name} {self.given!r}: {failure} ({tmp[1:]})")
@@ -250,12 +264,19 @@ class ResultDirectory:
             return False
 
     def clean_stale(self) -> None:
-        """Remove temporary siblings (``.NAME.partial-*``, ``.NAME.previous-*``) of runs on this host whose
-        process is gone (rank 0 only; no communication)."""
+        """Remove temporary siblings (``.NAME.partial-*``, ``.NAME.previous-*``) of runs that are gone (rank 0 only;
+        no communication): a temporary set whose lock no process holds (:func:`_held`; every run in container/run
+        is in a PID namespace of its own, where rank 0 of every ``mpirun -n 2`` is process 5, so a process number
+        tells nothing there), else one of this host whose process is gone."""
         host = _owner().rsplit("-", 1)[0]
         for kind in ("partial", "previous"):
             prefix = f".{self.path.name}.{kind}-"
             for entry in self.path.parent.glob(f"{glob.escape(prefix)}*"):
+                held = _held(entry) if kind == "partial" else None  # a previous set lives milliseconds
+                if held is not None:  # the lock its writer holds (_temporary) tells, in any PID namespace
+                    if not held:
+                        shutil.rmtree(entry, ignore_errors=True)
+                    continue
                 owner_host, pid = _split_owner(entry.name[len(prefix):])
                 # this process's number: ours, or another sandbox's run (each numbers its processes from 1)
                 if owner_host != host or not pid.isdigit() or int(pid) == os.getpid():
@@ -322,6 +343,8 @@ def abandon_results() -> str:
     for staging, note in list(_ADDING.items()):  # files being added to a committed set (ResultDirectory.add)
         shutil.rmtree(staging, ignore_errors=True)
         kept = note
+    if not kept and not _WRITING and _FINISHED:  # the run's set is in place: where
+        kept = _FINISHED[0]
     for path in list(_WRITING):
         kept = _settle(path, _KEEPABLE.pop(path, None)) or kept
         _WRITING.discard(path)
@@ -478,6 +501,56 @@ _PENDING: list[Callable[[], None]] = []
 _PENDING_SINCE: list[float] = [0.0]
 #: An interrupt is being handled (:func:`abandon_results`): a second signal leaves it to end the run.
 _SETTLING: list[bool] = []
+#: Where the last set this process committed went, as the end of an interrupt's line (rank 0).
+_FINISHED: list[str] = []
+#: The open directories whose shared lock marks this process's temporary sets as alive (:func:`_hold`).
+_LOCKS: dict[Path, int] = {}
+
+
+def _hold(tmp: Path) -> None:
+    """Hold a shared lock on the temporary directory ``tmp`` while this process writes it (released when the
+    process ends, however it ends: :func:`_held` then finds it free)."""
+    import fcntl
+
+    try:
+        fd = os.open(tmp, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except OSError:  # a file system without locks: clean_stale falls back to the process number
+        os.close(fd)
+        return
+    _LOCKS[tmp] = fd
+
+
+def _release(tmp: Path) -> None:
+    """Release :func:`_hold`'s lock on ``tmp`` (which may have been renamed since: the lock is the inode's)."""
+    fd = _LOCKS.pop(tmp, None)
+    if fd is not None:
+        os.close(fd)
+
+
+def _held(entry: Path) -> bool | None:
+    """Whether a process holds the lock of the temporary directory ``entry`` (:func:`_hold`); None when that
+    cannot be told (not a directory, no locks on its file system)."""
+    import fcntl
+
+    try:
+        fd = os.open(entry, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+    return False
+
+
 #: The temporary directories of files being added to a committed set, with the end of an interrupt's line
 #: (:meth:`ResultDirectory.add`).
 _ADDING: dict[Path, str] = {}

@@ -27,6 +27,7 @@ same bits on any number of ranks).
 from __future__ import annotations
 
 import json
+import logging
 import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -36,7 +37,7 @@ from mpi4py import MPI
 
 import numpy as np
 
-from fenics_coulomb.errors import InputError
+from fenics_coulomb.errors import InputError, OutputError
 from fenics_coulomb.io.obstacle_surfaces import ObstacleSeries, body_box
 from fenics_coulomb.io.results import ResultDirectory
 from fenics_coulomb.io.summary import summary, write_convergence_csv, write_path_csv, write_summary
@@ -51,6 +52,8 @@ if TYPE_CHECKING:
     from fenics_coulomb.problem import ContactProblem
 
 __all__ = ["PathResultSet", "add_figures", "write_result_set", "write_results"]
+
+logger = logging.getLogger(__name__)
 
 
 def write_result_set(directory: Path, problem: ContactProblem, result: SolveResult, *,
@@ -185,6 +188,7 @@ class PathResultSet:
         bodies = contact_bodies(model)
         files = ["solution.xdmf", "solution.h5", "convergence.csv", "path.csv", "view.py"]
         files += ["obstacles.xdmf", "obstacles.h5"] if self.surfaces is not None else []
+        files += [ResultDirectory.MANIFEST]
         model.comm.barrier()
         alone = MPI.COMM_SELF
 
@@ -308,20 +312,29 @@ def add_figures(out: ResultDirectory, data: dict[str, Any], draw: Callable[[Path
     names (a figure that fails is a logged warning, :func:`~fenics_coulomb.io.figures.write_figures`). summary.json
     (``data``, updated in place) then lists them, with ``timings_s["figures"]`` the seconds they took (the maximum
     over the ranks), added to ``wall_time_s`` when that is the ``wall`` time of a whole command. An interrupt
-    meanwhile ends the run with the set in place without them."""
+    meanwhile ends the run with the set in place without them; figures that cannot be added (a full disk) are a
+    logged warning, the set stays as it is (``data`` too)."""
     started = time.perf_counter()
     comm = out.comm
+    added = {**data, "timings_s": dict(data["timings_s"])}
 
     def write(directory: Path) -> list[str]:
         names = draw(directory)
         seconds = comm.allreduce(time.perf_counter() - started, op=MPI.MAX)
-        data["timings_s"]["figures"] = seconds
+        added["timings_s"]["figures"] = seconds
         if wall:
-            data["wall_time_s"] += seconds
-        data["files"] = [*(f for f in data["files"] if f != ResultDirectory.MANIFEST), *names,
-                         ResultDirectory.MANIFEST]
-        write_summary(directory / ResultDirectory.MANIFEST, data, comm)
+            added["wall_time_s"] += seconds
+        added["files"] = [*(f for f in data["files"] if f != ResultDirectory.MANIFEST), *names,
+                          ResultDirectory.MANIFEST]
+        write_summary(directory / ResultDirectory.MANIFEST, added, comm)
         return [*names, ResultDirectory.MANIFEST]
 
-    out.add(write, lambda place: f"the run had finished: its results are in {place}, without the figures it was "
-                                 "drawing")
+    ended = "ended" if out.failed else "finished"
+    try:
+        out.add(write, lambda place: f"the run had {ended}: its results are in {place}, without the figures it was "
+                                     "drawing")
+    except OutputError as err:  # a figure never costs the results (a full disk): a warning, as for one figure
+        if comm.rank == 0:
+            logger.warning("fenics-coulomb: warning: %s", err)
+        return
+    data.update(added)

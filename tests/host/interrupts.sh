@@ -89,4 +89,33 @@ for sig in INT TERM; do
     [ -z "$leftover" ] || fail "path SIG$sig: left behind: $leftover"
     echo "path SIG$sig: status $status, the completed solves kept in $out.interrupted"
 done
+# -- 4. container/run passes signals on as the command would take them -----------------------------------
+# A signal to container/run's process alone (kill PID, Popen.send_signal) reaches the command: SIGINT, SIGQUIT
+# and SIGHUP were ignored (the command ran on) once bwrap ignored them.
+for sig in INT QUIT HUP TERM; do
+    env --default-signal=INT,QUIT setsid "$run" sleep 30 & pid=$!
+    sleep 1
+    kill -"$sig" "$pid"
+    status=0
+    timeout 10 tail --pid="$pid" -f /dev/null || fail "SIG$sig to container/run's pid: still running 10 s later"
+    wait "$pid" || status=$?
+    [ "$status" -eq $((128 + $(kill -l "$sig"))) ] || fail "SIG$sig to container/run's pid: status $status"
+done
+# Dispositions ignored on entry stay ignored in the command (nohup's SIGHUP); the others are the defaults.
+ignored=$( (trap '' HUP; env --default-signal=INT,QUIT,TERM "$run" sed -n 's/^SigIgn:[[:space:]]*//p' /proc/self/status) )
+[ "$ignored" = 0000000000000001 ] || fail "the command's ignored signals: $ignored, expected SIGHUP alone"
+# Ctrl-C stops a shell loop around container/run, as it does around the command itself: container/run ends by
+# the signal the command ended by (it exited 130, and bash went on with the loop).
+loop='for i in 1 2 3; do '"$(printf '%q' "$run")"' sleep 5; echo "iteration $i"; done'
+mkfifo "$work/keys"
+setsid env --default-signal=INT script -qefc "bash -c $(printf '%q' "$loop")" /dev/null < "$work/keys" \
+    > "$work/loop-log" 2>&1 &
+pid=$!
+exec 5> "$work/keys"
+sleep 2
+printf '\003' >&5
+wait "$pid" || true
+exec 5>&-
+! grep -q iteration "$work/loop-log" || fail "Ctrl-C did not stop the loop: $(cat "$work/loop-log")"
+echo "signals to container/run: ok"
 echo "container/run host checks: ok"

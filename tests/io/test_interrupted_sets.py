@@ -29,6 +29,8 @@ def _fresh(monkeypatch):
     results._SETTLING.clear()
     results._PENDING.clear()
     results._COMMITTED.clear()
+    results._FINISHED.clear()
+    results._UPDATING.clear()
 
 
 def _ending(record: list[str]):
@@ -156,18 +158,34 @@ def test_one_rank_claims_the_set(tmp_path):
     assert sorted(p.name for p in (tmp_path / "out.interrupted").iterdir()) == ["summary.json", "view.py"]
 
 
-def test_a_set_of_this_process_number_is_left_to_its_run(tmp_path):
-    """Every sandbox numbers its processes from 1: a partial set named with this process's number that this process
-    does not write is another sandbox's live run into the same directory, never removed."""
+def test_a_live_run_of_another_sandbox_keeps_its_set_a_dead_ones_is_removed(tmp_path):
+    """Every sandbox numbers its processes from 1 (rank 0 of every ``mpirun -n 2`` in container/run is process 5), so
+    a process number tells nothing: a set named with this process's number is another sandbox's, alive or dead.
+    The lock its writer holds tells (results._hold): a live run's set is never removed; a dead run's is, by the next
+    run (such sets piled up: every mpirun run interrupted while drawing its figures left one that no later run
+    removed)."""
+    import fcntl
     import os
 
-    other = tmp_path / f".out.partial-{results._owner()}-deadbeef"
-    other.mkdir()
-    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
-    with out.writing() as tmp:
-        assert other.exists() and tmp.exists() and str(os.getpid()) in other.name
+    alive = tmp_path / f".out.partial-{results._owner()}-deadbeef"
+    dead = tmp_path / f".out.partial-{results._owner()}-0badf00d"
+    alive.mkdir()
+    dead.mkdir()
+    holder = os.open(alive, os.O_RDONLY | os.O_DIRECTORY)  # the other sandbox's rank 0
+    fcntl.flock(holder, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    try:
+        out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+        with out.writing() as tmp:
+            assert alive.exists() and tmp.exists() and not dead.exists()
+            assert results._held(tmp)  # this run's own set is marked alive while it is written
+            _write(tmp, "summary.json", json.dumps({"converged": True}))
+        assert alive.exists()
+        assert not results._LOCKS  # released once committed
+    finally:
+        os.close(holder)
+    with out.writing() as tmp:  # its writer gone: removed
         _write(tmp, "summary.json", json.dumps({"converged": True}))
-    assert other.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
 def test_a_waiting_interrupt_whose_set_cannot_be_written_says_so(tmp_path):
@@ -289,3 +307,73 @@ def test_a_file_that_cannot_be_added_is_an_output_error_with_the_set_kept(tmp_pa
         out.add(write, _note)
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["files"] == ["solution.h5", "summary.json"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_an_interrupt_while_the_added_files_are_moved_waits_for_the_manifest(tmp_path, monkeypatch):
+    """The figures are moved into the set one by one, summary.json (which lists them) last: an interrupt between two
+    moves left a figure in the set that its manifest did not list, and a line saying "without the figures". It
+    now waits for the moves (milliseconds) and says where the whole set is."""
+    import os
+
+    out = _committed(tmp_path)
+    ended: list[str] = []
+    replace = os.replace
+
+    def interrupted_once(src, dst):
+        replace(src, dst)
+        if not ended and not results._PENDING:
+            assert defer_interrupt(_ending(ended))  # waits
+            assert ended == []
+
+    def write(directory):
+        _write(directory, "a.png", "png")
+        _write(directory, "summary.json", json.dumps({"files": ["solution.h5", "a.png", "summary.json"]}))
+        return ["a.png", "summary.json"]
+
+    monkeypatch.setattr(results.os, "replace", interrupted_once)
+    results._FINISHED[:] = [f"; the run had finished: its results are in {tmp_path / 'out'}"]
+    with pytest.raises(Ended):
+        out.add(write, lambda where: f"without the figures, in {where}")
+    assert ended == [f"; the run had finished: its results are in {tmp_path / 'out'}"]
+    listed = json.loads((tmp_path / "out" / "summary.json").read_text())["files"]
+    assert sorted(listed) == sorted(p.name for p in (tmp_path / "out").iterdir())
+
+
+def test_an_interrupt_after_the_commit_says_where_the_results_are(tmp_path):
+    """After the commit (before the figures start, or after they are in) an interrupt's line said only "ending all
+    ranks" although the run's whole set was in place."""
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with out.writing() as tmp:
+        _write(tmp, "summary.json", json.dumps({"converged": True}))
+    assert abandon_results() == f"; the run had finished: its results are in {out.committed}"
+    results._SETTLING.clear()
+    failed = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    failed.failed = True  # a run that did not converge, beside a converged set: NAME.not-converged
+    with failed.writing() as tmp:
+        _write(tmp, "summary.json", json.dumps({"converged": False}))
+    assert abandon_results() == f"; the run had ended: its results are in {tmp_path / 'out.not-converged'}"
+
+
+def test_figures_that_cannot_be_added_are_a_warning_and_leave_the_set(tmp_path, monkeypatch, caplog):
+    """A full disk while the figures are added: the run had written its results (exit 4 means it had not), and a
+    figure never costs the results: a warning, the set and summary.json's data as committed."""
+    from fenics_coulomb.io import writer
+    from fenics_coulomb.io.results import rank0_file
+
+    out = _committed(tmp_path)
+
+    @rank0_file
+    def full(path, *args):
+        raise OSError(28, "No space left on device")
+
+    def draw(directory):
+        _write(directory, "a.png", "png")
+        return ["a.png"]
+
+    monkeypatch.setattr(writer, "write_summary", full)
+    data = {"files": ["solution.h5", "summary.json"], "timings_s": {}, "wall_time_s": 1.0}
+    writer.add_figures(out, data, draw, wall=True)
+    assert data == {"files": ["solution.h5", "summary.json"], "timings_s": {}, "wall_time_s": 1.0}
+    assert "No space left on device" in caplog.text and "without them" in caplog.text
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["solution.h5", "summary.json"]
