@@ -164,7 +164,7 @@ def run(args: argparse.Namespace, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
             f"{result.iterations} Newton / {result.krylov_iterations} Krylov iterations, "
             + (f"{result.geometry_updates} geometry update(s), " if finite else "") +
             f"open/stick/slip {counts['open']}/{counts['stick']}/{counts['slip']}, "
-            f"{data['wall_time_s']:.2f} s; results in {_shown(out)}/ ({', '.join(data['files'])})",
+            f"{data['wall_time_s']:.2f} s; results in {_shown(out, data['files'])}",
             flush=True,
         )
         print("\n".join(force_lines(data, scene)), flush=True)
@@ -368,7 +368,7 @@ def run_load_path(args: argparse.Namespace, comm: MPI.Comm, scene: Scene, solves
         print(f"{ending}: "
               f"{len(records)} solve(s), {data['newton_iterations_total']} Newton / "
               f"{data['krylov_iterations_total']} Krylov iterations, {data['wall_time_s']:.2f} s; results in "
-              f"{_shown(out)}/ ({', '.join(data['files'])})", flush=True)
+              f"{_shown(out, data['files'])}", flush=True)
         print("\n".join(f"last step: {line}" for line in force_lines(data, scene)), flush=True)
         print("\n".join(f"last step: {line}" for line in contact_lines(data)), flush=True)
     if refused:  # the command's one error line (exit 2), after the result set of the solves before it
@@ -396,10 +396,12 @@ def _interrupted_note(solves: int, last: PathSolve, steps: int, start_step: int 
     return note
 
 
-def _shown(out: ResultDirectory) -> str:
-    """Where the results went, as the user named it (or the not-converged sibling of an earlier solution)."""
-    return out.given if out.committed == out.path else f"{out.given}{FAILED_SUFFIX} (the earlier solution in " \
-        f"{out.given} is kept)"
+def _shown(out: ResultDirectory, files: list[str]) -> str:
+    """Where the results went, as the user named it (or the not-converged sibling of an earlier solution), with
+    the ``files``: "OUT/ (a, b)"."""
+    if out.committed == out.path:
+        return f"{out.given}/ ({', '.join(files)})"
+    return f"{out.given}{FAILED_SUFFIX}/ ({', '.join(files)}; the earlier solution in {out.given} is kept)"
 
 
 def friction_text(scene: Scene) -> str:

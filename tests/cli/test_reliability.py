@@ -221,8 +221,11 @@ def test_a_file_that_fails_on_rank_0_alone_fails_the_set_on_every_rank(mpi_tmp_p
 
 # -- class 5: leftovers -------------------------------------------------------------------------------------
 def test_the_next_run_removes_what_a_killed_run_left(mpi_tmp_path):
-    """A run killed while writing leaves .NAME.partial-HOST-PID-*: the next run into the same parent removes it
-    when its process is gone, and leaves the one of a live process alone."""
+    """A run killed while writing leaves .NAME.partial-HOST-PID-*: the next run into the same parent removes it when
+    no process holds its lock (results._hold: a writer holds one as long as it lives), and leaves a live writer's
+    alone — whatever process number the name carries (a dead run in another sandbox may carry a live one here)."""
+    import fcntl
+
     host = _owner().rsplit("-", 1)[0]
     dead = 2**22 + 12345
     while True:
@@ -232,14 +235,22 @@ def test_the_next_run_removes_what_a_killed_run_left(mpi_tmp_path):
         except ProcessLookupError:
             break
     stale = mpi_tmp_path / f".out.partial-{host}-{dead}-deadbeef"
-    alive = mpi_tmp_path / f".out.partial-{host}-{os.getppid()}-cafecafe"
+    reused = mpi_tmp_path / f".out.partial-{host}-{os.getppid()}-0badf00d"  # a live number, a dead writer
+    alive = mpi_tmp_path / f".out.partial-{host}-{dead}-cafecafe"  # a dead number, a live writer (another sandbox)
+    holder = None
     if MPI.COMM_WORLD.rank == 0:
-        stale.mkdir()
-        (stale / "solution.h5").write_bytes(b"half")
-        alive.mkdir()
+        for entry in (stale, reused, alive):
+            entry.mkdir()
+            (entry / "solution.h5").write_bytes(b"half")
+        holder = os.open(alive, os.O_RDONLY | os.O_DIRECTORY)
+        fcntl.flock(holder, fcntl.LOCK_SH | fcntl.LOCK_NB)
     MPI.COMM_WORLD.barrier()
-    assert run("--lev", "0", "--out", str(mpi_tmp_path / "out")) == 0
-    assert not stale.exists() and alive.exists()
+    try:
+        assert run("--lev", "0", "--out", str(mpi_tmp_path / "out")) == 0
+        assert not stale.exists() and not reused.exists() and alive.exists()
+    finally:
+        if holder is not None:
+            os.close(holder)
 
 
 # -- class 6: nonsense accepted ------------------------------------------------------------------------------
