@@ -47,6 +47,8 @@ class ResultDirectory:
     MANIFEST = "summary.json"
     #: Set by the caller before the set is committed: the run did not converge (:meth:`writing`).
     failed: bool = False
+    #: The committed set's directory as (device, inode) (rank 0): :meth:`add` adds to it only while it is there.
+    _identity: tuple[int, int] | None = None
 
     def __init__(self, comm: MPI.Comm, path: str | Path, name: str = "--out") -> None:
         """Check that the result set can be written to ``path`` (collective; InputError on every rank); ``name``
@@ -166,6 +168,7 @@ class ResultDirectory:
             try:
                 self._commit(tmp_path, target)
                 self.committed = target
+                self._identity = _identity(target)
             except OSError as err:
                 error = (f"results could not be moved into {target}: {err.strerror or err} (the complete set is "
                          f"kept in {tmp_path})")
@@ -193,6 +196,9 @@ class ResultDirectory:
                 names = write(staging)
             finally:
                 _DEFERRED.remove(errors)
+            replaced = self.comm.rank == 0 and _identity(self.committed) != self._identity
+            if replaced and not errors:  # another run committed into the same place meanwhile: not ours to add to
+                errors.append("\0")
             if self.comm.rank == 0 and not errors:
                 name = ""
                 _UPDATING.add(staging)  # the moves (milliseconds): an interrupt waits for the manifest to match
@@ -206,6 +212,9 @@ class ResultDirectory:
                     _UPDATING.discard(staging)
                     _run_deferred()
             failed = [e for e in self.comm.allgather(errors[0] if errors else "") if e]
+            if failed and failed[0] == "\0":
+                raise OutputError(f"files were not added to {self.committed}: another run's set replaced this run's "
+                                  "there meanwhile")
             if failed:
                 raise OutputError(f"files could not be added to the results in {self.committed} ({failed[0]}); the "
                                   "results are there without them")
@@ -222,13 +231,20 @@ class ResultDirectory:
         on every rank if it cannot be made."""
         tmp = ""
         if self.comm.rank == 0:
-            tmp = str(self.path.parent / f".{self.path.name}.partial-{_owner()}-{uuid.uuid4().hex[:8]}")
+            tail = f"{_owner()}-{uuid.uuid4().hex[:8]}"
+            tmp = str(self.path.parent / f".{self.path.name}.partial-{tail}")
+            # made under a name clean_stale does not look at, locked, then renamed: another run's clean_stale never
+            # sees it unlocked
+            making = self.path.parent / f".{self.path.name}.making-{tail}"
             try:
-                os.mkdir(tmp)
+                os.mkdir(making)
+                _hold(making)
+                os.rename(making, tmp)
+                if making in _LOCKS:  # the lock is the inode's: it moves with the name
+                    _LOCKS[Path(tmp)] = _LOCKS.pop(making)
             except OSError as err:
+                _release(making)
                 tmp = f"\0{err.strerror or err}"
-        if self.comm.rank == 0 and not tmp.startswith("\0"):
-            _hold(Path(tmp))
         tmp = self.comm.bcast(tmp, root=0)
         if tmp.startswith("\0"):
             raise OutputError(f"{self.name} {self.given!r}: {failure} ({tmp[1:]})")
@@ -505,6 +521,15 @@ _SETTLING: list[bool] = []
 _FINISHED: list[str] = []
 #: The open directories whose shared lock marks this process's temporary sets as alive (:func:`_hold`).
 _LOCKS: dict[Path, int] = {}
+
+
+def _identity(directory: Path) -> tuple[int, int] | None:
+    """(device, inode) of ``directory``, or None if it is gone."""
+    try:
+        st = os.stat(directory)
+    except OSError:
+        return None
+    return st.st_dev, st.st_ino
 
 
 def _hold(tmp: Path) -> None:

@@ -385,3 +385,46 @@ def test_figures_that_cannot_be_added_are_a_warning_and_leave_the_set(tmp_path, 
     assert "No space left on device" in warning and "without them" in warning
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["solution.h5", "summary.json"]
+
+
+def test_files_are_not_added_to_a_set_another_run_committed_meanwhile(tmp_path):
+    """Two runs into one directory: run A draws its figures after its commit, run B commits meanwhile. A moved its
+    figures and its summary.json into B's set (A's summary over B's solution, both exit 0). A now sees that the
+    directory is no longer the one it committed and adds nothing."""
+    from fenics_coulomb.errors import OutputError
+
+    first = _committed(tmp_path)
+    second = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    with second.writing() as tmp:
+        _write(tmp, "solution.h5", "B's")
+        _write(tmp, "summary.json", json.dumps({"files": ["solution.h5", "summary.json"], "run": "B"}))
+
+    def write(directory):
+        _write(directory, "a.png", "A's figure")
+        _write(directory, "summary.json", json.dumps({"files": ["solution.h5", "a.png", "summary.json"], "run": "A"}))
+        return ["a.png", "summary.json"]
+
+    with pytest.raises(OutputError, match="another run's set replaced"):
+        first.add(write, _note)
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["run"] == "B"
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["solution.h5", "summary.json"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_a_temporary_set_is_locked_before_another_run_can_see_it(tmp_path, monkeypatch):
+    """A set was made, then locked: another sandbox's clean_stale between the two removed a live set (172 of 27 385
+    sets in a 20 s race). It is now made under a name clean_stale does not look at, locked, then renamed."""
+    seen: list[str] = []
+    rename = results.os.rename
+
+    def clean_meanwhile(src, dst):  # another run's clean_stale runs between the lock and the rename
+        seen.append(str(dst))
+        ResultDirectory(MPI.COMM_SELF, tmp_path / "out").clean_stale()
+        rename(src, dst)
+
+    monkeypatch.setattr(results.os, "rename", clean_meanwhile)
+    out = ResultDirectory(MPI.COMM_SELF, tmp_path / "out")
+    tmp = out._temporary("cannot")
+    assert tmp.exists() and results._held(tmp) and ".partial-" in seen[0]
+    results._release(tmp)
+    tmp.rmdir()
