@@ -118,5 +118,12 @@ printf '\003' >&5
 wait "$pid" || true
 exec 5>&-
 ! grep -q iteration "$work/loop-log" || fail "Ctrl-C did not stop the loop: $(cat "$work/loop-log")"
+# A signal a process sends to container/run alone while it is in its terminal's foreground group (timeout
+# --foreground, a test harness started from a terminal) reaches the command too: it was taken for the terminal's.
+SECONDS=0
+status=0
+setsid env --default-signal=INT script -qefc "timeout --foreground -s INT 3 $(printf '%q' "$run") sleep 30" /dev/null \
+    < /dev/null > "$work/fg-log" 2>&1 || status=$?
+[ "$SECONDS" -lt 15 ] || fail "timeout --foreground -s INT: container/run ran ${SECONDS} s (status $status)"
 echo "signals to container/run: ok"
 echo "container/run host checks: ok"
