@@ -184,8 +184,10 @@ class ResultDirectory:
         the results, e.g. the figures: the committed set is whole before they are started, and an interrupt
         meanwhile ends the run at once — under mpirun the ranks have 250 ms between its SIGTERM and its SIGKILL,
         a set being :meth:`updating` a few milliseconds — with the set as committed, without the files, and its
-        line ending in ``"; " + note(the committed set's place, quoted for a shell)``. An error in ``write`` is
-        raised after the temporary directory is removed; returns the names added."""
+        line ending in ``"; " + note(the committed set's place, quoted for a shell)``. Nothing is added when the
+        committed directory is no longer this run's (another run into the same place committed meanwhile:
+        OutputError). An error in ``write`` is raised after the temporary directory is removed; returns the names
+        added."""
         staging = self._temporary("files cannot be added to the results")
         # rank 0's line names the set (every rank's would: the same line twice in mpirun's terminal)
         _ADDING[staging] = f"; {note(shlex.quote(str(self.committed)))}" if self.comm.rank == 0 else ""
