@@ -276,8 +276,8 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
 
     Raises:
         InputError: for a path that is not a non-empty name, a ``problem`` that is not a ContactProblem, a
-            ``result`` that is not a SolveResult or ``units`` that are not unit names (before anything is written or
-            communicated).
+            ``result`` that is not a SolveResult, ``plots`` that is not a bool, a ``label`` that is not a string or
+            ``units`` that are not unit names (before anything is written or communicated).
     """
     from fenics_coulomb.problem import ContactProblem
 
@@ -289,6 +289,10 @@ def write_results(path: str | Path, problem: ContactProblem, result: SolveResult
     if not isinstance(result, SolveResult):
         raise InputError(f"write_results: result = {type(result).__name__}: give the SolveResult of the problem's "
                          "solve()")
+    if not isinstance(plots, bool | np.bool_):  # "no" would draw them: a non-empty string is true
+        raise InputError(f"write_results: plots = {plots!r}: give True or False")
+    if not isinstance(label, str):
+        raise InputError(f"write_results: label = {label!r}: give the figures' title as a string")
     problem.check_result(result, "write_results")
     if "\0" in str(path):
         raise InputError(f"write_results: path = {str(path)!r}: a file name cannot hold a NUL character")

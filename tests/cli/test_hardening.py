@@ -396,6 +396,10 @@ def test_api_entry_points_name_bad_arguments(mpi_tmp_path):
         write_results(mpi_tmp_path / "o", None, result)
     with pytest.raises(InputError, match="write_results: the result is not one of this problem's solve"):
         write_results(mpi_tmp_path / "o", problem, foreign)
+    with pytest.raises(InputError, match="write_results: plots = 'no': give True or False"):
+        write_results(mpi_tmp_path / "o", problem, result, plots="no")
+    with pytest.raises(InputError, match="write_results: label = 3: give the figures' title"):
+        write_results(mpi_tmp_path / "o", problem, result, label=3)
     assert not (mpi_tmp_path / "o").exists()
     with pytest.raises(InputError, match="petsc_options: PETSc options 'pc_type bogus' cannot be used"):
         problem.set_solver(petsc_options={"pc_type": "bogus"})
